@@ -1,0 +1,358 @@
+"""The one declaration of every tunable.
+
+A task's parameters are a frozen dataclass whose fields are made with :func:`param`::
+
+    @dataclass(frozen=True)
+    class ThinParams:
+        cell_width: float = param(1.0, "cell width", unit="m", gt=0, manual="Width")
+
+From that single declaration the rest of the project derives
+
+* the click options (``--cell-width``) -- in :mod:`aldpat.cli.options`,
+* the TOML keys a worksheet or ``--params`` file accepts (``cell_width``),
+* the ``--help`` text (help, unit, default, bounds, choices),
+* the log record (value and where it came from: default, params file, worksheet, CLI).
+
+Names map mechanically: ``max_window`` <-> ``--max-window`` <-> ``max_window = 20``.
+This module never imports click.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import types
+import typing
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from aldpat.errors import ParamError
+
+#: Where a resolved value came from, lowest priority first.
+SOURCES = ("default", "settings", "params file", "worksheet", "cli")
+
+
+@dataclass(frozen=True)
+class Spec:
+    """Everything known about one parameter; built from a dataclass field."""
+
+    name: str
+    kind: str  # float, int, str, bool, floats, ints, strs, path
+    default: Any
+    help: str
+    unit: str | None = None
+    choices: tuple | None = None
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    length: int | None = None  # fixed number of items for sequences (e.g. bounds: 4)
+    optional: bool = False  # None is an accepted value
+    manual: str | None = None  # the ALDPAT manual's name for it, e.g. "Stop Gap"
+    metavar: str | None = None
+
+    @property
+    def option(self) -> str:
+        """The command-line spelling: ``--max-window``."""
+        return "--" + self.name.replace("_", "-")
+
+    @property
+    def is_sequence(self) -> bool:
+        return self.kind in ("floats", "ints", "strs")
+
+    def describe(self) -> str:
+        """Help text with unit, bounds, choices and default, as ``--help`` shows it."""
+        parts = [self.help.rstrip(".")]
+        if self.manual:
+            parts[0] += f" [{self.manual}]"
+        extra = []
+        if self.unit:
+            extra.append(f"unit: {self.unit}")
+        bounds = _bounds_text(self)
+        if bounds:
+            extra.append(bounds)
+        if self.choices:
+            extra.append("one of: " + ", ".join(map(str, self.choices)))
+        extra.append(f"default: {format_value(self.default)}")
+        return parts[0] + " (" + "; ".join(extra) + ")"
+
+
+def param(
+    default: Any,
+    help: str,
+    *,
+    unit: str | None = None,
+    choices: typing.Iterable | None = None,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+    manual: str | None = None,
+    metavar: str | None = None,
+) -> Any:
+    """Declare a parameter as a dataclass field (see module docstring).
+
+    Sequence defaults are given as tuples so that parameter objects stay immutable.
+    """
+    if isinstance(default, list):
+        default = tuple(default)
+    meta = dict(
+        help=help,
+        unit=unit,
+        choices=tuple(choices) if choices is not None else None,
+        gt=gt,
+        ge=ge,
+        lt=lt,
+        le=le,
+        manual=manual,
+        metavar=metavar,
+    )
+    return dataclasses.field(default=default, metadata={"aldpat": meta})
+
+
+def _kind_of(annotation: Any) -> tuple[str, bool, int | None]:
+    """Map a type annotation to (kind, optional, fixed length)."""
+    optional = False
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        optional = len(args) < len(typing.get_args(annotation))
+        if len(args) != 1:
+            raise TypeError(f"unsupported parameter annotation {annotation!r}")
+        annotation = args[0]
+        origin = typing.get_origin(annotation)
+    if annotation is bool:
+        return "bool", optional, None
+    if annotation is int:
+        return "int", optional, None
+    if annotation is float:
+        return "float", optional, None
+    if annotation is str:
+        return "str", optional, None
+    if origin is tuple:
+        args = typing.get_args(annotation)
+        length = None if (len(args) == 2 and args[1] is Ellipsis) else len(args)
+        item = args[0]
+        kind = {float: "floats", int: "ints", str: "strs"}.get(item)
+        if kind is None:
+            raise TypeError(f"unsupported parameter annotation {annotation!r}")
+        return kind, optional, length
+    raise TypeError(f"unsupported parameter annotation {annotation!r}")
+
+
+def specs(params_cls: type) -> list[Spec]:
+    """The parameter specs of a params dataclass, in declaration order."""
+    cached = _SPEC_CACHE.get(params_cls)
+    if cached is not None:
+        return cached
+    hints = typing.get_type_hints(params_cls)
+    out = []
+    for f in dataclasses.fields(params_cls):
+        meta = f.metadata.get("aldpat")
+        if meta is None:
+            raise TypeError(f"{params_cls.__name__}.{f.name} is not declared with param()")
+        kind, optional, length = _kind_of(hints[f.name])
+        out.append(Spec(name=f.name, kind=kind, default=f.default, optional=optional, length=length, **meta))
+    _SPEC_CACHE[params_cls] = out
+    return out
+
+
+_SPEC_CACHE: dict[type, list[Spec]] = {}
+
+
+def spec_map(params_cls: type) -> dict[str, Spec]:
+    return {s.name: s for s in specs(params_cls)}
+
+
+# ---------------------------------------------------------------------------- values
+
+
+def _bounds_text(spec: Spec) -> str:
+    bits = []
+    if spec.gt is not None:
+        bits.append(f"> {spec.gt:g}")
+    if spec.ge is not None:
+        bits.append(f">= {spec.ge:g}")
+    if spec.lt is not None:
+        bits.append(f"< {spec.lt:g}")
+    if spec.le is not None:
+        bits.append(f"<= {spec.le:g}")
+    return " and ".join(bits)
+
+
+def format_value(value: Any) -> str:
+    """A value as a user would type it (used in help text and logs)."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, (tuple, list)):
+        return ",".join(format_value(v) for v in value)
+    return str(value)
+
+
+def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
+    """Convert one scalar (from TOML or a command-line string) to the spec's kind."""
+    def bad(expected: str) -> ParamError:
+        return ParamError(f"{where}{spec.name}: expected {expected}, got {value!r}")
+
+    if kind == "bool":
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.lower() in ("true", "yes", "on", "1", "false", "no", "off", "0"):
+            return value.lower() in ("true", "yes", "on", "1")
+        raise bad("true or false")
+    if kind == "int":
+        if isinstance(value, bool):
+            raise bad("a whole number")
+        if isinstance(value, int):
+            return value
+        if isinstance(value, float) and value.is_integer():
+            return int(value)
+        if isinstance(value, str):
+            try:
+                return int(value.strip())
+            except ValueError:
+                pass
+        raise bad("a whole number")
+    if kind == "float":
+        if isinstance(value, bool):
+            raise bad("a number")
+        if isinstance(value, (int, float)):
+            v = float(value)
+        elif isinstance(value, str):
+            try:
+                v = float(value.strip())
+            except ValueError:
+                raise bad("a number") from None
+        else:
+            raise bad("a number")
+        if not math.isfinite(v):
+            raise bad("a finite number")
+        return v
+    if kind == "str":
+        if isinstance(value, (str, int, float)) and not isinstance(value, bool):
+            return str(value)
+        raise bad("text")
+    raise AssertionError(kind)
+
+
+def _check_bounds(spec: Spec, v: Any, where: str) -> None:
+    if isinstance(v, str):
+        if spec.choices and v not in spec.choices:
+            hint = difflib.get_close_matches(v, [str(c) for c in spec.choices], n=1)
+            did = f"; did you mean {hint[0]!r}?" if hint else ""
+            raise ParamError(
+                f"{where}{spec.name}: {v!r} is not one of {', '.join(map(str, spec.choices))}{did}"
+            )
+        return
+    if spec.choices and v not in spec.choices:
+        raise ParamError(f"{where}{spec.name}: {v!r} is not one of {', '.join(map(str, spec.choices))}")
+    if isinstance(v, bool):
+        return
+    for op, limit, ok in (
+        (">", spec.gt, lambda a, b: a > b),
+        (">=", spec.ge, lambda a, b: a >= b),
+        ("<", spec.lt, lambda a, b: a < b),
+        ("<=", spec.le, lambda a, b: a <= b),
+    ):
+        if limit is not None and not ok(v, limit):
+            raise ParamError(f"{where}{spec.name}: {format_value(v)} is out of range (must be {op} {limit:g})")
+
+
+def coerce(spec: Spec, value: Any, where: str = "") -> Any:
+    """Validate and convert ``value`` for ``spec``; raise :class:`ParamError` naming the key.
+
+    Accepts native TOML values and command-line strings (sequences as ``1,2,3``).
+    ``where`` prefixes the message (e.g. ``"job 2: "``).
+    """
+    if value is None or (isinstance(value, str) and value.lower() == "none" and spec.optional):
+        if spec.optional:
+            return None
+        raise ParamError(f"{where}{spec.name}: a value is required")
+    if spec.is_sequence:
+        item_kind = spec.kind[:-1]
+        if isinstance(value, str):
+            items = [v for v in value.replace(";", ",").replace(" ", ",").split(",") if v != ""]
+        elif isinstance(value, (list, tuple)):
+            items = list(value)
+        else:
+            items = [value]
+        out = tuple(_scalar(item_kind, it, spec, where) for it in items)
+        if spec.length is not None and len(out) != spec.length:
+            raise ParamError(f"{where}{spec.name}: expected {spec.length} values, got {len(out)}")
+        if not out and spec.length is None and not spec.optional:
+            raise ParamError(f"{where}{spec.name}: expected at least one value")
+        for v in out:
+            _check_bounds(spec, v, where)
+        return out
+    v = _scalar(spec.kind, value, spec, where)
+    _check_bounds(spec, v, where)
+    return v
+
+
+def unknown_key_error(key: str, known: typing.Iterable[str], where: str = "") -> ParamError:
+    """An 'unknown key' error with a did-you-mean suggestion."""
+    known = sorted(set(known))
+    k = key.replace("-", "_")
+    hint = difflib.get_close_matches(k, known, n=1, cutoff=0.6)
+    did = f"; did you mean {hint[0]!r}?" if hint else ""
+    return ParamError(f"{where}unknown key {key!r}{did}")
+
+
+@dataclass
+class Resolved:
+    """A params instance plus where every value came from (for the log)."""
+
+    values: Any
+    sources: dict[str, str]
+
+    def record(self) -> list[tuple[str, str, str]]:
+        """(name, value as typed, source) rows for the log."""
+        return [
+            (s.name, format_value(getattr(self.values, s.name)), self.sources[s.name])
+            for s in specs(type(self.values))
+        ]
+
+
+def resolve(params_cls: type, layers: list[tuple[str, Mapping[str, Any]]], where: str = "",
+            allow_unknown: bool = False) -> Resolved:
+    """Merge layers of raw values (lowest priority first) into a validated params instance.
+
+    Each layer is ``(source_name, mapping)``; keys may use dashes or underscores.
+    Unknown keys raise :class:`ParamError` with a suggestion unless ``allow_unknown``.
+    """
+    smap = spec_map(params_cls)
+    values = {name: s.default for name, s in smap.items()}
+    sources = {name: "default" for name in smap}
+    for source, mapping in layers:
+        for raw_key, raw in mapping.items():
+            key = raw_key.replace("-", "_")
+            spec = smap.get(key)
+            if spec is None:
+                if allow_unknown:
+                    continue
+                raise unknown_key_error(raw_key, smap, where)
+            values[key] = coerce(spec, raw, where)
+            sources[key] = source
+    return Resolved(params_cls(**values), sources)
+
+
+def validate_instance(obj: Any) -> Any:
+    """Re-check a params instance built directly in Python (keyword arguments)."""
+    for s in specs(type(obj)):
+        coerce(s, getattr(obj, s.name))
+    return obj
+
+
+def merge_params(*classes: type, name: str = "Params") -> type:
+    """A frozen dataclass holding the fields of several params classes (shared options)."""
+    seen: dict[str, tuple] = {}
+    for cls in classes:
+        hints = typing.get_type_hints(cls)
+        for f in dataclasses.fields(cls):
+            seen.setdefault(f.name, (f.name, hints[f.name], f))
+    return dataclasses.make_dataclass(name, list(seen.values()), frozen=True)
