@@ -51,6 +51,7 @@ class Spec:
     optional: bool = False  # None is an accepted value
     manual: str | None = None  # the ALDPAT manual's name for it, e.g. "Stop Gap"
     metavar: str | None = None
+    path: bool = False  # a file path: worksheets resolve it against the worksheet's folder
 
     @property
     def option(self) -> str:
@@ -90,6 +91,7 @@ def param(
     le: float | None = None,
     manual: str | None = None,
     metavar: str | None = None,
+    path: bool = False,
 ) -> Any:
     """Declare a parameter as a dataclass field (see module docstring).
 
@@ -107,6 +109,7 @@ def param(
         le=le,
         manual=manual,
         metavar=metavar,
+        path=path,
     )
     return dataclasses.field(default=default, metadata={"aldpat": meta})
 

@@ -1,0 +1,153 @@
+"""The ``aldpat`` command: a root group whose commands are generated from the task registry.
+
+Each command parses, resolves paths and hands the values to :func:`aldpat.tasks.base.run_task`;
+no algorithm lives here. This is also the only place that turns errors into exit codes:
+0 all done, 1 some inputs failed, 2 usage error.
+"""
+
+from __future__ import annotations
+
+import logging
+import shlex
+import sys
+
+import click
+
+import aldpat
+from aldpat.cli.options import option_for, params_file_opt
+from aldpat.cli.progress import job_progress
+from aldpat.cli.render import show
+from aldpat.errors import AldpatError, UsageError
+from aldpat.tasks import TASKS
+from aldpat.tasks.base import Task, run_task
+from aldpat.worksheet.toml import load_toml
+
+log = logging.getLogger("aldpat")
+
+
+def setup_logging(verbose: int, quiet: int) -> None:
+    level = logging.WARNING - 10 * verbose + 10 * quiet
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("aldpat: %(levelname)s: %(message)s" if verbose else "aldpat: %(message)s"))
+    root = logging.getLogger("aldpat")
+    root.handlers[:] = [handler]
+    root.setLevel(max(logging.DEBUG, min(level, logging.CRITICAL)))
+    root.propagate = False
+
+
+def fail_usage(message: str) -> None:
+    click.echo(f"aldpat: error: {message}", err=True)
+    sys.exit(2)
+
+
+def make_command(task: Task) -> click.Command:
+    """A click command for ``task``: INPUT... plus an option for each declared parameter."""
+    specs = task.all_specs()
+
+    @click.pass_context
+    def callback(ctx: click.Context, inputs=(), params_file=None, verbose=0, quiet=0, **raw):
+        from click.core import ParameterSource
+
+        root = ctx.find_root().params
+        quiet = quiet + root.get("quiet", 0)
+        if verbose or quiet:
+            setup_logging(verbose + root.get("verbose", 0), quiet)
+
+        given = {k: v for k, v in raw.items()
+                 if v is not None and ctx.get_parameter_source(k) == ParameterSource.COMMANDLINE}
+        layers = []
+        try:
+            if params_file:
+                layers.append(("params file", load_toml(params_file)))
+            layers.append(("cli", given))
+            with job_progress(task, enabled=not quiet) as progress:
+                report = run_task(task, list(inputs), layers, command=shlex.join(["aldpat"] + sys.argv[1:]),
+                                  progress=progress)
+        except UsageError as exc:
+            fail_usage(str(exc))
+        except AldpatError as exc:
+            click.echo(f"aldpat: error: {exc}", err=True)
+            sys.exit(1)
+        as_json = bool(given.get("json") in (True, "true") or
+                       (params_file and layers[0][1].get("json") is True))
+        show(report, as_json)
+        for result in report.results:
+            for w in result.outputs:
+                log.info("wrote %s%s", w.path, f" ({w.count} points)" if w.count is not None else "")
+        if report.failed:
+            log.warning("%d of %d inputs failed", report.failed, len(report.results) + len(report.input_errors))
+        sys.exit(report.exit_code)
+
+    params: list[click.Parameter] = []
+    if task.inputs != "none":
+        params.append(click.Argument(["inputs"], nargs=-1, metavar="INPUT..."))
+    params += [option_for(s) for s in specs]
+    params.append(params_file_opt)
+    params.append(click.Option(["-v", "--verbose"], count=True, help="more detail on stderr"))
+    params.append(click.Option(["-q", "--quiet"], count=True, help="only errors on stderr, no progress"))
+    return click.Command(
+        task.name, callback=callback, params=params, help=task.summary + ("\n\n" + task.epilog if task.epilog else ""),
+        short_help=task.summary.split(". ")[0].rstrip("."), context_settings={"max_content_width": 110},
+        no_args_is_help=task.inputs != "none",
+    )
+
+
+class Root(click.Group):
+    """Lists commands in registry order and reports unknown ones with a suggestion."""
+
+    def resolve_command(self, ctx, args):
+        try:
+            return super().resolve_command(ctx, args)
+        except click.UsageError:
+            import difflib
+
+            hint = difflib.get_close_matches(args[0], list(self.commands), n=1) if args else []
+            raise click.UsageError(f"no command {args[0]!r}" + (f"; did you mean {hint[0]!r}?" if hint else ""))
+
+
+@click.group(cls=Root, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110})
+@click.version_option(aldpat.__version__, prog_name="aldpat")
+@click.option("-v", "--verbose", count=True, help="more detail on stderr (-vv: debugging)")
+@click.option("-q", "--quiet", count=True, help="only errors on stderr, no progress")
+def cli(verbose: int, quiet: int) -> None:
+    """Batch airborne LiDAR processing: the ALDPAT tasks and its research ground filters,
+    on ASCII and LAS/LAZ, from a shell or a TOML worksheet."""
+    setup_logging(verbose, quiet)
+
+
+@cli.group("filter", cls=Root)
+def filter_group() -> None:
+    """Separate ground from non-ground points (aldpat filter ALGO --help lists its parameters)."""
+
+
+def _register_commands() -> None:
+    for task in TASKS.values():
+        command = make_command(task)
+        if task.group == "filter":
+            filter_group.add_command(command)
+        elif task.group is None:
+            cli.add_command(command)
+
+
+_register_commands()
+
+from aldpat.cli.run import run_command  # noqa: E402  (needs the group defined above)
+
+cli.add_command(run_command)
+
+
+def main() -> None:
+    try:
+        cli.main(standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("aldpat: interrupted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(2)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        click.echo("aldpat: interrupted", err=True)
+        sys.exit(130)
+    sys.exit(0)

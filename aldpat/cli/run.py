@@ -1,0 +1,76 @@
+"""``aldpat run JOB.toml``: validate a whole worksheet, then run its jobs in order."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from aldpat.cli.render import show
+from aldpat.errors import UsageError
+from aldpat.tasks.base import RunReport
+from aldpat.worksheet.model import load_worksheet
+from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, job_table, run_worksheet
+
+
+def _parse_only(values: tuple[str, ...]) -> set[int] | None:
+    if not values:
+        return None
+    out = set()
+    for v in values:
+        for part in v.split(","):
+            part = part.strip()
+            if not part.isdigit():
+                raise UsageError(f"--only {v!r}: expected job numbers such as 2 or 2,3")
+            out.add(int(part))
+    return out
+
+
+@click.command("run")
+@click.argument("worksheet", metavar="JOB.toml")
+@click.option("--resume", is_flag=True, help="skip jobs whose inputs, parameters and outputs are unchanged "
+              "since they last finished")
+@click.option("--dry-run", is_flag=True, help="validate and show the jobs as they would run; run nothing")
+@click.option("--only", multiple=True, metavar="N[,N...]", help="run only these jobs (numbers from 1)")
+@click.option("--set", "overrides", multiple=True, metavar="job.N.key=VALUE",
+              help="override a key of job N (or settings.key=VALUE) for this run")
+@click.option("-j", "--jobs", type=click.IntRange(min=0), default=None,
+              help="worker processes per job (0 = all cores), overriding the worksheet")
+@click.pass_context
+def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs):
+    """Run a worksheet: jobs in order, each Ready -> Running -> Done or Failed."""
+    quiet = ctx.find_root().params.get("quiet", 0)
+    try:
+        ws = load_worksheet(worksheet, overrides)
+        selected = _parse_only(only)
+        if selected and max(selected) > len(ws.jobs):
+            raise UsageError(f"--only {max(selected)}: the worksheet has {len(ws.jobs)} jobs")
+    except UsageError as exc:
+        click.echo(f"aldpat: error: {exc}", err=True)
+        sys.exit(2)
+    except Exception as exc:  # e.g. a missing worksheet file
+        click.echo(f"aldpat: error: {exc}", err=True)
+        sys.exit(2)
+    if dry_run:
+        for job in ws.jobs:
+            if selected and job.number not in selected:
+                continue
+            click.echo(f"# job {job.number}: Ready" + (f" (after job {', '.join(map(str, sorted(job.depends_on)))})"
+                                                       if job.depends_on else ""))
+            click.echo("\n".join(job_table(job)) + "\n")
+        sys.exit(0)
+
+    def on_status(st):
+        if quiet:
+            return
+        extra = f": {st.message}" if st.message else ""
+        timing = f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""
+        click.echo(f"job {st.job.number} {st.job.task.key}: {st.state}{extra}{timing}", err=True)
+        if st.state == DONE:
+            show(RunReport(st.job.task.key, st.results, []),
+                 as_json=bool(getattr(st.job.run.params.values, "json", False)))
+
+    statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status,
+                             command="aldpat run " + " ".join(sys.argv[2:]))
+    failed = [s for s in statuses if s.state in (FAILED, BLOCKED)]
+    sys.exit(1 if failed else 0)

@@ -1,0 +1,154 @@
+"""LAS and LAZ through laspy (LAZ with the lazrs backend).
+
+Reading streams with laspy's ``chunk_iterator``. Each chunk carries its laspy point record, so a
+task that keeps, drops or reclassifies points writes every other attribute back untouched, with
+the source's point format, scale, offset and VLRs (CRS included).
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Iterator
+
+import laspy
+import numpy as np
+
+from aldpat.errors import InputFormatError, InputMissingError
+from aldpat.io.table import PointTable
+
+DEFAULT_CHUNK = 2_000_000
+#: table column -> LAS dimension for the columns a task may set
+LAS_DIMENSIONS = {"x": "x", "y": "y", "z": "z", "intensity": "intensity", "class": "classification",
+                  "classification": "classification", "t": "gps_time", "gps_time": "gps_time"}
+_READ_DIMS = ("intensity", "classification", "return_number", "number_of_returns", "gps_time")
+
+
+def _corrupt(path: Path, exc: Exception) -> InputFormatError:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return InputFormatError(f"truncated or corrupt LAS/LAZ ({text[:120]})", path=path)
+
+
+class LasReader:
+    format = "las"
+
+    def __init__(self, path: str | Path, **_ignored):
+        self.path = Path(path)
+        if not self.path.exists():
+            raise InputMissingError("no such file", path=self.path)
+        try:
+            with laspy.open(self.path) as fh:
+                self.header = fh.header
+        except Exception as exc:  # laspy raises several unrelated types for bad files
+            raise _corrupt(self.path, exc) from None
+        self.count = int(self.header.point_count)
+        self.scales = tuple(float(s) for s in self.header.scales)
+        try:
+            self.crs = self.header.parse_crs()
+        except Exception:
+            self.crs = None
+        dims = set(self.header.point_format.dimension_names)
+        self.names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
+        self.decimals = {n: max(0, int(round(-np.log10(s)))) for n, s in zip("xyz", self.scales)}
+
+    def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
+        if self.count == 0:
+            raise InputFormatError("no points in file", path=self.path)
+        done = 0
+        try:
+            with laspy.open(self.path) as fh:
+                for chunk in fh.chunk_iterator(size):
+                    cols = {"x": np.asarray(chunk.x, dtype=np.float64),
+                            "y": np.asarray(chunk.y, dtype=np.float64),
+                            "z": np.asarray(chunk.z, dtype=np.float64)}
+                    for d in self.names[3:]:
+                        cols[d] = np.asarray(chunk[d])
+                    done += len(chunk)
+                    yield PointTable(cols, record=chunk, meta={"decimals": self.decimals})
+        except InputFormatError:
+            raise
+        except Exception as exc:
+            raise _corrupt(self.path, exc) from None
+        if done < self.count:
+            raise InputFormatError(f"truncated: header says {self.count} points, file holds {done}",
+                                   path=self.path)
+
+    def read(self) -> PointTable:
+        return PointTable.concat(list(self.chunks()))
+
+
+def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> laspy.LasHeader:
+    """A LAS 1.4 header for points that did not come from LAS (format 6 when a time exists)."""
+    has_time = "t" in table.columns or "gps_time" in table.columns
+    header = laspy.LasHeader(point_format=6 if has_time else 0, version="1.4" if has_time else "1.2")
+    decimals = decimals or table.meta.get("decimals", {})
+    scales = [10.0 ** -min(max(decimals.get(n, 3), 0), 6) for n in "xyz"]
+    header.scales = np.array(scales)
+    header.offsets = np.array([np.floor(np.min(table.columns[n]) / 1000.0) * 1000.0 if len(table) else 0.0
+                               for n in "xyz"])
+    if crs is not None:
+        header.add_crs(crs)
+    return header
+
+
+class LasWriter:
+    """Writes chunks to a LAS/LAZ file opened for writing (the caller renames it into place).
+
+    ``template`` is the source LasReader's header (kept as is) or ``None`` to derive one from the
+    first chunk. Columns the point format lacks (``mark``...) become extra-byte dimensions.
+    """
+
+    def __init__(self, path: Path, names: tuple[str, ...], *, template: laspy.LasHeader | None = None,
+                 crs=None, compress: bool | None = None):
+        self.path = Path(path)
+        self.names = tuple(names)
+        self.template = template
+        self.crs = crs
+        self.compress = self.path.suffix.lower() == ".laz" if compress is None else compress
+        self.count = 0
+        self._fh = None
+        self._extra: list[str] = []
+
+    def _open(self, table: PointTable) -> None:
+        header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
+        known = set(header.point_format.dimension_names)
+        self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
+        for name in self._extra:
+            dtype = table.columns[name].dtype
+            kind = np.int32 if np.issubdtype(dtype, np.integer) else np.float64
+            header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
+        header.point_count = 0
+        self._header = header
+        self._fh = laspy.open(self.path, mode="w", header=header, do_compress=self.compress)
+
+    def write(self, table: PointTable) -> None:
+        if self._fh is None:
+            self._open(table)
+        n = len(table)
+        if n == 0:
+            return
+        if table.record is not None and self.template is not None and not self._extra:
+            points = laspy.ScaleAwarePointRecord(table.record.array.copy(), self._header.point_format,
+                                                 self._header.scales, self._header.offsets)
+        else:
+            points = laspy.ScaleAwarePointRecord.zeros(n, header=self._header)
+            if table.record is not None:
+                for dim in table.record.point_format.dimension_names:
+                    if dim in points.point_format.dimension_names:
+                        points[dim] = table.record[dim]
+        for name in ("x", "y", "z"):
+            setattr(points, name, table.columns[name])
+        for name, values in table.columns.items():
+            dim = LAS_DIMENSIONS.get(name)
+            if dim and dim not in "xyz" and dim in points.point_format.dimension_names:
+                points[dim] = values
+        for name in self._extra:
+            points[name] = table.columns[name]
+        self._fh.write_points(points)
+        self.count += n
+
+    def close(self) -> None:
+        if self._fh is None:
+            # an empty output still gets a valid header
+            self._open(PointTable({n: np.zeros(0) for n in ("x", "y", "z")}))
+        self._fh.close()

@@ -1,0 +1,85 @@
+"""Point format registry: extension -> format, one chunked interface for every reader.
+
+``open_points`` returns a reader with ``path``, ``format``, ``names``, ``count`` (None when
+unknown before reading), ``crs``, ``decimals`` and ``chunks(size)``; ``write_points`` opens an
+atomic writer that takes chunks and renames the finished file into place.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import Iterator
+
+from aldpat.errors import InputMissingError, UsageError
+from aldpat.io.atomic import atomic_output
+from aldpat.io.las import LasReader, LasWriter
+from aldpat.io.text import TextReader, TextWriter
+
+#: extension -> format name
+EXTENSIONS = {".txt": "text", ".xyz": "text", ".csv": "text", ".pts": "text", ".las": "las", ".laz": "las"}
+FORMATS = {"text": TextReader, "las": LasReader}
+#: output format name -> default extension (``--out-format``)
+OUT_EXTENSIONS = {"text": ".txt", "csv": ".csv", "las": ".las", "laz": ".laz"}
+
+
+def detect_format(path: Path, override: str | None = None) -> str:
+    if override and override != "auto":
+        if override in ("las", "laz"):
+            return "las"
+        if override in ("text", "txt", "csv", "xyz", "pts", "ascii"):
+            return "text"
+        raise UsageError(f"unknown format {override!r} (use text, las or laz)")
+    fmt = EXTENSIONS.get(Path(path).suffix.lower())
+    if fmt is None:
+        raise UsageError(
+            f"unknown extension {Path(path).suffix!r} (point files are .txt .xyz .csv .pts .las .laz; "
+            "use --format to say which)", path=path)
+    return fmt
+
+
+def open_points(path: str | Path, *, format: str | None = None, layout: str = "points",
+                order: str = "last-first"):
+    """A chunked reader for a point file (``layout="altm9"`` for 9-column tapes)."""
+    path = Path(path)
+    if not path.exists():
+        raise InputMissingError("no such file", path=path)
+    if path.is_dir():
+        raise UsageError("is a folder, not a point file", path=path)
+    fmt = detect_format(path, format)
+    if fmt == "las" and layout == "altm9":
+        raise UsageError("ALTM 9-column tapes are text files", path=path)
+    return FORMATS[fmt](path, layout=layout, order=order)
+
+
+def output_extension(reader, out_format: str | None) -> str:
+    """The extension an output gets: the input's unless ``--out-format`` says otherwise."""
+    if out_format and out_format != "same":
+        return OUT_EXTENSIONS[out_format]
+    return reader.path.suffix.lower() if reader is not None else ".txt"
+
+
+@contextlib.contextmanager
+def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = False, like=None,
+                 delimiter: str = "space", decimals: dict | None = None, crs=None) -> Iterator:
+    """Open an atomic point writer; the file appears under ``path`` only when the block succeeds.
+
+    ``like`` is the source reader: a LAS output keeps its header (format, scale, offset, VLRs),
+    a text output its decimals.
+    """
+    path = Path(path)
+    fmt = detect_format(path)
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        if fmt == "las":
+            template = getattr(like, "header", None) if getattr(like, "format", None) == "las" else None
+            writer = LasWriter(tmp, names, template=template, crs=crs if crs is not None else getattr(like, "crs", None),
+                               compress=path.suffix.lower() == ".laz")
+        else:
+            if decimals is None and like is not None:
+                decimals = getattr(like, "decimals", None)
+            writer = TextWriter(tmp, names, delimiter="comma" if path.suffix.lower() == ".csv" and delimiter == "space"
+                                else delimiter, decimals=decimals)
+        try:
+            yield writer
+        finally:
+            writer.close()

@@ -1,0 +1,90 @@
+"""``aldpat evaluate``: Type I / II / total error and kappa of a ground classification.
+
+The result is either a terrain output (every point in it is called ground; every reference point
+missing from it, object) or a classified output (LAS class 2, or a text ``class`` column: 2 or 0
+ground, anything else object). Reference labels come from ISPRS text ``x y z label``
+(0 = bare earth, 1 = object) or LAS class 2 = ground. Points are matched by coordinates snapped
+to ``tolerance``; duplicates count as many times as they occur (see
+:func:`aldpat.core.accuracy.match_accuracy`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.core.accuracy import coordinate_keys, match_accuracy
+from aldpat.errors import InputFormatError, UsageError
+from aldpat.io.registry import open_points
+from aldpat.params import param
+from aldpat.tasks.base import JobContext, Task, register_task
+
+
+@dataclass(frozen=True)
+class EvaluateParams:
+    reference: str | None = param(None, "reference points with labels (ISPRS text x y z label, or LAS class 2 = ground)",
+                                  path=True, metavar="REF")
+    mode: str = param("auto", "how the result marks ground: terrain (every point is ground), classified "
+                      "(LAS class 2 or a class column), auto (LAS: classified, text: terrain)",
+                      choices=("auto", "terrain", "classified"))
+    class_column: int | None = param(None, "1-based column holding the class in a classified text result "
+                                     "(default: the last)", ge=1)
+    tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0)
+    json: bool = param(False, "print a JSON object instead of a table")
+
+
+def _result_ground(reader, table, params: EvaluateParams) -> np.ndarray:
+    mode = params.mode
+    if mode == "auto":
+        mode = "classified" if reader.format == "las" else "terrain"
+    if mode == "terrain":
+        return np.ones(len(table), dtype=bool)
+    if reader.format == "las":
+        return table["classification"] == 2
+    names = reader.names
+    if len(names) < 4:
+        raise UsageError("a classified text result needs a class column", path=reader.path)
+    k = (params.class_column or len(names)) - 1
+    if k >= len(names):
+        raise UsageError(f"--class-column {k + 1}: the file has {len(names)} columns", path=reader.path)
+    cls = table[names[k]]
+    return (cls == 2) | (cls == 0)
+
+
+def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
+    if not params.reference:
+        raise UsageError("evaluate needs --reference REF")
+    tol = params.tolerance
+    ref_path = Path(params.reference)
+    ref = open_points(ref_path).read()
+    if "classification" in ref:
+        ref_ground = ref["classification"] == 2
+    elif "intensity" in ref:
+        labels = ref["intensity"]
+        if not np.isin(labels, (0, 1)).all():
+            raise InputFormatError("reference labels must be 0 (bare earth) or 1 (object) in column 4", path=ref_path)
+        ref_ground = labels == 0
+    else:
+        raise InputFormatError("reference has no label column (x y z label) or LAS classification", path=ref_path)
+    reader = ctx.open_input(source)
+    table = reader.read()
+    res_ground = _result_ground(reader, table, params)
+    acc, unmatched = match_accuracy(coordinate_keys(ref.x, ref.y, ref.z, tol), ref_ground,
+                                    coordinate_keys(table.x, table.y, table.z, tol), res_ground)
+    if unmatched:
+        ctx.warn(f"{source}: {unmatched} result points match no reference point (not counted)")
+    record = {"path": str(source), "reference": str(ref_path)}
+    record.update(acc.as_dict())
+    record["unmatched"] = unmatched
+    ctx.emit(record)
+
+
+register_task(Task(
+    name="evaluate",
+    summary="Type I, Type II, total error and kappa of a ground classification against reference labels.",
+    params=EvaluateParams,
+    run_one=evaluate_one,
+    writes_outputs=False,
+))

@@ -1,0 +1,245 @@
+"""Running a validated worksheet: ALDPAT's Work Sheet, from a shell.
+
+Jobs run in order; each goes Ready -> Running -> Done or Failed (message kept). A failed job
+stops the later jobs that read its outputs (they are Blocked), not the others.
+
+Resume: after each job the runner records a fingerprint of what it ran (task, every resolved
+parameter, each input's path, size and modification time) and of what it wrote (each output's
+size and modification time) in ``<worksheet-stem>.state.json``, written atomically. ``--resume``
+skips a job whose fingerprint and outputs are unchanged. A job that was started but never
+recorded as finished (the run was killed) runs again and may replace the outputs it had already
+renamed into place -- they are its own; its stray temporary files are removed first. Because
+every output is renamed into place only when complete, a run killed at any instant and resumed
+ends with the same outputs as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import aldpat
+from aldpat.io.atomic import TMP_MARK, atomic_output
+from aldpat.params import format_value
+from aldpat.tasks.base import JobResult, ResolvedRun, expand_inputs, resolve_run, run_task
+from aldpat.worksheet.model import Job, Worksheet
+
+READY, RUNNING, DONE, FAILED, SKIPPED, BLOCKED = "Ready", "Running", "Done", "Failed", "Skipped", "Blocked"
+
+
+@dataclass
+class JobStatus:
+    job: Job
+    state: str = READY
+    message: str = ""
+    seconds: float = 0.0
+    results: list[JobResult] = dataclasses.field(default_factory=list)
+    outputs: list[str] = dataclasses.field(default_factory=list)
+
+
+def state_path(ws: Worksheet) -> Path:
+    return ws.path.with_name(ws.path.stem + ".state.json")
+
+
+def log_path(ws: Worksheet) -> Path:
+    return ws.path.with_name(ws.path.stem + ".log")
+
+
+def _file_sig(path: str | Path) -> list:
+    st = os.stat(path)
+    return [str(Path(path).resolve()), st.st_size, st.st_mtime_ns]
+
+
+def fingerprint(job: Job) -> str:
+    """What the job would run: task, resolved parameters and the current inputs."""
+    sources, _ = expand_inputs(job.inputs)
+    payload = {
+        "task": job.task.key,
+        "params": [(n, v) for n, v, _ in job.run.record() if n not in ("overwrite",)],
+        "inputs": [_file_sig(p) for p in sources],
+    }
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def _load_state(ws: Worksheet) -> dict:
+    try:
+        return json.loads(state_path(ws).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+
+
+def _save_state(ws: Worksheet, state: dict) -> None:
+    with atomic_output(state_path(ws), overwrite=True) as tmp:
+        tmp.write_text(json.dumps(state, indent=1), encoding="utf-8")
+
+
+def _unchanged(entry: dict | None, job: Job) -> bool:
+    if not entry or entry.get("status") != DONE or entry.get("fingerprint") != fingerprint(job):
+        return False
+    for sig in entry.get("outputs", []):
+        try:
+            if _file_sig(sig[0]) != sig:
+                return False
+        except OSError:
+            return False
+    return True
+
+
+def _remove_stray_temporaries(job: Job) -> None:
+    for place in job.output_places():
+        if place.is_dir():
+            for p in place.glob(f"*{TMP_MARK}*"):
+                with contextlib.suppress(OSError):
+                    p.unlink()
+
+
+def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool = False, jobs: int | None = None,
+                  on_status: Callable[[JobStatus], None] | None = None,
+                  command: str = "aldpat run") -> list[JobStatus]:
+    """Run the jobs of ``ws`` in order; return their final statuses (and write state and log)."""
+    statuses = [JobStatus(job) for job in ws.jobs]
+    state = _load_state(ws) if resume else {}
+    if not resume:
+        with contextlib.suppress(OSError):
+            state_path(ws).unlink()
+    by_number = {s.job.number: s for s in statuses}
+    for status in statuses:
+        job = status.job
+        if only and job.number not in only:
+            status.state, status.message = SKIPPED, "not selected (--only)"
+            _notify(on_status, status)
+            continue
+        blockers = [n for n in sorted(job.depends_on) if by_number[n].state in (FAILED, BLOCKED)]
+        if blockers:
+            status.state = BLOCKED
+            status.message = "reads the outputs of failed job " + ", ".join(map(str, blockers))
+            _notify(on_status, status)
+            continue
+        entry = state.get(str(job.number))
+        if resume and _unchanged(entry, job):
+            status.state, status.message = SKIPPED, "unchanged since it last finished (--resume)"
+            status.outputs = [sig[0] for sig in entry.get("outputs", [])]
+            _notify(on_status, status)
+            continue
+        rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
+        run = job.run
+        layers_override = {}
+        if rerun_after_kill:
+            _remove_stray_temporaries(job)
+            layers_override["overwrite"] = True
+        if jobs is not None:
+            layers_override["jobs"] = jobs
+        if layers_override:
+            run = _with_overrides(job, layers_override)
+        status.state = RUNNING
+        _notify(on_status, status)
+        state[str(job.number)] = {"status": RUNNING, "fingerprint": fingerprint(job)}
+        _save_state(ws, state)
+        start = time.perf_counter()
+        try:
+            report = run_task(job.task, job.inputs, [], resolved=run,
+                              command=f"{command}  # job {job.number}")
+        except aldpat.errors.AldpatError as exc:
+            status.state, status.message = FAILED, str(exc)
+            report = None
+        status.seconds = time.perf_counter() - start
+        if report is not None:
+            status.results = report.results
+            status.outputs = [w.path for w in report.outputs]
+            problems = report.input_errors + [r.error for r in report.results if not r.ok]
+            if problems:
+                status.state = FAILED
+                status.message = problems[0] + (f" (and {len(problems) - 1} more)" if len(problems) > 1 else "")
+            else:
+                status.state = DONE
+                status.message = f"{len(status.outputs)} outputs" if job.task.writes_outputs else ""
+        if status.state == DONE:
+            state[str(job.number)] = {
+                "status": DONE, "fingerprint": fingerprint(job),
+                "outputs": [_file_sig(p) for p in status.outputs if os.path.exists(p)],
+            }
+        else:
+            state[str(job.number)] = {"status": FAILED, "message": status.message}
+        _save_state(ws, state)
+        write_worksheet_log(ws, statuses, command)
+        _notify(on_status, status)
+    write_worksheet_log(ws, statuses, command)
+    return statuses
+
+
+def _with_overrides(job: Job, values: dict) -> ResolvedRun:
+    base = [(src, {n: getattr(part.values, n)}) for part in (job.run.params, job.run.input, job.run.output, job.run.run)
+            if part is not None for n, src in part.sources.items()]
+    layers = [(src, m) for src, m in base] + [("runner", values)]
+    return resolve_run(job.task, layers)
+
+
+def _notify(cb, status: JobStatus) -> None:
+    if cb is not None:
+        cb(status)
+
+
+# ------------------------------------------------------------------------------ the run log
+
+
+def _toml_value(value) -> str:
+    if value is None:
+        return '"none"'
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return json.dumps(str(value))
+
+
+def job_table(job: Job) -> list[str]:
+    """A ``[[job]]`` table that replays exactly this job (every resolved parameter spelled out)."""
+    lines = ["[[job]]", f"task = {_toml_value(job.task.name if job.task.group is None else job.task.group)}"]
+    if job.task.group == "filter":
+        lines.append(f"algorithm = {_toml_value(job.task.name)}")
+    lines.append(f"inputs = {_toml_value(job.inputs)}")
+    for part in (job.run.params, job.run.input, job.run.output):
+        if part is None:
+            continue
+        for name, src in part.sources.items():
+            value = getattr(part.values, name)
+            if value is None:
+                continue  # an unset optional: leaving it out replays the same way
+            lines.append(f"{name} = {_toml_value(value)}    # {src}")
+    return lines
+
+
+def write_worksheet_log(ws: Worksheet, statuses: list[JobStatus], command: str) -> Path:
+    """``<worksheet-stem>.log``: a TOML worksheet that replays the run, with statuses as comments."""
+    out = [
+        f"# aldpat {aldpat.__version__} worksheet log, written {time.strftime('%Y-%m-%d %H:%M:%S')}",
+        f"# command: {command}",
+        f"# worksheet: {ws.path}",
+        "# Every job below is spelled out with every resolved parameter (its source in the comment);",
+        "# run this file with `aldpat run` to replay the run.",
+        "",
+    ]
+    for st in statuses:
+        out.append(f"# job {st.job.number}: {st.state}" + (f" -- {st.message}" if st.message else "")
+                   + (f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""))
+        for path in st.outputs:
+            out.append(f"#   wrote {path}")
+        out += job_table(st.job)
+        out.append("")
+    path = log_path(ws)
+    with atomic_output(path, overwrite=True) as tmp:
+        tmp.write_text("\n".join(out), encoding="utf-8")
+    return path
+
+
+__all__ = ["run_worksheet", "JobStatus", "format_value", "write_worksheet_log", "READY", "RUNNING", "DONE",
+           "FAILED", "SKIPPED", "BLOCKED"]
