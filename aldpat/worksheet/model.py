@@ -172,9 +172,11 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path)
 
 
 def _check_settings(settings: dict, jobs: list[Job], wpath: Path) -> None:
-    known = set()
-    for job in jobs:
-        known |= {s.name for s in job.task.all_specs()}
+    from aldpat.tasks.base import TASKS
+
+    known = set()  # a setting may serve any task, not only those in this worksheet
+    for task in TASKS.values():
+        known |= {s.name for s in task.all_specs()}
     from aldpat.tasks.base import RunParams
     from aldpat.params import specs as param_specs
 
