@@ -1,0 +1,155 @@
+"""Row/column cluster analysis of unfiltered grid cells.
+
+Implements ``MakeCluster`` and the cluster recovery (``UpdateMark``) of the GAPM dissertation
+(``seeds/000_*.txt``, ch. 5 §5.2.1 and §5.2.3; reused in ch. 6 §6.2.1).
+
+Every function works along ``axis=1`` (each row is one "row or column" of the dissertation) on
+whole 2-D blocks at once: the scans of the printed algorithm become running maxima/minima of
+indices (``np.maximum.accumulate``), so no Python loop touches a cell. To analyse columns pass
+the transposed grid.
+
+Cluster ids are 1, 2, 3 ... in scan order within each row; cells before the first unfiltered
+cell of a row belong to no cluster (id 0). As in ``MakeCluster`` (line 9, ``last = i - 1``),
+a cluster covers every cell from its first unfiltered cell up to the cell before the first
+unfiltered cell of the next cluster, so filtered cells inside that range belong to it.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+
+def prev_index(mask: np.ndarray, *, strict: bool = False) -> np.ndarray:
+    """Column of the last true cell at or before each cell of its row (``-1`` if none).
+
+    With ``strict`` the cell itself is excluded (last true cell strictly before it).
+    """
+    n = mask.shape[1]
+    idx = np.where(mask, np.arange(n, dtype=np.int64), -1)
+    np.maximum.accumulate(idx, axis=1, out=idx)
+    if strict:
+        idx[:, 1:] = idx[:, :-1].copy()
+        idx[:, 0] = -1
+    return idx
+
+
+def next_index(mask: np.ndarray, *, strict: bool = False) -> np.ndarray:
+    """Column of the first true cell at or after each cell of its row (``n`` if none)."""
+    n = mask.shape[1]
+    idx = np.where(mask, np.arange(n, dtype=np.int64), n)
+    rev = idx[:, ::-1]
+    np.minimum.accumulate(rev, axis=1, out=rev)
+    if strict:
+        idx[:, :-1] = idx[:, 1:].copy()
+        idx[:, -1] = n
+    return idx
+
+
+def take_rows(values: np.ndarray, cols: np.ndarray, fill: float | int) -> np.ndarray:
+    """``values[r, cols[r, c]]`` for every cell, ``fill`` where ``cols`` is out of the row."""
+    n = values.shape[1]
+    ok = (cols >= 0) & (cols < n)
+    out = np.take_along_axis(values, np.clip(cols, 0, n - 1), axis=1)
+    if not ok.all():
+        out = np.where(ok, out, fill)
+    return out
+
+
+@dataclass(frozen=True)
+class Clusters:
+    """The clusters of every row of a block (``MakeCluster`` output, vectorized).
+
+    ids:
+        int64 cluster id of every cell (0 = before the first unfiltered cell of its row).
+    pre_diff, post_diff:
+        per cell, the elevation jump between its cluster and the previous / next cluster of
+        the row (``preDiff``/``postDiff`` of §6.2.3 step 1); NaN for the first / last cluster.
+    """
+
+    ids: np.ndarray
+    pre_diff: np.ndarray
+    post_diff: np.ndarray
+
+    def cluster_diff(self) -> np.ndarray:
+        """``clusterDiff``: the smaller absolute jump to a neighbouring cluster (§6.2.3 step 1).
+
+        The first and last clusters have one neighbour only; that one is used. A row made of
+        one cluster has none: +inf.
+        """
+        a = np.abs(self.pre_diff)
+        b = np.abs(self.post_diff)
+        out = np.fmin(a, b)
+        return np.where(np.isnan(out), np.inf, out)
+
+
+def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float) -> Clusters:
+    """Split the unfiltered cells of every row into clusters (``MakeCluster``, §5.2.1).
+
+    Consecutive unfiltered cells stay in one cluster while the slope between them,
+    ``|z_i - z_prev| / (i - prev)`` in height per cell, is at most ``threshold``; the same
+    rule covers adjacent cells (gap 1: a height difference) and cells separated by filtered
+    ones, as line 8 of the algorithm prescribes.
+
+    Parameters
+    ----------
+    z : (rows, n) float array, current surface.
+    unfiltered : (rows, n) bool array, cells still marked ground (0 or -7777 in Table 5-1).
+    threshold : cluster threshold, height per cell.
+    """
+    rows, n = z.shape
+    prev = prev_index(unfiltered, strict=True)
+    zprev = take_rows(z, prev, np.nan)
+    gap = np.arange(n, dtype=np.int64)[None, :] - prev
+    jump = z - zprev  # preDiff of line 7
+    with np.errstate(invalid="ignore"):
+        breaks = unfiltered & (prev >= 0) & (np.abs(jump) > threshold * gap)
+    first = unfiltered & (prev < 0)
+    start = breaks | first
+    ids = np.cumsum(start, axis=1, dtype=np.int64)
+    jump = np.where(breaks, jump, np.nan)
+    pre = take_rows(jump, prev_index(start), np.nan)
+    post = -take_rows(jump, next_index(start, strict=True), np.nan)  # line 10: postDiff = -preDiff
+    return Clusters(ids=ids, pre_diff=pre, post_diff=post)
+
+
+def recover_runs(removed: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """Cells of removed runs that fall completely inside one cluster (``UpdateMark``, §5.2.3).
+
+    ``removed`` marks the cells removed at the current window. Each run of consecutive removed
+    cells of a row is reset to ground when the whole run and the cells just before and after
+    it (those that exist) belong to the same cluster: the run is then continuous with the
+    candidate ground surface on both sides (a hilltop cut off by a large window, Fig. 5-6),
+    not a separate surface such as a roof, whose cells form a cluster of their own.
+
+    Returns the bool mask of cells to reset to ground.
+    """
+    rows, n = removed.shape
+    flat = removed.ravel()
+    pos = np.flatnonzero(flat)
+    out = np.zeros(removed.shape, dtype=bool)
+    if pos.size == 0:
+        return out
+    col = pos % n
+    new_run = np.ones(pos.size, dtype=bool)
+    new_run[1:] = (np.diff(pos) != 1) | (col[1:] == 0)
+    starts = np.flatnonzero(new_run)
+    ends = np.append(starts[1:], pos.size) - 1
+    idflat = ids.ravel()
+    run_ids = idflat[pos]
+    lo = np.minimum.reduceat(run_ids, starts)
+    hi = np.maximum.reduceat(run_ids, starts)
+    ok = (lo == hi) & (lo > 0)
+    first_pos, last_pos = pos[starts], pos[ends]
+    has_left = col[starts] > 0
+    has_right = col[ends] < n - 1
+    left_id = np.where(has_left, idflat[np.maximum(first_pos - 1, 0)], lo)
+    right_id = np.where(has_right, idflat[np.minimum(last_pos + 1, idflat.size - 1)], lo)
+    ok &= (left_id == lo) & (right_id == lo)
+    keep = np.repeat(ok, ends - starts + 1)
+    out.ravel()[pos[keep]] = True
+    return out

@@ -1,0 +1,119 @@
+"""Trend analysis: local minima of rows and the adaptive filtering threshold.
+
+Implements ``MakeTrendArray`` and ``CalThreshArray`` of the GAPM dissertation
+(``seeds/000_*.txt``, ch. 6 §6.2.2 trend analysis, §6.2.3 threshold estimation, §6.2.4
+``CalThreshArray``).
+
+Like :mod:`aldpat.core.clusters`, everything works along ``axis=1`` on whole 2-D blocks.
+The per-point search for "the lowest and highest minima of the full window minima range"
+becomes two running min/max filters (``scipy.ndimage.minimum_filter1d``) over keys that pack
+the quantized height with the column, so the filters return both the extreme value and where
+it is (the slope needs the distance between the two minima).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from scipy import ndimage
+
+from aldpat.core.clusters import Clusters, next_index, prev_index, take_rows
+
+log = logging.getLogger(__name__)
+
+_COL_BITS = 21  # rows up to 2 million cells long
+_COL_MASK = (1 << _COL_BITS) - 1
+_Z_SCALE = 1000.0  # heights quantized to the millimetre inside the keys
+_BIG = np.iinfo(np.int64).max
+
+
+def local_minima(z: np.ndarray, unfiltered: np.ndarray) -> np.ndarray:
+    """Local minima of the unfiltered cells of every row (``MakeTrendArray``, §6.2.2).
+
+    A cell is compared with its nearest unfiltered neighbours on the left and right. The
+    dissertation's loose criterion: lower than one neighbour and not higher than the other
+    (so a cell level with both is no minimum). A cell with one unfiltered neighbour only
+    (the ends of the row) is a minimum when it is lower than that neighbour.
+    """
+    left = take_rows(z, prev_index(unfiltered, strict=True), np.nan)
+    right = take_rows(z, next_index(unfiltered, strict=True), np.nan)
+    hl, hr = ~np.isnan(left), ~np.isnan(right)
+    with np.errstate(invalid="ignore"):
+        both = ((z < left) & (z <= right)) | ((z <= left) & (z < right))
+        only_left = hl & ~hr & (z < left)
+        only_right = hr & ~hl & (z < right)
+    return unfiltered & ((hl & hr & both) | only_left | only_right)
+
+
+def _keys(z: np.ndarray, mask: np.ndarray, fill: int) -> np.ndarray:
+    n = z.shape[1]
+    if n > _COL_MASK:
+        raise ValueError(f"row of {n} cells is longer than the trend analysis supports")
+    zq = np.rint(np.where(mask, z, 0.0) * _Z_SCALE).astype(np.int64)
+    key = (zq << _COL_BITS) | np.arange(n, dtype=np.int64)[None, :]
+    return np.where(mask, key, fill)
+
+
+def _decode(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return (key >> _COL_BITS).astype(np.float64) / _Z_SCALE, key & _COL_MASK
+
+
+def threshold_array(
+    z: np.ndarray,
+    clusters: Clusters,
+    minima: np.ndarray,
+    half_window: int,
+    cluster_threshold: float,
+    *,
+    max_divisor: float = 4.0,
+    use_cluster_diff: bool = True,
+) -> np.ndarray:
+    """Per-cell filtering threshold of one window (``CalThreshArray``, §6.2.4 and §6.2.3).
+
+    For cell ``i`` with window bounding cells ``L = max(i - k, 0)`` and ``R = min(i + k, n-1)``
+    (``k`` the half window): the full window minima range runs from the last minimum at or
+    before ``L`` (or the row start) to the first minimum at or after ``R`` (or the row end);
+    ``low``/``high`` are its lowest and highest minima.
+
+    * ``i``, ``L`` and ``R`` in one cluster: threshold = ``high - low`` (line 12);
+    * otherwise: ``trendLift`` = slope between ``low`` and ``high`` times ``k`` (line 14), and,
+      as the prose of §6.2.3 (steps 1 and 5) adds, no more than ``clusterDiff`` (the smaller
+      jump to a neighbouring cluster) when ``use_cluster_diff``;
+    * then at least ``cluster_threshold`` (line 16) and at most
+      ``cluster_threshold * k / max_divisor`` (line 19; the dissertation's example divisor 4).
+
+    A row without minima gets ``cluster_threshold``.
+    """
+    rows, n = z.shape
+    k = int(half_window)
+    col = np.arange(n, dtype=np.int64)
+    left_bound = np.maximum(col - k, 0)
+    right_bound = np.minimum(col + k, n - 1)
+    ids = clusters.ids
+    same = (ids == ids[:, left_bound]) & (ids == ids[:, right_bound])
+
+    lo_key = _keys(z, minima, _BIG)
+    hi_key = _keys(z, minima, -_BIG)
+    size = 2 * k + 1
+    low = ndimage.minimum_filter1d(lo_key, size, axis=1, mode="constant", cval=_BIG)
+    high = ndimage.maximum_filter1d(hi_key, size, axis=1, mode="constant", cval=-_BIG)
+    # The range extends to the minima just outside the window (tight minima ranges of L, R).
+    outer_left = prev_index(minima)[:, left_bound]
+    outer_right = next_index(minima)[:, right_bound]
+    for outer in (outer_left, outer_right):
+        low = np.minimum(low, take_rows(lo_key, outer, _BIG))
+        high = np.maximum(high, take_rows(hi_key, outer, -_BIG))
+    found = low != _BIG
+    zlow, clow = _decode(np.where(found, low, 0))
+    zhigh, chigh = _decode(np.where(found, high, 0))
+    rise = zhigh - zlow
+    dist = np.maximum(np.abs(chigh - clow), 1)
+    lift = rise / dist * k
+    if use_cluster_diff:
+        lift = np.minimum(lift, clusters.cluster_diff())
+    thresh = np.where(same, rise, lift)
+    thresh = np.where(found, thresh, cluster_threshold)
+    np.maximum(thresh, cluster_threshold, out=thresh)
+    np.minimum(thresh, cluster_threshold * k / max_divisor, out=thresh)
+    return thresh
