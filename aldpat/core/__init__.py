@@ -1,0 +1,1 @@
+"""Pure numpy/scipy building blocks: gridding, morphology, interpolation."""

@@ -1,0 +1,18 @@
+"""Ground filters on a grid of lowest points (SPEC §4), registered by name in FILTERS.
+
+Importing this package imports every filter module so that :data:`FILTERS` is complete.
+"""
+
+from aldpat.filters.base import (  # noqa: F401
+    FILTERS,
+    MARK_GROUND,
+    MARK_INTERPOLATED,
+    FilterResult,
+    FilterSpec,
+    GroundParams,
+    get_filter,
+    ground_filter,
+    register_filter,
+)
+
+# one import per filter module; each registers itself

@@ -1,0 +1,109 @@
+"""Grey-scale erosion, dilation, opening and closing of elevation grids.
+
+Flat windows of half-size ``k`` cells (full size ``2k + 1``), as the dissertation counts them
+(ch. 5-6: window sizes are half windows; the manual's appendix PM filter uses line or 2-D
+windows). Window shapes:
+
+``line``
+    ``2k + 1`` cells along one axis: ``axis=1`` runs along x (row filtering), ``axis=0``
+    along y (column filtering).
+``square``
+    ``(2k + 1) x (2k + 1)`` cells (manual task 8 "Morph 2D Filter").
+``disk``
+    cells whose centre lies within ``k`` cells of the window centre, ``i*i + j*j <= k*k``
+    (manual task 8 "Morph Circle Filter").
+
+Every operation uses scipy.ndimage running minima/maxima; a disk is the union of a few
+centred rectangles, so its erosion is the minimum of separable rectangle erosions
+(O(cells x rectangles) instead of O(cells x k^2)). Borders use ``mode="nearest"``, which
+equals clipping the window to the grid: a border cell is compared with the cells that exist.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+from scipy import ndimage
+
+WINDOWS = ("line", "square", "disk")
+
+
+@functools.lru_cache(maxsize=256)
+def disk_rectangles(k: int) -> tuple[tuple[int, int], ...]:
+    """Centred rectangles ``(half_rows, half_cols)`` whose union is the disk of radius ``k``.
+
+    For every row offset ``dy`` the disk spans ``|dx| <= floor(sqrt(k^2 - dy^2))``; that half
+    width only shrinks as ``|dy|`` grows, so one rectangle per distinct half width covers it.
+    """
+    if k < 0:
+        raise ValueError(f"half window must be >= 0, got {k}")
+    widths = [math.isqrt(k * k - dy * dy) for dy in range(k + 1)]
+    rects = []
+    for dy, w in enumerate(widths):
+        if dy == k or widths[dy + 1] != w:
+            rects.append((dy, w))
+    return tuple(rects)
+
+
+def disk_footprint(k: int) -> np.ndarray:
+    """Boolean ``(2k+1, 2k+1)`` footprint of the disk window (for reference and tests)."""
+    j, i = np.mgrid[-k:k + 1, -k:k + 1]
+    return i * i + j * j <= k * k
+
+
+def _check(z: np.ndarray, k: int, window: str, axis: int) -> np.ndarray:
+    z = np.asarray(z, dtype=np.float64)
+    if z.ndim != 2:
+        raise ValueError(f"expected a 2-D grid, got {z.ndim} dimensions")
+    if int(k) != k or k < 0:
+        raise ValueError(f"half window must be a whole number >= 0, got {k!r}")
+    if window not in WINDOWS:
+        raise ValueError(f"window must be one of {', '.join(WINDOWS)}, got {window!r}")
+    if window == "line" and axis not in (0, 1):
+        raise ValueError(f"axis must be 0 (along y) or 1 (along x), got {axis!r}")
+    return z
+
+
+def _running(z: np.ndarray, k: int, window: str, axis: int, maximum: bool) -> np.ndarray:
+    if k == 0 or z.size == 0:
+        return z.copy()
+    filt1 = ndimage.maximum_filter1d if maximum else ndimage.minimum_filter1d
+    filt2 = ndimage.maximum_filter if maximum else ndimage.minimum_filter
+    if window == "line":
+        return filt1(z, 2 * k + 1, axis=axis, mode="nearest")
+    if window == "square":
+        return filt2(z, size=(2 * k + 1, 2 * k + 1), mode="nearest")
+    out = None
+    pick = np.maximum if maximum else np.minimum
+    for hr, hc in disk_rectangles(int(k)):
+        part = filt2(z, size=(2 * hr + 1, 2 * hc + 1), mode="nearest")
+        out = part if out is None else pick(out, part, out=out)
+    return out
+
+
+def erosion(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
+    """Running minimum over the window of half size ``k`` (``k = 0``: a copy)."""
+    z = _check(z, k, window, axis)
+    return _running(z, int(k), window, axis, maximum=False)
+
+
+def dilation(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
+    """Running maximum over the window of half size ``k``."""
+    z = _check(z, k, window, axis)
+    return _running(z, int(k), window, axis, maximum=True)
+
+
+def opening(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
+    """Erosion then dilation: removes what is higher than its surroundings and narrower than
+    the window (manual appendix, PM filter; dissertation §4.1.1 for high outliers)."""
+    z = _check(z, k, window, axis)
+    return _running(_running(z, int(k), window, axis, False), int(k), window, axis, True)
+
+
+def closing(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
+    """Dilation then erosion: fills what is lower than its surroundings and narrower than the
+    window (dissertation §4.1.1, extremely low outliers)."""
+    z = _check(z, k, window, axis)
+    return _running(_running(z, int(k), window, axis, True), int(k), window, axis, False)

@@ -1,0 +1,316 @@
+"""The grid-filter registry and the driver that turns a grid filter into point classes.
+
+Every ground filter of SPEC §4 that works on a grid of lowest points is a function
+``fn(z, empty, params) -> marks`` registered with :func:`register_filter`:
+
+* ``z`` is the lowest-point grid (dissertation ch. 3) with empty cells already filled by
+  nearest-neighbour interpolation (dissertation §4.2.1);
+* ``empty`` is the boolean mask of cells that had no point;
+* the returned int32 *mark matrix* (dissertation §5.2.2, Table 5-1) holds 0 for ground and,
+  for a removed cell, the (half) window size in cells at which it was removed. Cells where
+  ``empty`` is true become :data:`MARK_INTERPOLATED` whatever ``fn`` returns.
+
+:func:`ground_filter` grids the points, fills empties, calls ``fn`` and classifies every point:
+the lowest point of a cell by the cell's mark, every other point by its height above the final
+ground surface (ground within ``ground_tolerance``), so that results compare point for point
+with other tools (issue 5).
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from aldpat.core.lowest_grid import GridSpec, LowestGrid, fill_nearest, lowest_grid
+from aldpat.errors import DataError, ParamError
+from aldpat.params import param, validate_instance
+
+log = logging.getLogger(__name__)
+
+#: Mark of a real cell kept as ground (dissertation Table 5-1).
+MARK_GROUND = 0
+#: Mark of an interpolated (empty) cell (dissertation Table 5-1); never written out as a point.
+MARK_INTERPOLATED = -7777
+#: Mark given to a point that is not the lowest of its cell, lies above the ground surface by
+#: more than ``ground_tolerance`` and sits in a cell whose lowest point is ground: no window
+#: removed it, so it gets the smallest window a filter can use.
+MARK_ABOVE_SURFACE = 1
+
+#: Points classified per block when comparing with the ground surface (bounds temporaries).
+_CHUNK = 1 << 21
+
+
+@dataclass(frozen=True)
+class GroundParams:
+    """Parameters every grid filter shares; each filter's params class subclasses it."""
+
+    cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
+    data_mode: str = param(
+        "real",
+        "output points at their own x, y (real) or one point per cell at the cell centre (center)",
+        choices=("real", "center"),
+        manual="Data Mode",
+    )
+    ground_tolerance: float = param(
+        0.3,
+        "a non-lowest point of a cell is ground within this height of the final ground surface",
+        unit="m",
+        ge=0,
+    )
+    origin: tuple[float, float] | None = param(
+        None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
+        metavar="X Y",
+    )
+
+
+FilterFn = Callable[[np.ndarray, np.ndarray, object], np.ndarray]
+
+
+@dataclass(frozen=True)
+class FilterSpec:
+    """A registered grid filter."""
+
+    name: str
+    summary: str
+    params: type
+    fn: FilterFn
+    #: params -> rotation angles in degrees (the manual's Rotate Angle / Rotate Times);
+    #: ``None``: the data are filtered once, unrotated.
+    rotations: Callable[[object], Sequence[float]] | None = None
+
+
+#: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
+FILTERS: dict[str, FilterSpec] = {}
+
+
+def register_filter(name: str, *, params: type, summary: str,
+                    rotations: Callable[[object], Sequence[float]] | None = None):
+    """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``."""
+    if not (isinstance(params, type) and issubclass(params, GroundParams)):
+        raise TypeError(f"filter {name!r}: params must subclass GroundParams")
+
+    def deco(fn: FilterFn) -> FilterFn:
+        if name in FILTERS and FILTERS[name].fn is not fn:
+            raise ValueError(f"filter {name!r} is registered twice")
+        FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations)
+        return fn
+
+    return deco
+
+
+def get_filter(name: str) -> FilterSpec:
+    """The registered filter ``name``; a :class:`ParamError` with a suggestion otherwise."""
+    spec = FILTERS.get(name)
+    if spec is None:
+        hint = difflib.get_close_matches(name, list(FILTERS), n=1)
+        did = f"; did you mean {hint[0]!r}?" if hint else ""
+        raise ParamError(f"unknown filter {name!r} (known: {', '.join(sorted(FILTERS))}){did}")
+    return spec
+
+
+# ---------------------------------------------------------------------------- results
+
+
+@dataclass
+class CenterPoints:
+    """One point per non-empty cell at the cell centre (``--data-mode center``, manual task 8)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    index: np.ndarray  # the lowest point of the cell (to copy its other attributes)
+    is_ground: np.ndarray
+    marks: np.ndarray
+
+
+@dataclass
+class FilterResult:
+    """Classes of every point plus the grid they came from.
+
+    Attributes
+    ----------
+    point_marks : int32 (n,)
+        0 for ground; for non-ground the window at which the point (or its cell) was removed.
+    is_ground : bool (n,)
+    grid : LowestGrid
+        the axis-aligned lowest-point grid (``grid.cell_index`` is every point's cell).
+    marks : int32 (rows, cols)
+        mark matrix on that grid: the lowest point's mark, ``MARK_INTERPOLATED`` where empty.
+    surface : float64 (rows, cols)
+        final ground surface: ground cells' lowest elevations, other cells filled from the
+        nearest ground cell (NaN everywhere if nothing is ground).
+    angles : rotation angles (degrees) the data were filtered at.
+    """
+
+    point_marks: np.ndarray
+    is_ground: np.ndarray
+    grid: LowestGrid
+    marks: np.ndarray
+    surface: np.ndarray
+    angles: tuple[float, ...] = (0.0,)
+    algorithm: str = ""
+    params: object = None
+
+    @property
+    def cell_index(self) -> np.ndarray:
+        return self.grid.cell_index
+
+    @property
+    def count(self) -> int:
+        return len(self.is_ground)
+
+    def center(self) -> CenterPoints:
+        """ALDPAT's ``center`` data mode: the lowest point of each cell moved to the centre."""
+        g = self.grid
+        real = ~g.empty
+        rr, cc = np.nonzero(real)
+        xc, yc = g.spec.centers()
+        index = g.lowest[real]
+        return CenterPoints(
+            x=xc[cc], y=yc[rr], z=g.z[real], index=index,
+            is_ground=self.is_ground[index], marks=self.point_marks[index],
+        )
+
+
+# ---------------------------------------------------------------------------- the driver
+
+
+def ground_surface(z: np.ndarray, ground: np.ndarray) -> np.ndarray:
+    """Ground cells' elevations, every other cell filled from its nearest ground cell."""
+    if not ground.any():
+        return np.full(z.shape, np.nan)
+    return fill_nearest(np.where(ground, z, np.nan), ~ground)
+
+
+def _bilinear(surface: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Surface (values at cell centres) at points x, y; clamped at the border."""
+    fc = (x - spec.x0) / spec.cell - 0.5
+    fr = (y - spec.y0) / spec.cell - 0.5
+    np.clip(fc, 0.0, spec.cols - 1.0, out=fc)
+    np.clip(fr, 0.0, spec.rows - 1.0, out=fr)
+    c0 = np.minimum(fc.astype(np.int64), max(spec.cols - 2, 0))
+    r0 = np.minimum(fr.astype(np.int64), max(spec.rows - 2, 0))
+    c1 = np.minimum(c0 + 1, spec.cols - 1)
+    r1 = np.minimum(r0 + 1, spec.rows - 1)
+    tc = fc - c0
+    tr = fr - r0
+    s = surface
+    bottom = s[r0, c0] * (1 - tc) + s[r0, c1] * tc
+    top = s[r1, c0] * (1 - tc) + s[r1, c1] * tc
+    return bottom * (1 - tr) + top * tr
+
+
+def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
+    """Point marks and classes from a cell mark matrix (issue 5 "Behaviour").
+
+    The lowest point of a cell takes the cell's mark; any other point is ground when it lies
+    no more than ``tolerance`` above the final ground surface, interpolated bilinearly between
+    cell centres so that a sloping cell does not push its upper points out of the ground.
+    """
+    n = len(z)
+    flat_marks = marks.ravel()
+    ground_cells = (marks == MARK_GROUND) & ~grid.empty
+    surface = ground_surface(grid.z, ground_cells)
+    point_marks = np.empty(n, np.int32)
+    is_ground = np.empty(n, bool)
+    have_ground = bool(ground_cells.any())
+    for a in range(0, n, _CHUNK):
+        b = min(n, a + _CHUNK)
+        cm = flat_marks[grid.cell_index[a:b]]
+        if have_ground:
+            h = z[a:b] - _bilinear(surface, grid.spec, x[a:b], y[a:b])
+            ok = h <= tolerance
+        else:
+            ok = np.zeros(b - a, bool)
+        is_ground[a:b] = ok
+        point_marks[a:b] = np.where(ok, MARK_GROUND, np.maximum(cm, MARK_ABOVE_SURFACE))
+    low = grid.lowest[~grid.empty]
+    point_marks[low] = marks[~grid.empty]
+    is_ground[low] = marks[~grid.empty] == MARK_GROUND
+    return point_marks, is_ground, surface
+
+
+def _run_grid(spec: FilterSpec, grid: LowestGrid, params) -> np.ndarray:
+    """Fill, filter and return the cell mark matrix of one grid."""
+    empty = grid.empty
+    filled = fill_nearest(grid.z, empty)
+    marks = np.asarray(spec.fn(filled, empty.copy(), params))
+    if marks.shape != grid.z.shape:
+        raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {grid.z.shape}")
+    marks = marks.astype(np.int32, copy=True)
+    marks[empty] = MARK_INTERPOLATED
+    return marks
+
+
+def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate points counter-clockwise about the origin (0, 0), so tiles rotate alike."""
+    t = math.radians(degrees)
+    c, s = math.cos(t), math.sin(t)
+    return x * c - y * s, x * s + y * c
+
+
+def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
+    """Classify points as ground / non-ground with the registered grid filter ``algorithm``.
+
+    Parameters
+    ----------
+    x, y, z : array-like (n,)
+    algorithm : str
+        a name in :data:`FILTERS`.
+    params : the filter's params dataclass, optional (defaults when omitted).
+
+    With the manual's Rotate Angle / Rotate Times (filters registered with ``rotations``),
+    the data are rotated, gridded and filtered at each angle; a point is ground only when every
+    orientation keeps it, and its mark is the largest window that removed it.
+    """
+    spec = get_filter(algorithm)
+    if params is None:
+        params = spec.params()
+    elif not isinstance(params, spec.params):
+        raise ParamError(f"filter {algorithm!r} takes {spec.params.__name__}, got {type(params).__name__}")
+    validate_instance(params)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    if not (x.shape == y.shape == z.shape) or x.ndim != 1:
+        raise ValueError("x, y and z must be 1-D arrays of the same length")
+    if len(z) and not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(z).all()):
+        raise DataError("points with non-finite coordinates cannot be filtered")
+    angles = tuple(float(a) for a in spec.rotations(params)) if spec.rotations else (0.0,)
+    if not angles:
+        angles = (0.0,)
+    origin = params.origin
+
+    base = lowest_grid(x, y, z, params.cell, origin=origin)
+    if len(z) == 0:
+        return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
+                            np.full(base.z.shape, MARK_INTERPOLATED, np.int32), np.full(base.z.shape, np.nan),
+                            angles, algorithm, params)
+    point_marks = None
+    is_ground = None
+    for angle in angles:
+        if angle % 360.0 == 0.0:
+            grid, xr, yr = base, x, y
+        else:
+            xr, yr = _rotate(x, y, angle)
+            grid = lowest_grid(xr, yr, z, params.cell, origin=None)
+        marks = _run_grid(spec, grid, params)
+        pm, ig, _ = _classify(grid, marks, xr, yr, z, params.ground_tolerance)
+        if point_marks is None:
+            point_marks, is_ground = pm, ig
+        else:
+            is_ground &= ig
+            np.maximum(point_marks, pm, out=point_marks)
+        log.debug("%s at %g deg: %d of %d points ground", algorithm, angle, int(ig.sum()), len(ig))
+
+    # the mark matrix and ground surface reported are those of the axis-aligned grid
+    real = ~base.empty
+    base_marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
+    base_marks[real] = point_marks[base.lowest[real]]
+    surface = ground_surface(base.z, (base_marks == MARK_GROUND) & real)
+    return FilterResult(point_marks, is_ground, base, base_marks, surface, angles, algorithm, params)

@@ -1,0 +1,94 @@
+"""Grey-scale morphology with line, square and disk windows against brute force."""
+
+import numpy as np
+import pytest
+
+from aldpat.core.morphology import (
+    WINDOWS, closing, dilation, disk_footprint, disk_rectangles, erosion, opening,
+)
+
+
+def _footprint(window, k, axis):
+    if window == "line":
+        shape = (1, 2 * k + 1) if axis == 1 else (2 * k + 1, 1)
+        return np.ones(shape, bool)
+    if window == "square":
+        return np.ones((2 * k + 1, 2 * k + 1), bool)
+    return disk_footprint(k)
+
+
+def _brute(z, fp, maximum):
+    """Window clipped to the grid: pad with +-inf and take min/max over the footprint."""
+    hr, hc = fp.shape[0] // 2, fp.shape[1] // 2
+    pad = -np.inf if maximum else np.inf
+    p = np.pad(z, ((hr, hr), (hc, hc)), constant_values=pad)
+    out = np.full(z.shape, pad)
+    for dr, dc in zip(*np.nonzero(fp)):
+        part = p[dr:dr + z.shape[0], dc:dc + z.shape[1]]
+        out = np.maximum(out, part) if maximum else np.minimum(out, part)
+    return out
+
+
+@pytest.mark.parametrize("window,axis", [("line", 0), ("line", 1), ("square", 1), ("disk", 1)])
+@pytest.mark.parametrize("k", [0, 1, 2, 3, 5, 7])
+def test_erosion_dilation_match_brute_force(window, axis, k):
+    rng = np.random.default_rng(k)
+    z = rng.normal(size=(17, 23))
+    fp = _footprint(window, k, axis)
+    assert np.array_equal(erosion(z, k, window=window, axis=axis), _brute(z, fp, False))
+    assert np.array_equal(dilation(z, k, window=window, axis=axis), _brute(z, fp, True))
+    e = _brute(z, fp, False)
+    assert np.array_equal(opening(z, k, window=window, axis=axis), _brute(e, fp, True))
+    d = _brute(z, fp, True)
+    assert np.array_equal(closing(z, k, window=window, axis=axis), _brute(d, fp, False))
+
+
+@pytest.mark.parametrize("k", range(0, 25))
+def test_disk_rectangles_cover_the_disk_exactly(k):
+    cover = np.zeros((2 * k + 1, 2 * k + 1), bool)
+    for hr, hc in disk_rectangles(k):
+        cover[k - hr:k + hr + 1, k - hc:k + hc + 1] = True
+    assert np.array_equal(cover, disk_footprint(k))
+
+
+def test_disk_footprint_radius_two():
+    assert disk_footprint(2).astype(int).tolist() == [
+        [0, 0, 1, 0, 0],
+        [0, 1, 1, 1, 0],
+        [1, 1, 1, 1, 1],
+        [0, 1, 1, 1, 0],
+        [0, 0, 1, 0, 0],
+    ]
+
+
+def test_opening_removes_objects_narrower_than_the_window():
+    # a flat ground at 0 with a 3-cell wide "building" of height 10 along x
+    z = np.zeros((5, 20))
+    z[:, 8:11] = 10.0
+    assert opening(z, 1, window="line", axis=1).max() == 10.0  # window 3 cells: kept
+    assert opening(z, 2, window="line", axis=1).max() == 0.0  # window 5 cells: removed
+    # along y the building is as long as the grid: never removed
+    assert opening(z, 2, window="line", axis=0).max() == 10.0
+    assert opening(z, 2, window="square").max() == 0.0
+    # a closing fills a one-cell pit
+    z = np.zeros((5, 5))
+    z[2, 2] = -5.0
+    assert closing(z, 1, window="disk").min() == 0.0
+
+
+def test_does_not_modify_input_and_k0_is_identity():
+    z = np.arange(12.0).reshape(3, 4)
+    for w in WINDOWS:
+        out = opening(z, 0, window=w)
+        assert np.array_equal(out, z) and out is not z
+    erosion(z, 2)
+    assert np.array_equal(z, np.arange(12.0).reshape(3, 4))
+
+
+@pytest.mark.parametrize("kwargs", [dict(k=-1), dict(k=1.5), dict(k=1, window="hex"), dict(k=1, window="line", axis=2)])
+def test_bad_arguments(kwargs):
+    k = kwargs.pop("k")
+    with pytest.raises(ValueError):
+        erosion(np.zeros((3, 3)), k, **kwargs)
+    with pytest.raises(ValueError):
+        erosion(np.zeros(3), 1)
