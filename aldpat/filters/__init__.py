@@ -16,3 +16,7 @@ from aldpat.filters.base import (  # noqa: F401
 )
 
 # one import per filter module; each registers itself
+from aldpat.filters import etew  # noqa: E402,F401
+from aldpat.filters import pm  # noqa: E402,F401
+from aldpat.filters import pm2d  # noqa: E402,F401
+from aldpat.filters import pmcircle  # noqa: E402,F401

@@ -1,0 +1,142 @@
+"""Progressive morphological filter with 1-D line windows (``pm``).
+
+ALDPAT manual (003_*), Appendix "Progressive Morphological (PM) Filter" (Zhang et al. 2003)
+and task 8 "Progressive Morphology (PM)" for the parameters; dissertation (000_*) §5.1 for
+the review and §5.2.2 for the mark matrix it fills (Table 5-1).
+
+For each window of an increasing series the current surface is opened; a cell whose
+elevation drops by more than the window's threshold is marked with the (half) window size at
+which that happened, and the opened surface becomes the input of the next window. With line
+windows the opening runs along x, along y, or along x then y at every step (the manual:
+"the opening operation was applied to both x and y directions at each step"); the data can
+be rotated first (Rotate Angle / Rotate Times) to line the windows up with linear features.
+
+Threshold of the manual's eq. (5), with full window sizes ``w = 2k + 1`` in cells::
+
+    dh_k = dh0                                   if w_k <= 3
+         = s * (w_k - w_{k-1}) * c + dh0         otherwise, capped at dh_max
+
+For the first window ``w_{k-1}`` is 1 (the unfiltered grid is a one-cell window).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from aldpat.core import morphology
+from aldpat.errors import ParamError
+from aldpat.filters.base import MARK_GROUND, GroundParams, register_filter
+from aldpat.params import param
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ProgressiveParams(GroundParams):
+    """The manual's PM parameters (task 8), shared by ``pm``, ``pm2d`` and ``pmcircle``."""
+
+    slope: float = param(0.3, "terrain slope that raises the threshold as the window grows", unit="m/m",
+                         ge=0, manual="Slope")
+    init_threshold: float = param(0.3, "threshold of the smallest windows: the error of the measurements",
+                                  unit="m", ge=0, manual="Init Threshold")
+    max_threshold: float = param(2.5, "cap of the threshold (the lowest building height; 9999: none)",
+                                 unit="m", ge=0, manual="Max Threshold")
+    window_base: float = param(2.0, "base of the power series of half windows, k_i = base^(i*increment)",
+                               gt=1, manual="Window Base")
+    power_increment: float = param(1.0, "exponent step of the power series", gt=0, manual="Power Increment")
+    window_series_length: int = param(5, "number of windows of the power series", ge=1,
+                                      manual="Window Series Length")
+    window_series: tuple[int, ...] | None = param(
+        None, "half windows in cells, ascending, replacing the power series (full window 2k+1)",
+        unit="cells", ge=1, manual="Wind Series",
+    )
+    threshold_series: tuple[float, ...] | None = param(
+        None, "one threshold per window, replacing the slope rule", unit="m", ge=0, manual="Threshold Series",
+    )
+    min_window: int = param(1, "smallest half window used", unit="cells", ge=1, manual="Min WndSize")
+
+
+@dataclass(frozen=True)
+class PMParams(ProgressiveParams):
+    direction: str = param("xy", "open along x (rows), y (columns) or x then y at every window",
+                           choices=("x", "y", "xy"), manual="Direction")
+    rotate_angle: float = param(0.0, "angle the data are rotated by (counter-clockwise) before filtering",
+                                unit="deg", ge=-360, le=360, manual="Rotate Angle")
+    rotate_times: int = param(
+        0, "number of rotations: filter at 1, 2 ... times the angle; a point is ground only if every "
+        "rotation keeps it (0: unrotated)", ge=0, le=36, manual="Rotate Times",
+    )
+
+
+def window_series(p: ProgressiveParams) -> tuple[int, ...]:
+    """Half windows in cells: the given series, or ``round(base ** (i * increment))``,
+    ``i = 0 .. length-1`` (manual task 8 "Wind Series"), without repeats and below
+    ``min_window`` dropped."""
+    if p.window_series is not None:
+        ks = tuple(int(k) for k in p.window_series)
+        if any(b <= a for a, b in zip(ks, ks[1:])):
+            raise ParamError(f"window_series: half windows must be strictly ascending, got {ks}")
+    else:
+        raw = [int(round(p.window_base ** (i * p.power_increment))) for i in range(p.window_series_length)]
+        ks = tuple(sorted(set(raw)))
+    ks = tuple(k for k in ks if k >= p.min_window)
+    if not ks:
+        raise ParamError(f"min_window: {p.min_window} leaves no window of the series")
+    return ks
+
+
+def threshold_series(p: ProgressiveParams, windows: tuple[int, ...]) -> tuple[float, ...]:
+    """The given thresholds, or the manual's eq. (5) for each window."""
+    if p.threshold_series is not None:
+        if len(p.threshold_series) != len(windows):
+            raise ParamError(f"threshold_series: expected one value per window ({len(windows)}: "
+                             f"{','.join(map(str, windows))}), got {len(p.threshold_series)}")
+        return tuple(float(t) for t in p.threshold_series)
+    out = []
+    w_prev = 1
+    for k in windows:
+        w = 2 * k + 1
+        dh = p.init_threshold if w <= 3 else p.slope * (w - w_prev) * p.cell + p.init_threshold
+        out.append(min(dh, p.max_threshold))
+        w_prev = w
+    return tuple(out)
+
+
+def progressive_open(z: np.ndarray, windows, thresholds, passes) -> np.ndarray:
+    """Mark matrix of the progressive opening (manual appendix PM; dissertation §5.2.2).
+
+    ``passes`` lists ``(window, axis)`` openings applied in turn at every step; each compares
+    the surface before and after itself. A cell keeps the first window that removed it.
+    """
+    surface = np.array(z, dtype=np.float64, copy=True)
+    marks = np.zeros(surface.shape, np.int32)
+    for k, dh in zip(windows, thresholds):
+        for window, axis in passes:
+            opened = morphology.opening(surface, k, window=window, axis=axis)
+            removed = (surface - opened > dh) & (marks == MARK_GROUND)
+            marks[removed] = k
+            surface = opened
+        log.debug("window %d (threshold %.3g): %d cells removed so far", k, dh, int((marks > 0).sum()))
+    return marks
+
+
+def rotation_angles(p: PMParams) -> tuple[float, ...]:
+    """Angles the data are filtered at: ``i * rotate_angle`` for ``i = 1 .. rotate_times``."""
+    if p.rotate_times == 0 or p.rotate_angle % 360.0 == 0.0:
+        return (0.0,)
+    return tuple(i * p.rotate_angle for i in range(1, p.rotate_times + 1))
+
+
+_PASSES = {"x": (("line", 1),), "y": (("line", 0),), "xy": (("line", 1), ("line", 0))}
+
+
+@register_filter("pm", params=PMParams, rotations=rotation_angles,
+                 summary="progressive morphological filter, line windows along x, y or both "
+                         "(manual appendix; Zhang et al. 2003)")
+def pm(z: np.ndarray, empty: np.ndarray, params: PMParams) -> np.ndarray:
+    """Progressive morphology with 1-D line windows (manual appendix PM, task 8 "Direction")."""
+    windows = window_series(params)
+    return progressive_open(z, windows, threshold_series(params, windows), _PASSES[params.direction])

@@ -1,0 +1,30 @@
+"""Progressive morphological filter with circular windows (``pmcircle``).
+
+ALDPAT manual (003_*), task 8 "2D Morphological Filters (Square or Circle Window)", "Morph
+Circle Filter", and the Appendix "Progressive Morphological (PM) Filter": the progressive
+opening of ``pm`` (:mod:`aldpat.filters.pm`) with disk windows of radius ``k`` cells (the cells
+whose centres lie within ``k`` cells; diameter ``2k+1`` is the ``w`` of the threshold rule).
+A disk has no preferred direction, so objects are removed alike whatever their orientation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from aldpat.filters.base import register_filter
+from aldpat.filters.pm import ProgressiveParams, progressive_open, threshold_series, window_series
+
+
+@dataclass(frozen=True)
+class PMCircleParams(ProgressiveParams):
+    pass
+
+
+@register_filter("pmcircle", params=PMCircleParams,
+                 summary="progressive morphological filter, circular windows (manual task 8, Morph Circle Filter)")
+def pmcircle(z: np.ndarray, empty: np.ndarray, params: PMCircleParams) -> np.ndarray:
+    """Progressive morphology with disk windows (manual task 8; appendix PM)."""
+    windows = window_series(params)
+    return progressive_open(z, windows, threshold_series(params, windows), (("disk", 1),))
