@@ -40,6 +40,23 @@ def fail_usage(message: str) -> None:
     sys.exit(2)
 
 
+def command_line(task: Task, inputs, given: dict, params_file: str | None) -> str:
+    """The command as it would be typed to repeat this run (recorded in the logs)."""
+    words = ["aldpat"] + task.key.split(" ") + [str(i) for i in inputs]
+    specs = {s.name: s for s in task.all_specs()}
+    for name, value in given.items():
+        spec = specs[name]
+        if spec.kind == "bool":
+            words.append(spec.option if value else f"--no-{spec.option[2:]}")
+        elif isinstance(value, tuple):
+            words += [spec.option, *map(str, value)]
+        else:
+            words += [spec.option, str(value)]
+    if params_file:
+        words += ["--params", params_file]
+    return shlex.join(words)
+
+
 def make_command(task: Task) -> click.Command:
     """A click command for ``task``: INPUT... plus an option for each declared parameter."""
     specs = task.all_specs()
@@ -61,7 +78,7 @@ def make_command(task: Task) -> click.Command:
                 layers.append(("params file", load_toml(params_file)))
             layers.append(("cli", given))
             with job_progress(task, enabled=not quiet) as progress:
-                report = run_task(task, list(inputs), layers, command=shlex.join(["aldpat"] + sys.argv[1:]),
+                report = run_task(task, list(inputs), layers, command=command_line(task, inputs, given, params_file),
                                   progress=progress)
         except UsageError as exc:
             fail_usage(str(exc))

@@ -28,4 +28,7 @@ def load_toml(path: str | Path) -> dict:
                 message = message.split(" (at line ", 1)[0]
             except ValueError:
                 pass
+        elif "(at end of document)" in message:
+            line = max(1, len(text.splitlines()))
+            message = message.replace(" (at end of document)", " at the end of the file")
         raise UsageError(f"TOML syntax error: {message}", path=path, line=line) from None

@@ -1,0 +1,112 @@
+"""The table of bad inputs and the one line each gets: never a traceback.
+
+Runs the installed console script in a subprocess, as a user would.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.io.test_las import make_las
+
+ALDPAT = [sys.executable, "-m", "aldpat"]
+
+
+def run(*args, cwd=None):
+    proc = subprocess.run(ALDPAT + [str(a) for a in args], capture_output=True, text=True, cwd=cwd)
+    assert "Traceback" not in proc.stderr and "Traceback" not in proc.stdout, proc.stderr
+    return proc
+
+
+def _bad_files(tmp: Path) -> dict[str, tuple[Path, str]]:
+    """name -> (file, the message the user must see)."""
+    cases = {}
+    (tmp / "empty.txt").write_text("")
+    cases["empty file"] = (tmp / "empty.txt", "empty.txt: file is empty")
+    (tmp / "columns.txt").write_text("1 2 3\n4 5 6\n7 8\n")
+    cases["wrong number of columns"] = (tmp / "columns.txt", "columns.txt:3: expected 3 columns, found 2")
+    (tmp / "token.txt").write_text("1 2 3\n4 5,5 6\n")
+    cases["non-numeric token"] = (tmp / "token.txt", "token.txt:2: not a number: '5,5'")
+    (tmp / "nan.txt").write_text("1 2 3\nnan 5 6\n")
+    cases["NaN coordinate"] = (tmp / "nan.txt", "nan.txt:2: non-finite value 'nan'")
+    (tmp / "inf.csv").write_text("1,2,3\n4,5,-inf\n")
+    cases["inf coordinate"] = (tmp / "inf.csv", "inf.csv:2: non-finite value '-inf'")
+    make_las(tmp / "whole.laz", n=3000)
+    data = (tmp / "whole.laz").read_bytes()
+    (tmp / "cut.laz").write_bytes(data[: len(data) // 2])
+    cases["truncated LAZ"] = (tmp / "cut.laz", "cut.laz: truncated")
+    make_las(tmp / "whole.las", n=3000)
+    data = (tmp / "whole.las").read_bytes()
+    (tmp / "cut.las").write_bytes(data[: len(data) // 2])
+    cases["truncated LAS"] = (tmp / "cut.las", "cut.las: truncated")
+    (tmp / "points.foo").write_text("1 2 3\n")
+    cases["unknown extension"] = (tmp / "points.foo", "unknown extension '.foo'")
+    cases["missing file"] = (tmp / "nowhere.txt", "nowhere.txt: no such file")
+    return cases
+
+
+CASES = ["empty file", "wrong number of columns", "non-numeric token", "NaN coordinate", "inf coordinate",
+         "truncated LAZ", "truncated LAS", "unknown extension", "missing file"]
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_bad_input_gives_one_line_and_the_others_are_processed(tmp_path, samp24, case):
+    bad, message = _bad_files(tmp_path)[case]
+    good = tmp_path / "good.txt"
+    shutil.copy(samp24, good)
+    proc = run("convert", bad, good, "--out-format", "laz", "--odir", tmp_path / "out")
+    assert proc.returncode == 1
+    lines = [ln for ln in proc.stderr.splitlines() if message in ln]
+    assert len(lines) == 1, proc.stderr
+    assert (tmp_path / "out" / "good.laz").exists()  # the good input was still converted
+    leftovers = [p.name for p in (tmp_path / "out").iterdir()]
+    assert sorted(leftovers) == ["good.laz", "good.log"]  # nothing half-written
+
+
+def test_existing_output_without_overwrite(tmp_path, samp24):
+    first = run("convert", samp24, "--out-format", "laz", "--odir", tmp_path)
+    assert first.returncode == 0, first.stderr
+    before = (tmp_path / "samp24.laz").read_bytes()
+    again = run("convert", samp24, "--out-format", "laz", "--odir", tmp_path)
+    assert again.returncode == 1
+    assert "samp24.laz: output exists (use --overwrite to replace it)" in again.stderr
+    assert (tmp_path / "samp24.laz").read_bytes() == before
+    assert run("convert", samp24, "--out-format", "laz", "--odir", tmp_path, "--overwrite").returncode == 0
+
+
+def test_output_folder_not_writable(tmp_path, samp24):
+    (tmp_path / "file").write_text("")
+    proc = run("convert", samp24, "--out-format", "laz", "--odir", tmp_path / "file" / "out")
+    assert proc.returncode == 1
+    assert "cannot create output folder" in proc.stderr
+
+
+@pytest.mark.parametrize("content, line", [("cell = \n", 1), ("a = 1\nb = [1, 2\n", 2)])
+def test_toml_syntax_error_in_a_params_file(tmp_path, samp24, content, line):
+    p = tmp_path / "p.toml"
+    p.write_text(content)
+    proc = run("convert", samp24, "--params", p)
+    assert proc.returncode == 2
+    assert f"p.toml:{line}: TOML syntax error" in proc.stderr
+
+
+def test_usage_errors_exit_2(tmp_path, samp24):
+    proc = run("convert", samp24, "--delimiter", "semicolon")
+    assert proc.returncode == 2 and "delimiter: 'semicolon' is not one of space, comma" in proc.stderr
+    p = tmp_path / "p.toml"
+    p.write_text("feilds = 'xyz'\n")
+    proc = run("convert", samp24, "--params", p)
+    assert proc.returncode == 2 and "unknown key 'feilds'; did you mean 'fields'?" in proc.stderr
+    assert run("nosuchcommand").returncode == 2
+    assert run("info").returncode == 2  # no inputs: usage help, status 2
+
+
+def test_unknown_command_suggests(tmp_path):
+    proc = run("inof")
+    assert proc.returncode == 2 and "did you mean 'info'?" in proc.stderr

@@ -1,0 +1,99 @@
+import laspy
+import numpy as np
+import pyproj
+import pytest
+
+from aldpat.errors import InputFormatError
+from aldpat.io.registry import open_points, write_points
+
+
+def make_las(path, n=1000, crs="EPSG:32617", point_format=3):
+    rng = np.random.default_rng(1)
+    header = laspy.LasHeader(point_format=point_format, version="1.2")
+    header.scales = np.array([0.01, 0.01, 0.001])
+    header.offsets = np.array([500000.0, 4000000.0, 0.0])
+    header.add_crs(pyproj.CRS.from_user_input(crs))
+    las = laspy.LasData(header)
+    las.x = 500000 + rng.uniform(0, 100, n)
+    las.y = 4000000 + rng.uniform(0, 100, n)
+    las.z = rng.uniform(0, 30, n)
+    las.intensity = rng.integers(0, 4000, n)
+    las.classification = rng.integers(0, 10, n)
+    las.gps_time = np.arange(n, dtype=float)
+    las.write(path)
+    return laspy.read(path)
+
+
+@pytest.mark.parametrize("ext", [".las", ".laz"])
+def test_round_trip_keeps_attributes_scale_offset_and_crs(tmp_path, ext):
+    src = tmp_path / f"in{ext}"
+    original = make_las(src)
+    reader = open_points(src)
+    assert reader.count == 1000 and reader.crs.to_epsg() == 32617
+    out = tmp_path / f"out{ext}"
+    with write_points(out, reader.names, like=reader) as w:
+        for chunk in reader.chunks(size=300):
+            w.write(chunk)
+    back = laspy.read(out)
+    assert back.header.point_format.id == 3
+    np.testing.assert_allclose(back.header.scales, [0.01, 0.01, 0.001])
+    np.testing.assert_allclose(back.header.offsets, [500000.0, 4000000.0, 0.0])
+    assert back.header.parse_crs().to_epsg() == 32617
+    for dim in ("X", "Y", "Z", "intensity", "classification", "gps_time"):
+        np.testing.assert_array_equal(back[dim], original[dim])
+
+
+def test_subset_and_reclassify_keep_other_attributes(tmp_path):
+    src = tmp_path / "in.las"
+    original = make_las(src)
+    reader = open_points(src)
+    table = reader.read()
+    keep = table.z > 15
+    sub = table.take(keep).with_columns(classification=np.full(int(keep.sum()), 2, dtype=np.uint8))
+    out = tmp_path / "out.laz"
+    with write_points(out, reader.names, like=reader) as w:
+        w.write(sub)
+    back = laspy.read(out)
+    assert len(back) == keep.sum() and (back.classification == 2).all()
+    np.testing.assert_array_equal(back.gps_time, original.gps_time[keep])
+    np.testing.assert_array_equal(back.intensity, original.intensity[keep])
+
+
+def test_extra_column_becomes_an_extra_byte_dimension(tmp_path):
+    src = tmp_path / "in.las"
+    make_las(src, n=10)
+    reader = open_points(src)
+    table = reader.read().with_columns(mark=np.arange(10, dtype=np.int32))
+    out = tmp_path / "marks.las"
+    with write_points(out, reader.names + ("mark",), like=reader) as w:
+        w.write(table)
+    np.testing.assert_array_equal(laspy.read(out)["mark"], np.arange(10))
+
+
+def test_text_to_laz_derives_scale_from_decimals(tmp_path, samp24):
+    reader = open_points(samp24)
+    out = tmp_path / "s.laz"
+    with write_points(out, ("x", "y", "z", "intensity"), like=reader, crs=pyproj.CRS("EPSG:32632")) as w:
+        for c in reader.chunks():
+            w.write(c)
+    back = laspy.read(out)
+    np.testing.assert_allclose(back.header.scales, [0.01, 0.01, 0.01])
+    assert back.header.parse_crs().to_epsg() == 32632
+    t = reader.read()
+    np.testing.assert_allclose(back.x, t.x, atol=1e-9)
+    np.testing.assert_allclose(back.z, t.z, atol=1e-9)
+
+
+@pytest.mark.parametrize("ext", [".las", ".laz"])
+def test_truncated_files_are_reported_not_crashed(tmp_path, ext):
+    src = tmp_path / f"in{ext}"
+    make_las(src, n=5000)
+    data = src.read_bytes()
+    cut = tmp_path / f"cut{ext}"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.raises(InputFormatError, match="truncated"):
+        open_points(cut).read()
+    stub = tmp_path / f"stub{ext}"
+    stub.write_bytes(data[:100])
+    with pytest.raises(InputFormatError, match="truncated or corrupt"):
+        open_points(stub).read()

@@ -1,0 +1,91 @@
+import numpy as np
+import pytest
+
+from aldpat.errors import InputFormatError
+from aldpat.io.registry import open_points, write_points
+from aldpat.io.text import ALTM_FIRST_LAST, ALTM_LAST_FIRST
+from tests.conftest import write_xyz
+
+XYZI = np.array([[512203.97, 5403685.49, 336.41, 1], [512204.13, 5403685.25, 333.12, 0],
+                 [512204.12, 5403684.39, 333.2, 7]])
+
+
+@pytest.mark.parametrize("delimiter, name", [(" ", "space"), ("\t", "tab"), (",", "comma"), ("   ", "spaces")])
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_delimiters_and_line_endings_are_detected(tmp_path, delimiter, name, newline):
+    p = write_xyz(tmp_path / "a.txt", XYZI, delimiter=delimiter, newline=newline)
+    t = open_points(p).read()
+    assert t.names == ("x", "y", "z", "intensity")
+    np.testing.assert_array_equal(np.column_stack([t.x, t.y, t.z, t["intensity"]]), XYZI)
+
+
+def test_header_lines_are_skipped_and_decimals_kept(tmp_path):
+    p = write_xyz(tmp_path / "a.csv", XYZI, delimiter=",", header="X,Y,Z,Intensity")
+    r = open_points(p)
+    assert r.header_lines == 1 and r.decimals["x"] == 2
+    out = tmp_path / "b.txt"
+    with write_points(out, r.names, like=r) as w:
+        for c in r.chunks(size=2):  # several chunks
+            w.write(c)
+    assert out.read_text().splitlines() == ["512203.97 5403685.49 336.41 1", "512204.13 5403685.25 333.12 0",
+                                            "512204.12 5403684.39 333.20 7"]
+
+
+def test_chunks_cover_the_file_in_order(tmp_path):
+    xyz = np.column_stack([np.arange(1000.0), np.arange(1000.0) * 2, np.arange(1000.0) % 7])
+    p = write_xyz(tmp_path / "a.xyz", xyz)
+    chunks = list(open_points(p).chunks(size=300))
+    assert [len(c) for c in chunks] == [300, 300, 300, 100]
+    np.testing.assert_array_equal(np.concatenate([c.x for c in chunks]), xyz[:, 0])
+
+
+@pytest.mark.parametrize("content, line, message", [
+    ("1 2 3\n4 5 6\n7 8\n", 3, "expected 3 columns, found 2"),
+    ("1 2 3\n4 5 6 7\n", 2, "expected 3 columns, found 4"),
+    ("1 2 3\n4 abc 6\n", 2, "not a number: 'abc'"),
+    ("x y z\n1 2 3\n\n4 5 nan\n", 4, "non-finite value 'nan'"),
+    ("1 2 3\n4 5 inf\n", 2, "non-finite value 'inf'"),
+    ("1 2 abc\n", 1, "not a number: 'abc'"),
+])
+def test_bad_lines_are_reported_with_file_and_line(tmp_path, content, line, message):
+    p = tmp_path / "bad.txt"
+    p.write_text(content)
+    with pytest.raises(InputFormatError) as err:
+        open_points(p).read()
+    assert err.value.line == line
+    assert str(err.value) == f"{p}:{line}: {message}"
+
+
+def test_bad_line_far_into_a_file_is_found_in_a_later_chunk(tmp_path):
+    rows = "\n".join(f"{k} {k} {k}" for k in range(5000))
+    p = tmp_path / "big.txt"
+    p.write_text("x y z\n" + rows + "\n1 2 x\n")
+    with pytest.raises(InputFormatError, match=r"big.txt:5002: not a number: 'x'"):
+        for _ in open_points(p).chunks(size=1000):
+            pass
+
+
+@pytest.mark.parametrize("content, message", [("", "file is empty"), ("\n\n", "file is empty"),
+                                              ("x y z\n", "no numeric point lines found")])
+def test_empty_files(tmp_path, content, message):
+    p = tmp_path / "e.txt"
+    p.write_text(content)
+    with pytest.raises(InputFormatError, match=message):
+        open_points(p).read()
+
+
+@pytest.mark.parametrize("order, names", [("last-first", ALTM_LAST_FIRST), ("first-last", ALTM_FIRST_LAST)])
+def test_altm_nine_columns_in_both_orders(tmp_path, order, names):
+    row = np.array([[100.5, 1.0, 2.0, 3.0, 4, 5.0, 6.0, 7.0, 8]])
+    p = write_xyz(tmp_path / "tape.txt", row)
+    t = open_points(p, layout="altm9", order=order).read()
+    assert t.names == names
+    assert t["t"][0] == 100.5
+    first = [t[n][0] for n in ("x1", "y1", "z1", "i1")]
+    assert first == ([5.0, 6.0, 7.0, 8] if order == "last-first" else [1.0, 2.0, 3.0, 4])
+
+
+def test_altm_layout_needs_nine_columns(tmp_path):
+    p = write_xyz(tmp_path / "tape.txt", XYZI)
+    with pytest.raises(InputFormatError, match="expected 9 columns"):
+        open_points(p, layout="altm9")

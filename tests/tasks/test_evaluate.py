@@ -1,0 +1,68 @@
+import json
+
+import numpy as np
+import pytest
+
+from aldpat.core.accuracy import accuracy, coordinate_keys, match_accuracy
+from aldpat.tasks import get_task
+from tests.conftest import write_xyz
+
+
+def test_hand_computed_confusion():
+    # 4 ground (one rejected), 2 objects (one accepted)
+    acc = accuracy([1, 1, 1, 1, 0, 0], [1, 1, 1, 0, 1, 0])
+    assert (acc.ground_as_ground, acc.ground_as_object, acc.object_as_ground, acc.object_as_object) == (3, 1, 1, 1)
+    assert acc.type1 == pytest.approx(25.0) and acc.type2 == pytest.approx(50.0)
+    assert acc.total == pytest.approx(100 * 2 / 6)
+    # kappa = (po - pe) / (1 - pe), po = 4/6, pe = (4*4 + 2*2) / 36
+    assert acc.kappa == pytest.approx((4 / 6 - 20 / 36) / (1 - 20 / 36))
+
+
+def test_duplicates_count_as_often_as_they_occur():
+    ref = np.array([[0, 0, 0], [0, 0, 0], [1, 1, 1], [2, 2, 2]])
+    ref_ground = np.array([True, True, False, True])
+    # the terrain result holds the duplicated point once and the object point
+    res = np.array([[0, 0, 0], [1, 1, 1]])
+    acc, unmatched = match_accuracy(ref, ref_ground, res, np.ones(2, bool))
+    assert (acc.ground_as_ground, acc.ground_as_object, acc.object_as_ground, acc.object_as_object) == (1, 2, 1, 0)
+    assert unmatched == 0
+    # a result point that is not in the reference is not counted
+    acc, unmatched = match_accuracy(ref, ref_ground, np.vstack([res, [[9, 9, 9]]]), np.ones(3, bool))
+    assert unmatched == 1 and acc.n == 4
+
+
+def test_keys_snap_coordinates_to_the_tolerance():
+    k = coordinate_keys(np.array([512203.97000000003, 512203.97]), np.array([1.0, 1.0]), np.array([2.0, 2.0]), 0.001)
+    assert (k[0] == k[1]).all()
+
+
+def test_evaluate_a_terrain_file_against_isprs_labels(tmp_path, samp24):
+    data = np.loadtxt(samp24)
+    ground = data[:, 3] == 0
+    rng = np.random.default_rng(0)
+    drop = ground & (rng.random(len(data)) < 0.1)       # Type I errors
+    accept = ~ground & (rng.random(len(data)) < 0.05)   # Type II errors
+    keep = (ground & ~drop) | accept
+    result = write_xyz(tmp_path / "terrain.txt", data[keep][:, :3][rng.permutation(int(keep.sum()))])
+    report = get_task("evaluate")([result], reference=str(samp24))
+    rec = report.results[0].records[0]
+    assert rec["ground_as_object"] == drop.sum() and rec["object_as_ground"] == accept.sum()
+    assert rec["type1"] == pytest.approx(100 * drop.sum() / ground.sum(), abs=1e-4)
+    assert rec["type2"] == pytest.approx(100 * accept.sum() / (~ground).sum(), abs=1e-4)
+    assert rec["total"] == pytest.approx(100 * (drop.sum() + accept.sum()) / len(data), abs=1e-4)
+
+
+def test_evaluate_a_classified_las_and_json_output(tmp_path, samp24, runner, cli):
+    laz = tmp_path / "samp24.laz"
+    assert runner.invoke(cli, ["convert", str(samp24), "--out-format", "laz", "--odir", str(tmp_path)]).exit_code == 0
+    import laspy
+
+    las = laspy.read(laz)
+    labels = np.loadtxt(samp24)[:, 3]
+    las.classification = np.where(labels == 0, 2, 1)  # perfect classification
+    las.write(laz)
+    out = runner.invoke(cli, ["evaluate", str(laz), "--reference", str(samp24), "--json"])
+    assert out.exit_code == 0, out.output
+    rec = json.loads(out.output.strip())
+    assert rec["total"] == 0.0 and rec["kappa"] == 1.0 and rec["points"] == len(labels)
+    assert set(rec) >= {"type1", "type2", "total", "kappa"}

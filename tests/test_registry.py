@@ -1,0 +1,61 @@
+"""Every registered task: the CLI options, the TOML keys and the log record are one declaration."""
+
+import pytest
+
+from aldpat.cli.main import cli
+from aldpat.params import format_value
+from aldpat.tasks import TASKS
+from aldpat.tasks.base import resolve_run
+
+TASK_KEYS = sorted(TASKS)
+
+
+def command_for(key):
+    parts = key.split(" ")
+    cmd = cli
+    for p in parts:
+        cmd = cmd.commands[p]
+    return cmd
+
+
+def test_registry_has_the_foundation_tasks():
+    assert {"info", "evaluate", "convert"} <= set(TASKS)
+
+
+@pytest.mark.parametrize("key", TASK_KEYS)
+def test_cli_options_are_derived_from_the_declaration(key):
+    task = TASKS[key]
+    cmd = command_for(key)
+    options = {opt for p in cmd.params for opt in getattr(p, "opts", [])}
+    for spec in task.all_specs():
+        assert spec.option in options, f"{key}: {spec.option} missing from the command line"
+        param = next(p for p in cmd.params if spec.option in p.opts)
+        assert spec.help.rstrip(".") in param.help
+    declared = {s.name for s in task.all_specs()} | {"inputs", "params_file", "verbose", "quiet"}
+    assert {p.name for p in cmd.params} == declared
+
+
+@pytest.mark.parametrize("key", TASK_KEYS)
+def test_toml_keys_and_log_record_match_the_declaration(key):
+    task = TASKS[key]
+    defaults = {s.name: s.default for s in task.all_specs() if s.default is not None}
+    run = resolve_run(task, [("worksheet", defaults)])
+    record = {name: (value, source) for name, value, source in run.record()}
+    for spec in task.all_specs():
+        if spec.name == "jobs":
+            continue  # how jobs run is not a task parameter
+        assert spec.name in record, f"{key}: {spec.name} missing from the log record"
+        assert record[spec.name][0] == format_value(spec.default)
+        expected_source = "worksheet" if spec.default is not None else "default"
+        assert record[spec.name][1] == expected_source
+
+
+@pytest.mark.parametrize("key", TASK_KEYS)
+def test_help_lists_every_parameter_with_its_default(key, runner):
+    args = key.split(" ") + ["--help"]
+    result = runner.invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    flat = " ".join(result.output.split())
+    for spec in TASKS[key].all_specs():
+        assert spec.option in flat
+        assert f"default: {format_value(spec.default)}" in flat
