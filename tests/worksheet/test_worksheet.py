@@ -1,0 +1,164 @@
+"""aldpat run: validation before anything runs, order, statuses, --only/--set/--dry-run,
+--resume, and a log that replays the run."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from aldpat.errors import UsageError
+from aldpat.worksheet.model import load_worksheet
+from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, SKIPPED, run_worksheet
+
+ALDPAT = [sys.executable, "-m", "aldpat"]
+
+
+@pytest.fixture
+def project(tmp_path, samp24):
+    (tmp_path / "raw").mkdir()
+    shutil.copy(samp24, tmp_path / "raw" / "a.txt")
+    shutil.copy(samp24, tmp_path / "raw" / "b.txt")
+    return tmp_path
+
+
+def sheet(folder, body: str, name="job.toml"):
+    p = folder / name
+    p.write_text(textwrap.dedent(body))
+    return p
+
+
+CONVERT_THEN_INFO = """
+    [[job]]
+    task = "convert"
+    inputs = ["raw/*.txt"]
+    odir = "laz"
+    out_format = "laz"
+
+    [[job]]
+    task = "info"
+    inputs = ["laz/*.laz"]
+"""
+
+
+@pytest.mark.parametrize("body, message", [
+    ('[[job]]\ntask = "convert"\ninputs = ["raw/a.txt"]\nfeilds = "xyz"\n',
+     "job 1: unknown key 'feilds'; did you mean 'fields'?"),
+    ('[[job]]\ntask = "convert"\ninputs = ["raw/a.txt"]\njobs = "two"\n', "job 1: jobs: expected a whole number"),
+    ('[[job]]\ntask = "convert"\ninputs = ["raw/a.txt"]\njobs = -1\n', "job 1: jobs: -1 is out of range"),
+    ('[[job]]\ntask = "convert"\ninputs = ["raw/zzz.txt"]\n', "job 1: inputs: "),
+    ('[[job]]\ntask = "convrt"\ninputs = ["raw/a.txt"]\n', "job 1: unknown task 'convrt'; did you mean 'convert'?"),
+    ('[[job]]\ntask = "info"\ninputs = ["raw/a.txt"]\n[[job]]\ntask = "evaluate"\ninputs = ["raw/a.txt"]\n'
+     'reference = "raw/a.txt"\nmode = "clasified"\n', "job 2: mode: 'clasified' is not one of"),
+    ('[[jobs]]\ntask = "info"\n', "unknown top-level key 'jobs'; did you mean 'job'?"),
+    ('[settings]\ndelimeter = "comma"\n[[job]]\ntask = "info"\ninputs = ["raw/a.txt"]\n',
+     "settings: unknown key 'delimeter'; did you mean 'delimiter'?"),
+    ('[[job]]\ntask = "info"\ninputs = ["raw/a.txt"\n', "TOML syntax error"),
+])
+def test_validation_names_job_and_key_before_anything_runs(project, body, message):
+    p = sheet(project, body)
+    with pytest.raises(UsageError, match=message.replace("?", r"\?").replace("(", r"\(")):
+        load_worksheet(p)
+    proc = subprocess.run(ALDPAT + ["run", str(p)], capture_output=True, text=True)
+    assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr
+    assert not (project / "laz").exists()
+
+
+def test_jobs_run_in_order_and_later_jobs_read_earlier_outputs(project):
+    ws = load_worksheet(sheet(project, CONVERT_THEN_INFO))
+    assert ws.jobs[1].depends_on == {1}
+    statuses = run_worksheet(ws)
+    assert [s.state for s in statuses] == [DONE, DONE]
+    assert sorted(p.name for p in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
+    assert [r.records[0]["count"] for r in statuses[1].results] == [7492, 7492]
+
+
+def test_a_failed_job_blocks_only_the_jobs_that_read_its_outputs(project):
+    (project / "raw" / "broken.txt").write_text("1 2 3\n4 5\n")
+    body = CONVERT_THEN_INFO + '\n[[job]]\ntask = "info"\ninputs = ["raw/a.txt"]\n'
+    body = body.replace('inputs = ["raw/*.txt"]', 'inputs = ["raw/broken.txt"]')
+    (project / "other").mkdir()
+    shutil.copy(project / "raw" / "a.txt", project / "other" / "c.txt")
+    body = body.replace('inputs = ["raw/a.txt"]', 'inputs = ["other/c.txt"]')
+    statuses = run_worksheet(load_worksheet(sheet(project, body)))
+    assert [s.state for s in statuses] == [FAILED, BLOCKED, DONE]
+    assert "broken.txt:2: expected 3 columns, found 2" in statuses[0].message
+    assert "failed job 1" in statuses[1].message
+
+
+def test_only_set_and_dry_run(project):
+    p = sheet(project, CONVERT_THEN_INFO)
+    ws = load_worksheet(p, overrides=["job.1.out_format=las", "job.2.json=true"])
+    assert ws.jobs[0].run.output.values.out_format == "las"
+    assert ws.jobs[0].run.output.sources["out_format"] == "worksheet"
+    statuses = run_worksheet(ws, only={1})
+    assert [s.state for s in statuses] == [DONE, SKIPPED]
+    assert (project / "laz" / "a.las").exists()
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--dry-run", "--set", "job.1.suffix=_dry"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "[[job]]" in proc.stdout and 'suffix = "_dry"    # worksheet' in proc.stdout
+    assert not any("_dry" in x.name for x in (project / "laz").iterdir())
+    with pytest.raises(UsageError, match="expected job.N.key=value"):
+        load_worksheet(p, overrides=["job1.odir=x"])
+
+
+def test_resume_skips_unchanged_jobs_and_reruns_changed_ones(project):
+    p = sheet(project, CONVERT_THEN_INFO)
+    run_worksheet(load_worksheet(p))
+    mtime = os.stat(project / "laz" / "a.laz").st_mtime_ns
+    statuses = run_worksheet(load_worksheet(p), resume=True)
+    assert [s.state for s in statuses] == [SKIPPED, SKIPPED]
+    assert os.stat(project / "laz" / "a.laz").st_mtime_ns == mtime
+    # a changed parameter re-runs the job (its outputs exist: overwrite is needed and given)
+    statuses = run_worksheet(load_worksheet(p, overrides=["job.1.overwrite=true", "job.1.fields=xyz"]), resume=True)
+    assert statuses[0].state == DONE
+    # a changed input re-runs too
+    with open(project / "raw" / "b.txt", "a") as fh:
+        fh.write("513866.46\t5403124.79\t310.77\t0\n")
+    statuses = run_worksheet(load_worksheet(p, overrides=["job.1.overwrite=true", "job.1.fields=xyz"]), resume=True)
+    assert statuses[0].state == DONE and statuses[1].state == DONE
+
+
+def test_resume_after_a_kill_finishes_the_interrupted_job(project):
+    p = sheet(project, CONVERT_THEN_INFO)
+    ws = load_worksheet(p)
+    # what a kill in the middle of job 1 leaves: a state saying Running, one output renamed in
+    # place, a stray temporary file
+    from aldpat.worksheet.runner import _save_state, fingerprint, state_path
+
+    (project / "laz").mkdir()
+    run_worksheet(load_worksheet(sheet(project, CONVERT_THEN_INFO.replace("raw/*.txt", "raw/a.txt"), "tmp.toml")))
+    (project / "laz" / "b.aldpat-tmp999.laz").write_bytes(b"half")
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0])}})
+    assert state_path(ws).exists()
+    statuses = run_worksheet(load_worksheet(p), resume=True)
+    assert [s.state for s in statuses] == [DONE, DONE]
+    assert sorted(x.name for x in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
+
+
+def test_log_replays_the_run(project):
+    p = sheet(project, CONVERT_THEN_INFO)
+    run_worksheet(load_worksheet(p))
+    log = (project / "job.log").read_text()
+    assert "# job 1: Done" in log and 'out_format = "laz"    # worksheet' in log
+    assert 'delimiter = "space"    # default' in log
+    replay = project / "replay.toml"
+    replay.write_text(log.replace(str(project / "laz"), str(project / "laz2")))
+    statuses = run_worksheet(load_worksheet(replay))
+    assert [s.state for s in statuses] == [DONE, DONE]
+    a = (project / "laz" / "a.laz").read_bytes()
+    b = (project / "laz2" / "a.laz").read_bytes()
+    assert len(a) == len(b)
+
+
+def test_run_from_the_command_line_reports_statuses(project):
+    p = sheet(project, CONVERT_THEN_INFO)
+    proc = subprocess.run(ALDPAT + ["run", str(p)], capture_output=True, text=True, cwd="/")
+    assert proc.returncode == 0, proc.stderr
+    assert "job 1 convert: Running" in proc.stderr and "job 1 convert: Done: 2 outputs" in proc.stderr
+    assert "job 2 info: Done" in proc.stderr and "7,492" in proc.stdout
