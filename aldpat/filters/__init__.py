@@ -20,3 +20,7 @@ from aldpat.filters import etew  # noqa: E402,F401
 from aldpat.filters import pm  # noqa: E402,F401
 from aldpat.filters import pm2d  # noqa: E402,F401
 from aldpat.filters import pmcircle  # noqa: E402,F401
+from aldpat.filters import outlier  # noqa: E402,F401
+from aldpat.filters import cluster_pm  # noqa: E402,F401
+from aldpat.filters import gapm  # noqa: E402,F401
+from aldpat.filters import multipass  # noqa: E402,F401

@@ -1,0 +1,112 @@
+"""Cluster-based progressive morphological filter (``cluster-pm``).
+
+``MorphClusterFilter`` of the GAPM dissertation (``seeds/000_*.txt``, ch. 5 §5.2.2): the
+progressive morphological filter of Zhang et al. (§5.1) with 1-D line windows, rows then
+columns at every window (lines 3-18), where from ``cluster_window_size`` on the unfiltered
+cells of each row/column are grouped into clusters before the opening (``MakeCluster``,
+§5.2.1) and the runs of cells removed at that window that fall completely inside one
+cluster are set back to ground afterwards (``UpdateMark``, cluster recovery of §5.2.3).
+
+:func:`progressive_marks` is also the plain progressive filter (``cluster_window_size=None``)
+used by the multi-pass filter (ch. 4 §4.2.5) and as the reference the cluster recovery is
+compared with.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from aldpat.core import morphology
+from aldpat.core.clusters import make_clusters, recover_runs
+from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.gapm import check_series
+from aldpat.params import param
+
+log = logging.getLogger(__name__)
+
+#: ``direction`` -> axes filtered at every window, in order (1: along x / rows, 0: along y).
+AXES = {"row": (1,), "column": (0,), "both": (1, 0)}
+
+
+@dataclass(frozen=True)
+class ClusterPmParams(GroundParams):
+    window_series: tuple[int, ...] = param(
+        (1, 2, 4, 8, 16, 32), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1,
+    )
+    threshold_series: tuple[float, ...] = param(
+        (0.4, 0.48, 0.56, 1.0, 1.6, 2.0), "elevation difference threshold of each window", unit="m", gt=0,
+    )
+    cluster_window_size: int | None = param(
+        8, "smallest half window with cluster analysis and recovery; none: plain PM", unit="cells", ge=1,
+    )
+    cluster_threshold: float = param(
+        1.0, "cluster threshold: largest height change per cell inside one cluster", unit="m", gt=0,
+    )
+    direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
+
+
+def _along(axis: int, a: np.ndarray) -> np.ndarray:
+    """``a`` with the filtering axis last (rows as the cluster functions expect)."""
+    return a if axis == 1 else np.ascontiguousarray(a.T)
+
+
+def progressive_marks(
+    z: np.ndarray,
+    windows: tuple[int, ...],
+    thresholds: tuple[float, ...],
+    *,
+    axes: tuple[int, ...] = (1, 0),
+    cluster_window_size: int | None = None,
+    cluster_threshold: float = 1.0,
+    skip: np.ndarray | None = None,
+) -> np.ndarray:
+    """Mark matrix of the (cluster-based) progressive morphological filter (§5.2.2).
+
+    Parameters
+    ----------
+    z : 2-D grid, empty cells already interpolated.
+    windows, thresholds : half windows (cells) and their elevation thresholds, in the order
+        they are applied.
+    axes : 1 filters along rows (x), 0 along columns (y), in the given order at every window.
+    cluster_window_size : first half window with cluster analysis; ``None`` for plain PM.
+    cluster_threshold : slope threshold of ``MakeCluster`` (height per cell).
+    skip : cells that are never marked (they only support the openings).
+
+    A cell keeps the first window that removed it. The surface handed to the next window is
+    the opened one (line 17).
+    """
+    zc = np.array(z, dtype=np.float64, copy=True)
+    mark = np.zeros(zc.shape, np.int32)
+    if skip is not None:
+        mark[skip] = -1  # not a candidate; reset to 0 before returning
+    for k, thresh in zip(windows, thresholds):
+        clustering = cluster_window_size is not None and k >= cluster_window_size
+        for axis in axes:
+            unfiltered = mark == 0
+            if clustering:
+                ids = make_clusters(_along(axis, zc), _along(axis, unfiltered), cluster_threshold).ids
+            zo = morphology.opening(zc, k, window="line", axis=axis)
+            removed = unfiltered & (zc - zo > thresh)
+            mark[removed] = k
+            if clustering:
+                reset = recover_runs(_along(axis, removed), ids)
+                mark[reset if axis == 1 else reset.T] = 0
+            zc = zo
+    if skip is not None:
+        mark[skip] = 0
+    return mark
+
+
+@register_filter("cluster-pm", params=ClusterPmParams,
+                 summary="cluster-based progressive morphological filter (dissertation ch. 5)")
+def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams) -> np.ndarray:
+    """Mark matrix of ``MorphClusterFilter`` (dissertation ch. 5 §5.2.2)."""
+    p = params
+    check_series(p.window_series, p.threshold_series, ("window_series", "threshold_series"))
+    return progressive_marks(
+        z, p.window_series, p.threshold_series, axes=AXES[p.direction],
+        cluster_window_size=p.cluster_window_size, cluster_threshold=p.cluster_threshold,
+    )

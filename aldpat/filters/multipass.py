@@ -1,0 +1,95 @@
+"""Multi-pass progressive morphological filter with priority boundary interpolation.
+
+The multi-pass filter of the GAPM dissertation (``seeds/000_*.txt``, ch. 4 §4.2.5):
+
+1. ``MorphFilter``: progressive morphological filtering with windows kept small enough not
+   to cut the terrain (ascending series, the first pass);
+2. ``PQBoundInterp``: the cells removed by pass 1 (and the cells that had no point) are
+   re-interpolated from their lowest boundary upward (§4.2.4,
+   :func:`aldpat.core.priority_fill.priority_fill`), so remnants of large objects are no
+   longer widened by their own heights as nearest-neighbour filling widens them (Fig. 4-9);
+3. ``MorphFilter`` again on that surface with a descending series and a larger threshold
+   (the text: windows 20, 16, 8, 4, 2, 1 and 2.0 m), removing the remnants. Steps 2-3 may be
+   repeated ("until the remaining ... features are completely removed").
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from aldpat.core.lowest_grid import fill_nearest
+from aldpat.core.priority_fill import priority_fill
+from aldpat.errors import ParamError
+from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.cluster_pm import AXES, progressive_marks
+from aldpat.filters.gapm import check_series
+from aldpat.params import param
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MultipassParams(GroundParams):
+    window_series: tuple[int, ...] = param(
+        (1, 2, 4, 8, 16, 20), "first pass half windows, ascending (keep the largest small enough "
+        "not to cut terrain)", unit="cells", ge=1,
+    )
+    threshold_series: tuple[float, ...] = param(
+        (0.4, 0.48, 0.56, 1.0, 1.6, 2.0), "first pass threshold of each window", unit="m", gt=0,
+    )
+    second_window_series: tuple[int, ...] = param(
+        (20, 16, 8, 4, 2, 1), "second pass half windows, largest first", unit="cells", ge=1,
+    )
+    second_threshold_series: tuple[float, ...] = param(
+        (2.0, 2.0, 2.0, 2.0, 2.0, 2.0), "second pass threshold of each window", unit="m", gt=0,
+    )
+    passes: int = param(1, "how many times interpolation and the second pass are repeated", ge=1)
+    min_conn: int = param(
+        0, "connected removed or empty sets of at most this many cells keep nearest-neighbour "
+        "values instead of priority interpolation [minConn]", unit="cells", ge=0,
+    )
+    connectivity: int = param(8, "neighbours that connect empty cells", choices=(4, 8))
+    fill_rise: float = param(
+        0.4, "height the priority interpolation may rise per cell away from a low boundary "
+        "cell; 0 floods every removed set at its lowest boundary, as the queue of §4.2.4 does",
+        unit="m", ge=0,
+    )
+    direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
+
+
+@register_filter("multipass", params=MultipassParams,
+                 summary="multi-pass morphological filter with priority boundary interpolation "
+                         "(dissertation ch. 4)")
+def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams) -> np.ndarray:
+    """Mark matrix of the multi-pass filter (dissertation §4.2.5)."""
+    p = params
+    check_series(p.window_series, p.threshold_series, ("window_series", "threshold_series"))
+    if len(p.second_window_series) != len(p.second_threshold_series):
+        raise ParamError(
+            f"second_threshold_series: expected one value per window of second_window_series "
+            f"({len(p.second_window_series)}), got {len(p.second_threshold_series)}"
+        )
+    axes = AXES[p.direction]
+    marks = progressive_marks(z, p.window_series, p.threshold_series, axes=axes)
+    for n in range(p.passes):
+        removed = marks > 0
+        standing = ~removed & ~empty
+        if not standing.any():
+            break
+        # cells without a point take the nearest standing cell, as before pass 1; the sets of
+        # removed cells are then interpolated from their lowest boundary (small sets keep the
+        # nearest-neighbour value)
+        base = fill_nearest(np.where(standing, z, np.nan), ~standing)
+        surface = priority_fill(base, removed, min_conn=p.min_conn, connectivity=p.connectivity,
+                                rise=p.fill_rise)
+        second = progressive_marks(surface, p.second_window_series, p.second_threshold_series,
+                                   axes=axes, skip=removed | empty)
+        fresh = second > 0
+        log.debug("multipass: pass %d removed %d more cells", n + 2, int(fresh.sum()))
+        if not fresh.any():
+            break
+        marks = np.where(fresh, second, marks)
+    return marks.astype(np.int32, copy=False)

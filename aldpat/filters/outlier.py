@@ -1,0 +1,57 @@
+"""Morphological outlier removal (``outlier``).
+
+GAPM dissertation (``seeds/000_*.txt``, ch. 4 §4.1.1): isolated extremely high points (power
+lines, birds) stand out of an *opening* with a small window (1 to 3 cells); isolated extremely
+low points (multipath, a window reaching a floor) sink below a *closing*. A cell is an outlier
+when it lies more than ``high_threshold`` above its opening or more than ``low_threshold``
+below its closing; its mark is the half window used.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from aldpat.core import morphology
+from aldpat.filters.base import GroundParams, register_filter
+from aldpat.params import param
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class OutlierParams(GroundParams):
+    window: int = param(1, "half window of the opening and closing (1 to 3 cells suit outliers)",
+                        unit="cells", ge=1)
+    high_threshold: float | None = param(
+        2.0, "a cell this far above its opening is a high outlier; none: keep high points", unit="m", gt=0,
+    )
+    low_threshold: float | None = param(
+        2.0, "a cell this far below its closing is a low outlier; none: keep low points", unit="m", gt=0,
+    )
+    shape: str = param("square", "window shape", choices=("square", "disk"))
+
+
+def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | None = 2.0,
+                  low_threshold: float | None = 2.0, shape: str = "square") -> np.ndarray:
+    """Mark matrix of the morphological outlier test (§4.1.1): ``window`` where an outlier."""
+    z = np.asarray(z, dtype=np.float64)
+    out = np.zeros(z.shape, dtype=bool)
+    if high_threshold is not None:
+        out |= z - morphology.opening(z, window, window=shape) > high_threshold
+    if low_threshold is not None:
+        out |= morphology.closing(z, window, window=shape) - z > low_threshold
+    return np.where(out, np.int32(window), np.int32(0))
+
+
+@register_filter("outlier", params=OutlierParams,
+                 summary="morphological removal of isolated high and low points (dissertation §4.1)")
+def outlier(z: np.ndarray, empty: np.ndarray, params: OutlierParams) -> np.ndarray:
+    """Mark matrix of the outlier filter (dissertation §4.1.1)."""
+    p = params
+    marks = outlier_marks(z, window=p.window, high_threshold=p.high_threshold,
+                          low_threshold=p.low_threshold, shape=p.shape)
+    log.debug("outlier: %d cells removed", int((marks > 0).sum()))
+    return marks
