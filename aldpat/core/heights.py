@@ -1,0 +1,143 @@
+"""Ellipsoidal <-> orthometric heights with a geoid grid, and horizontal re-projection.
+
+ALDPAT 1.0 manual (003), task 3 "Convert ellipsoid to orthometric heights": ALDPAT called the
+Corps of Engineers' Corpscon to turn GPS (ellipsoidal) heights h into orthometric heights H with
+a geoid model (GeoidXX) and, on the way, to convert x, y between datums, UTM zones and State
+Plane. Here PROJ does both through pyproj:
+
+* ``H = h - N`` with N the geoid undulation interpolated (bilinearly, PROJ ``vgridshift``) in
+  a GTX or GeoTIFF grid file, or a grid PROJ knows by name; ``reverse`` gives ``h = H + N``;
+* x, y are taken in the input's horizontal CRS (an EPSG code, a UTM zone such as ``17N``, or
+  anything pyproj accepts), located in geographic coordinates for the geoid, and optionally
+  re-projected to ``to_crs`` (x is always easting / longitude: pyproj ``always_xy``).
+
+A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` naming it; PROJ's
+``inf`` never reaches an output. Work is per array, so a task converts a file chunk by chunk.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from pathlib import Path
+
+import numpy as np
+import pyproj
+from pyproj.exceptions import CRSError, ProjError
+
+from aldpat.errors import DataError, InputMissingError, UsageError
+
+log = logging.getLogger(__name__)
+
+#: metres in one unit of z (``z_unit``); the geoid grid is in metres
+Z_UNITS = {"m": 1.0, "ft": 0.3048, "us-ft": 1200.0 / 3937.0}
+
+_UTM = re.compile(r"^\s*(?:utm)?\s*(?:zone)?\s*(\d{1,2})\s*(n|s|north|south)?\s*$", re.I)
+
+
+def parse_crs(text) -> pyproj.CRS:
+    """A horizontal CRS from an EPSG code (``EPSG:26917`` or ``26917``), a WGS 84 UTM zone
+    (``17N``, ``utm17s``, ``UTM zone 17``; north when no hemisphere is given) or anything
+    pyproj accepts (PROJ string, WKT, authority code)."""
+    if isinstance(text, pyproj.CRS):
+        return text
+    value = str(text).strip()
+    match = _UTM.match(value)
+    try:
+        if value.isdigit() and len(value) > 2:
+            return pyproj.CRS.from_epsg(int(value))
+        if match:
+            zone = int(match.group(1))
+            if not 1 <= zone <= 60:
+                raise UsageError(f"UTM zone must be 1..60, got {zone}")
+            south = (match.group(2) or "n").lower().startswith("s")
+            return pyproj.CRS.from_epsg((32700 if south else 32600) + zone)
+        return pyproj.CRS.from_user_input(value)
+    except CRSError:
+        raise UsageError(f"unknown CRS {value!r} (give an EPSG code such as EPSG:26917 or a UTM zone such as 17N)") \
+            from None
+
+
+def _geoid_step(geoid: str | Path) -> tuple[str, str]:
+    """The ``+grids=`` value for PROJ and a name for messages."""
+    text = str(geoid)
+    path = Path(text).expanduser()
+    if path.is_file():
+        return '"' + str(path.resolve()) + '"', str(path)
+    if "/" in text or "\\" in text:
+        raise InputMissingError("no such geoid grid file", path=path)
+    return text, text  # a grid name PROJ resolves (its data folder or network)
+
+
+class HeightConverter:
+    """Convert chunks of ``x y z`` between ellipsoidal and orthometric heights.
+
+    Parameters are checked (CRS known, grid readable) when the converter is made, before any
+    point is read.
+    """
+
+    def __init__(self, crs, geoid: str | Path, *, to_crs=None, reverse: bool = False, z_unit: str = "m"):
+        if z_unit not in Z_UNITS:
+            raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
+        self.crs = parse_crs(crs)
+        self.to_crs = parse_crs(to_crs) if to_crs is not None else None
+        self.reverse = reverse
+        self.factor = 1.0 / Z_UNITS[z_unit]
+        grids, self.geoid_name = _geoid_step(geoid)
+        geographic = self.crs.geodetic_crs
+        if geographic is None:
+            raise UsageError(f"CRS {self.crs.name!r} has no geographic datum to locate points on the geoid")
+        self._to_geo = pyproj.Transformer.from_crs(self.crs, geographic, always_xy=True)
+        self._xy = (pyproj.Transformer.from_crs(self.crs, self.to_crs, always_xy=True)
+                    if self.to_crs is not None and self.to_crs != self.crs else None)
+        try:
+            self._geoid = pyproj.Transformer.from_pipeline(
+                "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad "
+                f"+step +proj=vgridshift +grids={grids} +multiplier=1 "
+                "+step +proj=unitconvert +xy_in=rad +xy_out=deg")
+        except ProjError:
+            raise UsageError(f"cannot open geoid grid {self.geoid_name!r}: not found, or not a GTX/GeoTIFF grid "
+                             "(give a file path or a grid name PROJ knows)") from None
+
+    def __repr__(self) -> str:
+        return (f"HeightConverter(crs={self.crs.to_string()!r}, geoid={self.geoid_name!r}, "
+                f"to_crs={self.to_crs.to_string() if self.to_crs else None!r}, reverse={self.reverse})")
+
+    def _outside(self, bad: np.ndarray, x: np.ndarray, y: np.ndarray, first: int, path, why: str) -> DataError:
+        where = np.flatnonzero(bad)
+        i = int(where[0])
+        more = f" (and {where.size - 1} more)" if where.size > 1 else ""
+        return DataError(f"point {first + i + 1} at x={x[i]:.3f}, y={y[i]:.3f} {why}{more}", path=path)
+
+    def undulation(self, x, y, *, first: int = 0, path=None) -> np.ndarray:
+        """Geoid undulation N (metres) under each point; ``first`` is the number of points
+        before this chunk in ``path``, so that a message names the point's place in the file."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        lon, lat = self._to_geo.transform(x, y, errcheck=False)
+        lon, lat = np.asarray(lon), np.asarray(lat)
+        bad = ~(np.isfinite(lon) & np.isfinite(lat))
+        if bad.any():
+            raise self._outside(bad, x, y, first, path, f"cannot be located in {self.crs.name}")
+        _, _, n = self._geoid.transform(lon, lat, np.zeros_like(lon), errcheck=False)
+        n = np.asarray(n, dtype=np.float64)
+        bad = ~np.isfinite(n) | (np.abs(n) > 500.0)  # no geoid departs 500 m from the ellipsoid
+        if bad.any():
+            raise self._outside(bad, x, y, first, path, f"lies outside the geoid grid {self.geoid_name}")
+        return n
+
+    def __call__(self, x, y, z, *, first: int = 0, path=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(x', y', z')``: heights converted, x and y re-projected when ``to_crs`` was given."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        n = self.undulation(x, y, first=first, path=path) * self.factor
+        z = np.asarray(z, dtype=np.float64)
+        z_out = z + n if self.reverse else z - n
+        if self._xy is None:
+            return x, y, z_out
+        x2, y2 = self._xy.transform(x, y, errcheck=False)
+        x2, y2 = np.asarray(x2), np.asarray(y2)
+        bad = ~(np.isfinite(x2) & np.isfinite(y2))
+        if bad.any():
+            raise self._outside(bad, x, y, first, path, f"cannot be projected to {self.to_crs.name}")
+        return x2, y2, z_out

@@ -1,0 +1,337 @@
+"""Points to a grid: nearest neighbour, Delaunay TIN (linear), inverse distance, binning.
+
+ALDPAT 1.0 manual (003), task 9 "Gridding Tiles": ALDPAT handed tiles to Surfer, whose methods
+these replace (kriging, Surfer's default, lives in :mod:`aldpat.core.kriging`). The nearest
+neighbour method is the one of the dissertation (000) §4.2 "nearest neighbour grid
+interpolation". Every method returns the grid as ``(ny, nx)`` float64, row 0 the southern row,
+NaN where a node is blank, so that no terrain is invented far from data:
+
+* ``max_distance`` blanks a node whose nearest point is farther than that (``nearest``,
+  ``idw``, ``kriging``) or that falls in a TIN triangle with an edge longer than that
+  (``linear``); nodes outside the data's convex hull are always blank for ``linear``;
+* binning (``min``, ``max``, ``mean``) leaves nodes without a point in their cell blank.
+
+Large tiles are processed in blocks of nodes (and, for the TIN, of points with a buffer around
+each block), so memory stays bounded and two threads can share the work.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from scipy.spatial import Delaunay, QhullError, cKDTree
+
+from aldpat.core.grid_extent import GridSpec
+from aldpat.errors import DataError, UsageError
+
+log = logging.getLogger(__name__)
+
+#: Method names of ``aldpat grid --method`` (SPEC §3).
+METHODS = ("nearest", "linear", "idw", "kriging", "min", "max", "mean")
+BINNING = ("min", "max", "mean")
+
+#: nodes queried at once by the KD-tree methods (bounds the neighbour arrays)
+_NODE_BLOCK = 262_144
+#: points a TIN block aims at (qhull costs ~6 us a point whatever the block size)
+_TIN_POINTS = 250_000
+#: (triangle, node) candidate pairs rasterised at once
+_PAIR_BATCH = 4_000_000
+
+
+def _workers(workers: int | None) -> int:
+    return max(1, os.cpu_count() or 1) if not workers else int(workers)
+
+
+def _as_points(x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    x, y, z = (np.asarray(a, dtype=np.float64).ravel() for a in (x, y, z))
+    if not (len(x) == len(y) == len(z)):
+        raise ValueError("x, y and z differ in length")
+    good = np.isfinite(x) & np.isfinite(y) & np.isfinite(z)
+    if not good.all():
+        x, y, z = x[good], y[good], z[good]
+    if len(x) == 0:
+        raise DataError("no points to grid")
+    return x, y, z
+
+
+def _row_blocks(spec: GridSpec, nodes: int = _NODE_BLOCK):
+    """Slices of whole rows holding about ``nodes`` nodes each."""
+    step = max(1, nodes // spec.nx)
+    for r0 in range(0, spec.ny, step):
+        yield r0, min(spec.ny, r0 + step)
+
+
+def _nodes(spec: GridSpec, r0: int, r1: int, origin: tuple[float, float]) -> np.ndarray:
+    """Node coordinates of rows r0..r1 (relative to ``origin``), row-major."""
+    gx = spec.x_nodes() - origin[0]
+    gy = spec.y_nodes()[r0:r1] - origin[1]
+    out = np.empty(((r1 - r0) * spec.nx, 2))
+    out[:, 0] = np.tile(gx, r1 - r0)
+    out[:, 1] = np.repeat(gy, spec.nx)
+    return out
+
+
+def _tree(x: np.ndarray, y: np.ndarray) -> tuple[cKDTree, tuple[float, float]]:
+    """A KD-tree on coordinates relative to the data's corner (keeps full precision)."""
+    origin = (float(x.min()), float(y.min()))
+    return cKDTree(np.column_stack([x - origin[0], y - origin[1]]), balanced_tree=False), origin
+
+
+# ---------------------------------------------------------------------------- nearest
+
+
+def nearest(x, y, z, spec: GridSpec, *, max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
+    """Each node takes the elevation of its nearest point (dissertation (000) §4.2)."""
+    x, y, z = _as_points(x, y, z)
+    tree, origin = _tree(x, y)
+    out = np.full(spec.shape, np.nan)
+    bound = np.inf if max_distance is None else max_distance
+    for r0, r1 in _row_blocks(spec):
+        dist, idx = tree.query(_nodes(spec, r0, r1, origin), k=1, distance_upper_bound=bound,
+                               workers=_workers(workers))
+        hit = np.isfinite(dist)
+        vals = np.full(len(dist), np.nan)
+        vals[hit] = z[idx[hit]]
+        out[r0:r1] = vals.reshape(r1 - r0, spec.nx)
+    return out
+
+
+# ---------------------------------------------------------------------------- idw
+
+
+def idw(x, y, z, spec: GridSpec, *, power: float = 2.0, radius: float | None = None, max_points: int = 16,
+        max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
+    """Inverse distance to a power over the ``max_points`` nearest points within ``radius``.
+
+    Surfer's "Inverse Distance to a Power" without smoothing: weights ``1 / d**power``; a node
+    on a data point takes that point's value (the mean where several coincide).
+    """
+    if power <= 0:
+        raise UsageError(f"power must be positive, got {power:g}")
+    if max_points < 1:
+        raise UsageError(f"max_points must be at least 1, got {max_points}")
+    x, y, z = _as_points(x, y, z)
+    tree, origin = _tree(x, y)
+    k = min(max_points, len(x))
+    out = np.full(spec.shape, np.nan)
+    bound = np.inf if radius is None else radius
+    zpad = np.append(z, 0.0)  # index len(z) marks "no neighbour"
+    for r0, r1 in _row_blocks(spec, _NODE_BLOCK // max(1, k // 4)):
+        dist, idx = tree.query(_nodes(spec, r0, r1, origin), k=[*range(1, k + 1)], distance_upper_bound=bound,
+                               workers=_workers(workers))
+        found = np.isfinite(dist)
+        exact = found & (dist == 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = np.where(found & ~exact, dist ** -power, 0.0)
+            on_point = exact.any(axis=1)
+            w[on_point] = exact[on_point].astype(float)
+            vals = (w * zpad[idx]).sum(axis=1) / w.sum(axis=1)
+        vals[~found[:, 0]] = np.nan
+        if max_distance is not None:
+            vals[dist[:, 0] > max_distance] = np.nan
+        out[r0:r1] = vals.reshape(r1 - r0, spec.nx)
+    return out
+
+
+# ---------------------------------------------------------------------------- binning
+
+
+class Binner:
+    """Minimum, maximum or mean of the points in each node's cell, fed chunk by chunk.
+
+    A node's cell is the cell-sized square centred on it (``GridSpec.nearest_node``); points
+    outside every cell are ignored, cells without points stay blank.
+    """
+
+    def __init__(self, spec: GridSpec, statistic: str):
+        if statistic not in BINNING:
+            raise UsageError(f"unknown binning statistic {statistic!r} (use {', '.join(BINNING)})")
+        self.spec = spec
+        self.statistic = statistic
+        size = spec.nx * spec.ny
+        self.count = np.zeros(size, dtype=np.int64)
+        if statistic == "mean":
+            self.acc = np.zeros(size)
+        else:
+            self.acc = np.full(size, np.inf if statistic == "min" else -np.inf)
+
+    def add(self, x, y, z) -> None:
+        col, row, inside = self.spec.nearest_node(x, y)
+        z = np.asarray(z, dtype=np.float64)
+        inside &= np.isfinite(z)
+        flat = row[inside] * self.spec.nx + col[inside]
+        z = z[inside]
+        size = self.count.size
+        self.count += np.bincount(flat, minlength=size)
+        if self.statistic == "mean":
+            self.acc += np.bincount(flat, weights=z, minlength=size)
+        elif self.statistic == "min":
+            np.minimum.at(self.acc, flat, z)
+        else:
+            np.maximum.at(self.acc, flat, z)
+
+    def result(self) -> np.ndarray:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            vals = self.acc / self.count if self.statistic == "mean" else self.acc.copy()
+        vals[self.count == 0] = np.nan
+        return vals.reshape(self.spec.shape)
+
+
+def binned(x, y, z, spec: GridSpec, *, statistic: str) -> np.ndarray:
+    """Binning of all points at once (see :class:`Binner`)."""
+    binner = Binner(spec, statistic)
+    binner.add(*_as_points(x, y, z))
+    return binner.result()
+
+
+# ---------------------------------------------------------------------------- linear (TIN)
+
+
+def _rasterise(tri_xy: np.ndarray, tri_z: np.ndarray, spec: GridSpec, cols: tuple[int, int],
+               rows: tuple[int, int], origin: tuple[float, float], out: np.ndarray) -> None:
+    """Linear interpolation on each triangle at the nodes it covers within cols x rows.
+
+    ``tri_xy`` (m, 3, 2) holds vertices relative to ``origin``. Candidate nodes are those in a
+    triangle's bounding box; barycentric coordinates keep the ones inside it.
+    """
+    gx0 = spec.xmin - origin[0]
+    gy0 = spec.ymin - origin[1]
+    eps = 1e-9
+    tx, ty = tri_xy[:, :, 0], tri_xy[:, :, 1]
+    c_lo = np.maximum(np.ceil((tx.min(1) - gx0) / spec.dx - eps).astype(np.int64), cols[0])
+    c_hi = np.minimum(np.floor((tx.max(1) - gx0) / spec.dx + eps).astype(np.int64), cols[1] - 1)
+    r_lo = np.maximum(np.ceil((ty.min(1) - gy0) / spec.dy - eps).astype(np.int64), rows[0])
+    r_hi = np.minimum(np.floor((ty.max(1) - gy0) / spec.dy + eps).astype(np.int64), rows[1] - 1)
+    ncol = np.clip(c_hi - c_lo + 1, 0, None)
+    count = ncol * np.clip(r_hi - r_lo + 1, 0, None)
+    keep = np.flatnonzero(count)
+    if keep.size == 0:
+        return
+    ends = np.cumsum(count[keep])
+    start = 0
+    while start < keep.size:  # batches bound the candidate arrays whatever the triangle sizes
+        base = ends[start - 1] if start else 0
+        stop = max(start + 1, int(np.searchsorted(ends, base + _PAIR_BATCH, side="right")))
+        t = keep[start:stop]
+        cnt = count[t]
+        tid = np.repeat(np.arange(t.size), cnt)
+        k = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        col = c_lo[t][tid] + k % ncol[t][tid]
+        row = r_lo[t][tid] + k // ncol[t][tid]
+        px = gx0 + col * spec.dx
+        py = gy0 + row * spec.dy
+        v = tri_xy[t][tid]
+        x1, y1, x2, y2, x3, y3 = v[:, 0, 0], v[:, 0, 1], v[:, 1, 0], v[:, 1, 1], v[:, 2, 0], v[:, 2, 1]
+        det = (y2 - y3) * (x1 - x3) + (x3 - x2) * (y1 - y3)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            l1 = ((y2 - y3) * (px - x3) + (x3 - x2) * (py - y3)) / det
+            l2 = ((y3 - y1) * (px - x3) + (x1 - x3) * (py - y3)) / det
+        l3 = 1.0 - l1 - l2
+        inside = (l1 >= -eps) & (l2 >= -eps) & (l3 >= -eps) & (det != 0)
+        zt = tri_z[t][tid]
+        val = l1 * zt[:, 0] + l2 * zt[:, 1] + l3 * zt[:, 2]
+        out[row[inside], col[inside]] = val[inside]
+        start = stop
+
+
+def _tin_block(px, py, pz, spec, cols, rows, max_distance, out) -> None:
+    if len(px) < 3:
+        return
+    origin = (float(px.mean()), float(py.mean()))
+    pts = np.column_stack([px - origin[0], py - origin[1]])
+    try:
+        tri = Delaunay(pts).simplices
+    except QhullError:  # fewer than 3 distinct or all collinear points: nothing to interpolate
+        log.debug("block rows %s cols %s: degenerate points, left blank", rows, cols)
+        return
+    tri_xy = pts[tri]
+    if max_distance is not None:
+        edges = np.hypot(*(tri_xy - np.roll(tri_xy, 1, axis=1)).transpose(2, 0, 1))
+        good = edges.max(axis=1) <= max_distance
+        tri, tri_xy = tri[good], tri_xy[good]
+    _rasterise(tri_xy, pz[tri], spec, cols, rows, origin, out)
+
+
+def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, workers: int | None = None,
+           block_points: int = _TIN_POINTS) -> np.ndarray:
+    """Linear interpolation on the Delaunay triangulation of the points (Surfer's
+    "Triangulation with Linear Interpolation").
+
+    The tile is cut into blocks of nodes; each block triangulates the points within a buffer
+    of about 16 point spacings around it, far enough for the triangles over the block to be
+    those of the whole tile (they coincide wherever the data are not sparser than the buffer;
+    across wider gaps, which ``max_distance`` blanks anyway, a block may choose another valid
+    triangulation). Planes are reproduced exactly.
+    """
+    x, y, z = _as_points(x, y, z)
+    out = np.full(spec.shape, np.nan)
+    area = max((x.max() - x.min()) * (y.max() - y.min()), spec.dx * spec.dy)
+    spacing = math.sqrt(area / len(x))
+    side = max(32 * spacing, math.sqrt(block_points * area / len(x)))
+    bcols = max(1, int(side / spec.dx))
+    brows = max(1, int(side / spec.dy))
+    buffer = max(16 * spacing, 2 * max(spec.dx, spec.dy))
+    if max_distance is not None:
+        buffer = max(buffer, 2 * max_distance)
+    # points sorted by block so that each block gathers its neighbours' points by slicing
+    nbx = -(-spec.nx // bcols)
+    nby = -(-spec.ny // brows)
+    bx = np.clip(np.floor((x - spec.xmin + spec.dx / 2) / (bcols * spec.dx)).astype(np.int64), 0, nbx - 1)
+    by = np.clip(np.floor((y - spec.ymin + spec.dy / 2) / (brows * spec.dy)).astype(np.int64), 0, nby - 1)
+    key = by * nbx + bx
+    order = np.argsort(key, kind="stable")
+    x, y, z, key = x[order], y[order], z[order], key[order]
+    bounds = np.searchsorted(key, np.arange(nbx * nby + 1))
+    reach_x = int(math.ceil(buffer / (bcols * spec.dx)))
+    reach_y = int(math.ceil(buffer / (brows * spec.dy)))
+
+    def run(block: tuple[int, int]) -> None:
+        i, j = block
+        cols = (i * bcols, min(spec.nx, (i + 1) * bcols))
+        rows = (j * brows, min(spec.ny, (j + 1) * brows))
+        parts = []
+        for jj in range(max(0, j - reach_y), min(nby, j + reach_y + 1)):
+            lo = bounds[jj * nbx + max(0, i - reach_x)]
+            hi = bounds[jj * nbx + min(nbx - 1, i + reach_x) + 1]
+            parts.append(np.arange(lo, hi))
+        sel = np.concatenate(parts)
+        x0 = spec.xmin + cols[0] * spec.dx - buffer
+        x1 = spec.xmin + (cols[1] - 1) * spec.dx + buffer
+        y0 = spec.ymin + rows[0] * spec.dy - buffer
+        y1 = spec.ymin + (rows[1] - 1) * spec.dy + buffer
+        sel = sel[(x[sel] >= x0) & (x[sel] <= x1) & (y[sel] >= y0) & (y[sel] <= y1)]
+        _tin_block(x[sel], y[sel], z[sel], spec, cols, rows, max_distance, out)
+
+    blocks = [(i, j) for j in range(nby) for i in range(nbx)]
+    with ThreadPoolExecutor(_workers(workers)) as pool:  # qhull releases the GIL
+        list(pool.map(run, blocks))
+    return out
+
+
+# ---------------------------------------------------------------------------- dispatch
+
+
+def interpolate(x, y, z, spec: GridSpec, *, method: str = "linear", power: float = 2.0,
+                radius: float | None = None, max_points: int = 16, max_distance: float | None = None,
+                variogram: str = "linear", nugget: float = 0.0, drift: str = "none",
+                workers: int | None = None) -> np.ndarray:
+    """Grid the points with one of :data:`METHODS` (see the module docstring)."""
+    if method == "nearest":
+        return nearest(x, y, z, spec, max_distance=max_distance, workers=workers)
+    if method == "linear":
+        return linear(x, y, z, spec, max_distance=max_distance, workers=workers)
+    if method == "idw":
+        return idw(x, y, z, spec, power=power, radius=radius, max_points=max_points, max_distance=max_distance,
+                   workers=workers)
+    if method == "kriging":
+        from aldpat.core.kriging import krige
+
+        return krige(x, y, z, spec, model=variogram, nugget=nugget, drift=drift, max_points=max_points,
+                     radius=radius, max_distance=max_distance, workers=workers)
+    if method in BINNING:
+        return binned(x, y, z, spec, statistic=method)
+    raise UsageError(f"unknown gridding method {method!r} (use {', '.join(METHODS)})")
