@@ -211,9 +211,12 @@ def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
     The lowest point of a cell takes the cell's mark; any other point is ground when it lies
     no more than ``tolerance`` above the final ground surface, interpolated bilinearly between
     cell centres so that a sloping cell does not push its upper points out of the ground.
+    Points exactly as low as the lowest one share its mark: which of them the grid kept is an
+    accident of input order, and the classes must not depend on it.
     """
     n = len(z)
     flat_marks = marks.ravel()
+    flat_z = grid.z.ravel()
     ground_cells = (marks == MARK_GROUND) & ~grid.empty
     surface = ground_surface(grid.z, ground_cells)
     point_marks = np.empty(n, np.int32)
@@ -221,17 +224,17 @@ def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
     have_ground = bool(ground_cells.any())
     for a in range(0, n, _CHUNK):
         b = min(n, a + _CHUNK)
-        cm = flat_marks[grid.cell_index[a:b]]
+        ci = grid.cell_index[a:b]
+        cm = flat_marks[ci]
         if have_ground:
             h = z[a:b] - _bilinear(surface, grid.spec, x[a:b], y[a:b])
             ok = h <= tolerance
         else:
             ok = np.zeros(b - a, bool)
+        tied = z[a:b] == flat_z[ci]
+        ok[tied] = cm[tied] == MARK_GROUND
         is_ground[a:b] = ok
-        point_marks[a:b] = np.where(ok, MARK_GROUND, np.maximum(cm, MARK_ABOVE_SURFACE))
-    low = grid.lowest[~grid.empty]
-    point_marks[low] = marks[~grid.empty]
-    is_ground[low] = marks[~grid.empty] == MARK_GROUND
+        point_marks[a:b] = np.where(ok, MARK_GROUND, np.where(tied, cm, np.maximum(cm, MARK_ABOVE_SURFACE)))
     return point_marks, is_ground, surface
 
 

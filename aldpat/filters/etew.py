@@ -14,6 +14,11 @@ of half size ``k_i = 2^(i-1)`` lowest-point cells centred on each cell, not fixe
 lowest point around it rather than with the lowest of an arbitrary block; the result then
 does not depend on where tiles start. A removed cell is marked with ``k_i``; cells outside
 [Min Z, Max Z] are marked 1.
+
+The manual stops as soon as an iteration removes nothing. Every iteration here compares a
+cell with the lowest cell of the original grid around it, so that early stop only saves time
+-- but it is decided over the whole data set, which would make a tile's classes depend on
+points outside its buffer. All ``loop_times`` iterations are therefore run.
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ log = logging.getLogger(__name__)
 class ETEWParams(GroundParams):
     slope: float = param(0.3, "terrain slope: a point more than slope x window width above the window's "
                               "lowest point is removed", unit="m/m", gt=0, manual="Slope")
-    loop_times: int = param(5, "maximum number of iterations; the window doubles each time", ge=1, le=30,
+    loop_times: int = param(5, "number of iterations; the window doubles each time", ge=1, le=30,
                             manual="Loop Times")
     min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
                                 manual="Min Z")
@@ -57,11 +62,9 @@ def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams) -> np.ndarray:
     for i in range(1, params.loop_times + 1):
         k = 2 ** (i - 1)
         h = params.slope * 2 * k * params.cell
-        lowest = morphology.erosion(z, k, window="square")
+        # a window wider than the grid sees the whole grid: no need to make it wider still
+        lowest = morphology.erosion(z, min(k, max(z.shape)), window="square")
         removed = (z - lowest > h) & (marks == MARK_GROUND)
-        count = int(removed.sum())
         marks[removed] = k
-        log.debug("etew iteration %d: window %d, threshold %.3g, %d cells removed", i, k, h, count)
-        if count == 0:
-            break
+        log.debug("etew iteration %d: window %d, threshold %.3g, %d cells removed", i, k, h, int(removed.sum()))
     return marks

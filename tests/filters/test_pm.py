@@ -1,0 +1,93 @@
+"""Progressive morphology with line windows (manual appendix PM, task 8)."""
+
+import numpy as np
+import pytest
+
+from aldpat.errors import ParamError
+from aldpat.filters import ground_filter
+from aldpat.filters.pm import PMParams, pm, progressive_open, rotation_angles, threshold_series, window_series
+
+
+def test_power_window_series_and_min_window():
+    assert window_series(PMParams()) == (1, 2, 4, 8, 16)
+    assert window_series(PMParams(window_base=3.0, window_series_length=3)) == (1, 3, 9)
+    # base 1.5: 1, 1.5, 2.25, 3.375 -> 1, 2, 2, 3: repeats dropped
+    assert window_series(PMParams(window_base=1.5, window_series_length=4)) == (1, 2, 3)
+    assert window_series(PMParams(min_window=3)) == (4, 8, 16)
+    assert window_series(PMParams(window_series=(2, 5, 9))) == (2, 5, 9)
+    with pytest.raises(ParamError, match="ascending"):
+        window_series(PMParams(window_series=(4, 2)))
+    with pytest.raises(ParamError, match="min_window"):
+        window_series(PMParams(window_series=(1, 2), min_window=3))
+
+
+def test_threshold_rule_of_the_manual():
+    # w = 3, 5, 9, 17, 33 cells; dh = 0.3 for w <= 3, else 0.3 * (w - w_prev) * 1 + 0.3, cap 2.5
+    p = PMParams(cell=1.0, slope=0.3, init_threshold=0.3, max_threshold=2.5)
+    assert threshold_series(p, (1, 2, 4, 8, 16)) == pytest.approx((0.3, 0.9, 1.5, 2.5, 2.5))
+    # cell 2 m doubles the slope term; a first window above 3 cells grows from w = 1
+    p = PMParams(cell=2.0, slope=0.1, init_threshold=0.2, max_threshold=9999.0)
+    assert threshold_series(p, (2, 3)) == pytest.approx((0.1 * 4 * 2 + 0.2, 0.1 * 2 * 2 + 0.2))
+    p = PMParams(threshold_series=(0.5, 1.0))
+    assert threshold_series(p, (1, 2)) == (0.5, 1.0)
+    with pytest.raises(ParamError, match="threshold_series"):
+        threshold_series(p, (1, 2, 4))
+
+
+def test_building_removed_at_the_first_window_wider_than_it():
+    # a profile along x: 5-cell wide building, 4 m high on flat ground
+    z = np.zeros((3, 30))
+    z[:, 10:15] = 4.0
+    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
+    assert (marks[:, 10:15] == 4).all()  # full windows 3 and 5 fit on the roof: removed by 9
+    assert (marks[:, :10] == 0).all() and (marks[:, 15:] == 0).all()
+    # a first removal is never overwritten by a later window
+    z[:, 20] = 4.0
+    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
+    assert (marks[:, 20] == 1).all() and (marks[:, 10:15] == 4).all()
+
+
+def test_direction_picks_the_axis():
+    # a wall long in y (rows) and 3 cells wide in x
+    z = np.zeros((40, 40))
+    z[:, 18:21] = 5.0
+    empty = np.zeros(z.shape, bool)
+    along_x = pm(z, empty, PMParams(direction="x", window_series=(1, 2)))
+    along_y = pm(z, empty, PMParams(direction="y", window_series=(1, 2)))
+    both = pm(z, empty, PMParams(direction="xy", window_series=(1, 2)))
+    assert (along_x[:, 18:21] == 2).all() and along_x.sum() == 2 * 40 * 3
+    assert (along_y == 0).all()
+    assert np.array_equal(both, along_x)
+
+
+def test_rotation_angles():
+    assert rotation_angles(PMParams()) == (0.0,)
+    assert rotation_angles(PMParams(rotate_angle=30.0)) == (0.0,)  # rotate_times 0: unrotated
+    assert rotation_angles(PMParams(rotate_angle=30.0, rotate_times=2)) == (30.0, 60.0)
+
+
+def _dike(angle_deg):
+    """Flat ground with a 2 m dike, 3 m wide and 80 m long, running at angle_deg."""
+    g = np.arange(0.25, 100, 0.5)
+    x, y = (a.ravel() for a in np.meshgrid(g, g))
+    t = np.radians(angle_deg)
+    along = (x - 50) * np.cos(t) + (y - 50) * np.sin(t)
+    across = -(x - 50) * np.sin(t) + (y - 50) * np.cos(t)
+    on = (np.abs(across) < 1.5) & (np.abs(along) < 40)
+    core = (np.abs(across) < 0.5) & (np.abs(along) < 30)  # cells wholly on the dike
+    return x, y, np.where(on, 2.0, 0.0), on, core
+
+
+def test_rotation_lines_windows_up_with_a_linear_feature():
+    """Rotating the data onto the dike keeps it with windows along x (manual, Rotate Angle)."""
+    x, y, z, on, inner = _dike(45.0)
+    base = dict(cell=1.0, direction="x", window_series=(1, 2, 4, 8), threshold_series=(0.3, 0.5, 0.5, 0.5))
+    plain = ground_filter(x, y, z, "pm", PMParams(**base))
+    assert not plain.is_ground[on].any()  # the 45-degree dike crosses the x windows: removed
+    rotated = ground_filter(x, y, z, "pm", PMParams(**base, rotate_angle=-45.0, rotate_times=1))
+    assert rotated.angles == (-45.0,)
+    assert rotated.is_ground[inner].all()
+    assert rotated.is_ground[~on].all()
+    # a second rotation at -90 degrees puts x across the dike again: removed
+    twice = ground_filter(x, y, z, "pm", PMParams(**base, rotate_angle=-45.0, rotate_times=2))
+    assert not twice.is_ground[inner].any()
