@@ -89,3 +89,15 @@ def test_altm_layout_needs_nine_columns(tmp_path):
     p = write_xyz(tmp_path / "tape.txt", XYZI)
     with pytest.raises(InputFormatError, match="expected 9 columns"):
         open_points(p, layout="altm9")
+
+
+def test_irregular_spacing_after_the_sniffed_lines_is_still_read(tmp_path):
+    clean = "\n".join(f"{k} {k + 1} {k + 2}" for k in range(5000))
+    p = tmp_path / "late.txt"
+    p.write_text(clean + "\n\n7  8\t9\n 10 11 12 \n13 14 15\n")
+    r = open_points(p)
+    assert r._single_space  # the sniffed head is plain single-spaced
+    chunks = list(r.chunks(size=700))
+    z = np.concatenate([c.z for c in chunks])
+    assert len(z) == 5003 and list(z[-3:]) == [9.0, 12.0, 15.0]
+    np.testing.assert_array_equal(z[:5000], np.arange(5000) + 2)
