@@ -135,7 +135,7 @@ _PASSES = {"x": (("line", 1),), "y": (("line", 0),), "xy": (("line", 1), ("line"
 
 @register_filter("pm", params=PMParams, rotations=rotation_angles,
                  summary="progressive morphological filter, line windows along x, y or both "
-                         "(manual appendix; Zhang et al. 2003)")
+                         "(manual appendix and task 8; Zhang and others 2003)")
 def pm(z: np.ndarray, empty: np.ndarray, params: PMParams) -> np.ndarray:
     """Progressive morphology with 1-D line windows (manual appendix PM, task 8 "Direction")."""
     windows = window_series(params)

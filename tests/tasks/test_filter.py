@@ -1,0 +1,122 @@
+"""``aldpat filter ALGO``: outputs, result modes, marks, data modes, LAS attributes (SPEC §4)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from aldpat.filters import FILTERS, ground_filter
+from aldpat.filters.pm import PMParams
+from aldpat.tasks.base import get_task
+
+
+@pytest.mark.parametrize("name", sorted(FILTERS))
+def test_every_registered_filter_is_a_subcommand(name, runner, cli):
+    out = runner.invoke(cli, ["filter", name, "--help"])
+    assert out.exit_code == 0, out.output
+    assert "--result" in out.output and "--marks" in out.output and "--cell" in out.output
+    assert get_task("filter", name).params.__mro__[1] is FILTERS[name].params
+
+
+def test_terrain_and_nonterrain_split_every_point(runner, cli, samp24, tmp_path):
+    out = runner.invoke(cli, ["filter", "pm", str(samp24), "--odir", str(tmp_path), "--result", "both",
+                              "--window-series", "1,2,4,8", "--marks"])
+    assert out.exit_code == 0, out.output
+    data = np.loadtxt(samp24)
+    terrain = np.loadtxt(tmp_path / "samp24_pm.txt")
+    nonterrain = np.loadtxt(tmp_path / "samp24_pm_nt.txt")
+    assert len(terrain) + len(nonterrain) == len(data)
+    # same classes as the library call; marks column last: 0 in terrain, positive elsewhere
+    res = ground_filter(data[:, 0], data[:, 1], data[:, 2], "pm", PMParams(window_series=(1, 2, 4, 8)))
+    assert len(terrain) == res.is_ground.sum()
+    assert (terrain[:, -1] == 0).all() and (nonterrain[:, -1] > 0).all()
+    assert set(nonterrain[:, -1].astype(int)) <= {1, 2, 4, 8}
+    assert np.allclose(np.sort(terrain[:, 2]), np.sort(data[res.is_ground, 2]))
+    log = (tmp_path / "samp24_pm.log").read_text()
+    assert "window_series        = 1,2,4,8    (cli)" in log
+
+
+def test_result_modes_choose_the_files(runner, cli, samp24, tmp_path):
+    assert runner.invoke(cli, ["filter", "etew", str(samp24), "--odir", str(tmp_path),
+                               "--result", "nonterrain"]).exit_code == 0
+    assert (tmp_path / "samp24_etew_nt.txt").exists() and not (tmp_path / "samp24_etew.txt").exists()
+    # an existing output is an error without --overwrite (exit status 1)
+    out = runner.invoke(cli, ["filter", "etew", str(samp24), "--odir", str(tmp_path), "--result", "nonterrain"])
+    assert out.exit_code == 1
+    assert runner.invoke(cli, ["filter", "etew", str(samp24), "--odir", str(tmp_path), "--result", "nonterrain",
+                               "--overwrite"]).exit_code == 0
+
+
+def test_classified_text_scores_like_the_terrain_output(runner, cli, samp24, tmp_path):
+    args = ["filter", "pm2d", str(samp24), "--odir", str(tmp_path)]
+    assert runner.invoke(cli, args + ["--result", "classified"]).exit_code == 0
+    cls = np.loadtxt(tmp_path / "samp24_pm2d.txt")
+    assert len(cls) == 7492 and set(cls[:, -1]) == {1.0, 2.0}
+    a = runner.invoke(cli, ["evaluate", str(tmp_path / "samp24_pm2d.txt"), "--reference", str(samp24),
+                            "--mode", "classified", "--json"])
+    assert runner.invoke(cli, args + ["--suffix", "_t"]).exit_code == 0
+    b = runner.invoke(cli, ["evaluate", str(tmp_path / "samp24_t.txt"), "--reference", str(samp24), "--json"])
+    ja, jb = json.loads(a.output), json.loads(b.output)
+    assert ja["points"] == jb["points"] == 7492
+    assert [ja[k] for k in ("type1", "type2", "total")] == [jb[k] for k in ("type1", "type2", "total")]
+
+
+def test_las_keeps_attributes_and_gets_classes_and_marks(runner, cli, samp24, tmp_path):
+    import laspy
+
+    assert runner.invoke(cli, ["convert", str(samp24), "--out-format", "laz", "--odir", str(tmp_path)]).exit_code == 0
+    src = tmp_path / "samp24.laz"
+    out = runner.invoke(cli, ["filter", "pmcircle", str(src), "--result", "classified", "--marks"])
+    assert out.exit_code == 0, out.output
+    las_in = laspy.read(src)
+    las = laspy.read(tmp_path / "samp24_pmcircle.laz")
+    assert len(las.points) == len(las_in.points)
+    assert np.array_equal(np.asarray(las.intensity), np.asarray(las_in.intensity))
+    assert np.array_equal(np.asarray(las.x), np.asarray(las_in.x))
+    classes = np.asarray(las.classification)
+    marks = np.asarray(las["mark"])
+    assert set(np.unique(classes)) == {1, 2}
+    assert np.array_equal(classes == 2, marks == 0)
+    # terrain output of a LAS is LAS with the same attributes
+    assert runner.invoke(cli, ["filter", "pmcircle", str(src), "--suffix", "_g"]).exit_code == 0
+    g = laspy.read(tmp_path / "samp24_g.laz")
+    assert len(g.points) == int((classes == 2).sum())
+
+
+def test_center_mode_writes_one_point_per_cell_at_its_centre(runner, cli, samp24, tmp_path):
+    out = runner.invoke(cli, ["filter", "pm", str(samp24), "--odir", str(tmp_path), "--data-mode", "center",
+                              "--cell", "2", "--result", "both"])
+    assert out.exit_code == 0, out.output
+    t = np.loadtxt(tmp_path / "samp24_pm.txt")
+    nt = np.loadtxt(tmp_path / "samp24_pm_nt.txt")
+    pts = np.vstack([t, nt])
+    # centres of 2 m cells aligned to multiples of 2: odd coordinates
+    assert np.allclose(pts[:, 0] % 2, 1.0) and np.allclose(pts[:, 1] % 2, 1.0)
+    assert len(np.unique(pts[:, :2], axis=0)) == len(pts)
+    data = np.loadtxt(samp24)
+    cells = np.unique(np.floor(data[:, :2] / 2), axis=0)
+    assert len(pts) == len(cells)
+
+
+def test_params_file_and_python_call(runner, cli, samp24, tmp_path):
+    toml = tmp_path / "pm.toml"
+    toml.write_text('window_series = [1, 2, 4]\nthreshold_series = [0.3, 0.6, 1.2]\ndirection = "x"\n')
+    out = runner.invoke(cli, ["filter", "pm", str(samp24), "--params", str(toml), "--odir", str(tmp_path / "a")])
+    assert out.exit_code == 0, out.output
+    assert "threshold_series     = 0.3,0.6,1.2    (params file)" in (tmp_path / "a" / "samp24_pm.log").read_text()
+    report = get_task("filter", "pm")([samp24], window_series=[1, 2, 4], threshold_series=[0.3, 0.6, 1.2],
+                                      direction="x", odir=str(tmp_path / "b"), result="both")
+    assert report.exit_code == 0
+    assert sum(w.count for w in report.outputs) == 7492
+    a = np.loadtxt(tmp_path / "a" / "samp24_pm.txt")
+    b = np.loadtxt(tmp_path / "b" / "samp24_pm.txt")
+    assert np.array_equal(a, b)
+
+
+def test_bad_input_is_one_line_and_others_go_on(runner, cli, samp24, tmp_path):
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2 3\n4 5 x\n")
+    out = runner.invoke(cli, ["filter", "pm", str(bad), str(samp24), "--odir", str(tmp_path)])
+    assert out.exit_code == 1
+    assert "bad.txt" in out.output and "Traceback" not in out.output
+    assert (tmp_path / "samp24_pm.txt").exists()
