@@ -1,0 +1,42 @@
+"""Options shared by the ALDPAT data-preparation tasks, declared once and subclassed.
+
+The ALDPAT manual (003_*, "4. Description of Tasks") names the same two choices in several
+tasks: "Fields" (XYZI or XYZ, tasks 2 and 7) and the column order of the 9-column tapes
+(task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" by default, "t, x1, y1, z1, i1, x2, y2, z2, i2"
+when REALM exported it the other way). Grid tasks share the cell-grid origin (SPEC §2).
+A module whose name starts with "_" is not imported as a task.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from aldpat.params import param
+
+
+@dataclass(frozen=True)
+class FieldsOption:
+    fields: str = param("xyzi", "columns written to text outputs: x y z and intensity, or x y z only",
+                        choices=("xyzi", "xyz"), manual="Fields")
+
+
+@dataclass(frozen=True)
+class OrderOption:
+    order: str = param("last-first", "column order of 9-column tapes: t x2 y2 z2 i2 x1 y1 z1 i1 (last return "
+                       "first, the manual's) or t x1 y1 z1 i1 x2 y2 z2 i2", choices=("last-first", "first-last"))
+
+
+@dataclass(frozen=True)
+class OriginOption:
+    origin: tuple[float, float] | None = param(
+        None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
+        metavar="X Y",
+    )
+
+
+def point_names(reader, fields: str) -> tuple[str, ...]:
+    """Columns a point output carries: x y z, plus intensity when asked for and present."""
+    names = ("x", "y", "z")
+    if fields == "xyzi" and "intensity" in reader.names:
+        names += ("intensity",)
+    return names

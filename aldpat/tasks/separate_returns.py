@@ -1,0 +1,124 @@
+"""``aldpat separate-returns``: a 9-column strip -> a first-return and a last-return point file.
+
+ALDPAT manual (003_*), Task 2 "Separate First and Last Return Measurements from a 9 Column
+Strip File", with its parameters UTM Zone, Stop Gap and Fields (see :mod:`aldpat.core.returns`
+for the rules). The first-return file gets the suffix ``_1``, the last-return file ``_2``
+("second stop files (identified by the suffix '_2')"). Streamed chunk by chunk.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.errors import DataError, ParamError
+from aldpat.io.table import PointTable
+from aldpat.params import param
+from aldpat.tasks._prep_options import FieldsOption, OrderOption
+from aldpat.tasks.base import JobContext, Task, register_task
+from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SeparateReturnsParams(FieldsOption, OrderOption):
+    utm_zone: str = param("auto", "UTM zone prefixed to x and y: auto (detect by digit count), none, or the "
+                          "zone number to strip", manual="UTM Zone", metavar="auto|none|N")
+    stop_gap: float = param(5.0, "where first minus last return elevation is below this, the last return is "
+                            "replaced by the first", unit="m", manual="Stop Gap")
+
+    def __post_init__(self) -> None:
+        parse_zone(self.utm_zone)
+
+
+def parse_zone(value: str) -> str | int:
+    """``"auto"``, ``"none"`` or a zone number 1..60; anything else is a :class:`ParamError`."""
+    text = str(value).strip().lower()
+    if text in ("auto", "none"):
+        return text
+    try:
+        zone = int(text)
+    except ValueError:
+        zone = -1
+    if not 1 <= zone <= 60:
+        raise ParamError(f"utm_zone: expected auto, none or a zone number 1-60, got {value!r}")
+    return zone
+
+
+class ZoneStripper:
+    """Removes a UTM zone prefix from x and y, deciding (auto) on the first chunk and checking the
+    rest; a file whose points disagree is refused with the line of the first offender."""
+
+    def __init__(self, setting: str | int, source: Path, first_line: int):
+        self.zone = None if setting == "auto" else (0 if setting == "none" else setting)
+        self.auto = setting == "auto"
+        self.source = source
+        self.first_line = first_line
+
+    def __call__(self, x: np.ndarray, y: np.ndarray, row0: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.zone == 0 and not self.auto:
+            return x, y
+        zx, zy = zone_prefix(x, y)
+        if self.zone is None:
+            self.zone = int(zx[0]) if zx[0] == zy[0] else -1
+            if self.zone > 60 or self.zone < 0:
+                self._bad(0, f"x {x[0]:.3f}, y {y[0]:.3f} carry no consistent UTM zone prefix "
+                          "(use --utm-zone none to keep coordinates as they are)")
+            if self.zone:
+                log.info("%s: UTM zone %d prefixed to x and y (removed)", self.source, self.zone)
+        wrong = np.flatnonzero((zx != self.zone) | (zy != self.zone))
+        if len(wrong):
+            k = int(wrong[0])
+            what = "no zone prefix" if self.zone == 0 else f"zone {self.zone}"
+            self._bad(row0 + k, f"x {x[k]:.3f}, y {y[k]:.3f} do not carry {what} like the other points")
+        return (x, y) if self.zone == 0 else strip_zone(x, y, self.zone)
+
+    def _bad(self, row: int, message: str) -> None:
+        raise DataError(message, path=self.source, line=self.first_line + row)
+
+
+def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobContext) -> None:
+    reader = ctx.open_input(source, layout="altm9", order=params.order)
+    suffix = ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_"
+    first_out = ctx.output_path(source, f"{suffix}1", reader=reader, use_suffix_option=False)
+    last_out = ctx.output_path(source, f"{suffix}2", reader=reader, use_suffix_option=False)
+    names = ("x", "y", "z") + (("intensity",) if params.fields == "xyzi" else ())
+    dec = reader.decimals
+    decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": dec.get("z1"), "intensity": 0}
+    # a stripped zone leaves as many decimals as before
+    strip = ZoneStripper(parse_zone(params.utm_zone), source, reader.first_data_line)
+    replaced = total = 0
+    with contextlib.ExitStack() as stack:
+        w1 = stack.enter_context(ctx.write_points(first_out, names, decimals=decimals))
+        w2 = stack.enter_context(ctx.write_points(last_out, names, decimals=decimals))
+        for chunk in reader.chunks():
+            x1, y1 = strip(chunk["x1"], chunk["y1"], total)
+            x2, y2 = strip(chunk["x2"], chunk["y2"], total)
+            z1, z2 = chunk["z1"], chunk["z2"]
+            i1, i2 = chunk["i1"], chunk["i2"]
+            swap = stop_gap_mask(z1, z2, params.stop_gap)
+            first = {"x": x1, "y": y1, "z": z1, "intensity": i1}
+            last = {"x": np.where(swap, x1, x2), "y": np.where(swap, y1, y2), "z": np.where(swap, z1, z2),
+                    "intensity": np.where(swap, i1, i2)}
+            w1.write(PointTable({n: first[n] for n in names}, meta={"decimals": decimals}))
+            w2.write(PointTable({n: last[n] for n in names}, meta={"decimals": decimals}))
+            replaced += int(swap.sum())
+            total += len(chunk)
+    ctx.wrote(first_out, w1.count)
+    ctx.wrote(last_out, w2.count)
+    log.info("%s: %d of %d last returns replaced by the first (stop gap %g m)", source, replaced, total,
+             params.stop_gap)
+
+
+register_task(Task(
+    name="separate-returns",
+    summary="Split a 9-column strip into first-return (_1) and last-return (_2) point files, replacing last "
+            "returns within the stop gap of the first (manual task 2).",
+    params=SeparateReturnsParams,
+    run_one=separate_returns_one,
+))
