@@ -1,0 +1,132 @@
+"""Gridding methods on surfaces with known values: planes exact for the TIN, hand-computed
+small cases for nearest / idw / binning, a sampled analytic surface with a bounded error, and
+blanks far from data instead of invented terrain."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aldpat.core.grid_extent import GridSpec, from_bounds
+from aldpat.core.interpolate import METHODS, Binner, binned, idw, interpolate, linear, nearest
+from aldpat.errors import DataError, UsageError
+
+SPEC = from_bounds(500000.0, 4000000.0, 500060.0, 4000050.0, 1.0)
+
+
+def plane(x, y):
+    return 12.5 + 0.3 * (x - 500000.0) - 0.2 * (y - 4000000.0)
+
+
+def surface(x, y):
+    return 5.0 * np.sin((x - 500000.0) / 9.0) + 3.0 * np.cos((y - 4000000.0) / 7.0)
+
+
+def scattered(n=8000, seed=3, margin=3.0):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(SPEC.xmin - margin, SPEC.xmax + margin, n)
+    y = rng.uniform(SPEC.ymin - margin, SPEC.ymax + margin, n)
+    return x, y
+
+
+def nodes():
+    return np.meshgrid(SPEC.x_nodes(), SPEC.y_nodes())
+
+
+def test_linear_is_exact_on_a_plane():
+    x, y = scattered()
+    vals = linear(x, y, plane(x, y), SPEC)
+    assert not np.isnan(vals).any()
+    np.testing.assert_allclose(vals, plane(*nodes()), atol=1e-9)
+
+
+def test_linear_blocks_agree_with_one_triangulation():
+    x, y = scattered()
+    z = surface(x, y)
+    whole = linear(x, y, z, SPEC, block_points=10**9)
+    blocked = linear(x, y, z, SPEC, block_points=500)
+    np.testing.assert_allclose(blocked, whole, atol=1e-9)
+
+
+def test_linear_on_three_points_is_barycentric_and_blank_outside():
+    spec = GridSpec(0.0, 0.0, 1.0, 1.0, 5, 5)
+    vals = linear([0.0, 4.0, 0.0], [0.0, 0.0, 4.0], [0.0, 8.0, 4.0], spec)
+    assert vals[0, 0] == pytest.approx(0.0)
+    assert vals[1, 2] == pytest.approx(2 * 2 + 1 * 1)  # z = 2x + y
+    assert vals[2, 2] == pytest.approx(6.0)  # on the hypotenuse
+    assert np.isnan(vals[3, 3]) and np.isnan(vals[4, 4])  # outside the hull
+
+
+def test_nearest_hand_case():
+    spec = GridSpec(0.0, 0.0, 1.0, 1.0, 4, 1)
+    vals = nearest([0.2, 2.9], [0.0, 0.0], [1.0, 7.0], spec)
+    np.testing.assert_array_equal(vals, [[1.0, 1.0, 7.0, 7.0]])
+
+
+def test_idw_hand_case_and_exact_hits():
+    spec = GridSpec(0.0, 0.0, 1.0, 1.0, 4, 1)
+    # node 1: distances 1 and 2 -> weights 1 and 1/4 -> (10 + 40/4) / 1.25 = 16
+    vals = idw([0.0, 3.0], [0.0, 0.0], [10.0, 40.0], spec, power=2.0)
+    np.testing.assert_allclose(vals, [[10.0, 16.0, 34.0, 40.0]])
+    vals = idw([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [10.0, 20.0, 40.0], spec, max_points=3)
+    assert vals[0, 0] == 15.0  # coincident points are averaged
+
+
+def test_binning_hand_case():
+    spec = GridSpec(0.0, 0.0, 1.0, 1.0, 3, 2)
+    x = np.array([0.1, -0.2, 0.4, 2.0, 5.0])
+    y = np.array([0.0, 0.3, -0.1, 1.2, 0.0])
+    z = np.array([3.0, 1.0, 2.0, 9.0, 99.0])  # the last point lies outside every cell
+    expect = {"min": 1.0, "max": 3.0, "mean": 2.0}
+    for stat, first in expect.items():
+        vals = binned(x, y, z, spec, statistic=stat)
+        assert vals[0, 0] == first and vals[1, 2] == 9.0
+        assert np.isnan(vals).sum() == 4
+
+
+def test_binner_in_chunks_equals_all_at_once():
+    x, y = scattered(3000)
+    z = surface(x, y)
+    for stat in ("min", "max", "mean"):
+        binner = Binner(SPEC, stat)
+        for part in np.array_split(np.arange(len(x)), 7):
+            binner.add(x[part], y[part], z[part])
+        np.testing.assert_allclose(binner.result(), binned(x, y, z, SPEC, statistic=stat), equal_nan=True)
+
+
+@pytest.mark.parametrize("method, rms, worst", [
+    ("nearest", 0.35, 1.2), ("linear", 0.02, 0.15), ("idw", 0.3, 0.8), ("kriging", 0.03, 0.2),
+    ("mean", 0.5, 1.5)])
+def test_analytic_surface_error_is_bounded(method, rms, worst):
+    x, y = scattered(12000)
+    vals = interpolate(x, y, surface(x, y), SPEC, method=method)
+    err = vals - surface(*nodes())
+    assert np.sqrt(np.nanmean(err**2)) < rms
+    assert np.nanmax(np.abs(err)) < worst
+    if method != "mean":
+        assert not np.isnan(vals).any()
+
+
+@pytest.mark.parametrize("method", ["nearest", "linear", "idw", "kriging"])
+def test_max_distance_blanks_a_gap(method):
+    x, y = scattered(6000)
+    gap = (x > 500020) & (x < 500040) & (y > 4000015) & (y < 4000035)
+    x, y = x[~gap], y[~gap]
+    vals = interpolate(x, y, plane(x, y), SPEC, method=method, max_distance=3.0)
+    gx, gy = nodes()
+    centre = (gx > 500024) & (gx < 500036) & (gy > 4000019) & (gy < 4000031)
+    assert np.isnan(vals[centre]).all()
+    assert not np.isnan(vals[~((gx > 500018) & (gx < 500042) & (gy > 4000013) & (gy < 4000037))]).any()
+    full = interpolate(x, y, plane(x, y), SPEC, method=method)
+    assert not np.isnan(full[centre]).any()  # without the limit the gap is filled
+
+
+def test_every_method_is_dispatched_and_unknown_is_refused():
+    x, y = scattered(2000)
+    for method in METHODS:
+        vals = interpolate(x, y, plane(x, y), SPEC, method=method)
+        assert vals.shape == SPEC.shape
+    with pytest.raises(UsageError, match="did|use"):
+        interpolate(x, y, plane(x, y), SPEC, method="spline")
+    with pytest.raises(DataError):
+        interpolate([], [], [], SPEC, method="nearest")
