@@ -64,7 +64,8 @@ class LasReader:
                     for d in self.names[3:]:
                         cols[d] = np.asarray(chunk[d])
                     done += len(chunk)
-                    yield PointTable(cols, record=chunk, meta={"decimals": self.decimals})
+                    yield PointTable(cols, record=chunk,
+                                     meta={"decimals": self.decimals, "in_record": frozenset(cols)})
         except InputFormatError:
             raise
         except Exception as exc:
@@ -127,8 +128,14 @@ class LasWriter:
         n = len(table)
         if n == 0:
             return
+        same = frozenset()
         if table.record is not None and self.template is not None and not self._extra:
-            points = laspy.ScaleAwarePointRecord(table.record.array.copy(), self._header.point_format,
+            # the source's own records: write them as they are, then only what changed (on a copy,
+            # so the caller's table is never modified)
+            same = table.meta.get("in_record", frozenset())
+            changed = any(n not in same for n in table.columns if n in LAS_DIMENSIONS)
+            array = table.record.array.copy() if changed else table.record.array
+            points = laspy.ScaleAwarePointRecord(array, self._header.point_format,
                                                  self._header.scales, self._header.offsets)
         else:
             points = laspy.ScaleAwarePointRecord.zeros(n, header=self._header)
@@ -137,10 +144,11 @@ class LasWriter:
                     if dim in points.point_format.dimension_names:
                         points[dim] = table.record[dim]
         for name in ("x", "y", "z"):
-            setattr(points, name, table.columns[name])
+            if name not in same:
+                setattr(points, name, table.columns[name])
         for name, values in table.columns.items():
             dim = LAS_DIMENSIONS.get(name)
-            if dim and dim not in "xyz" and dim in points.point_format.dimension_names:
+            if dim and dim not in "xyz" and name not in same and dim in points.point_format.dimension_names:
                 points[dim] = values
         for name in self._extra:
             points[name] = table.columns[name]

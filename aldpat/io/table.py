@@ -9,6 +9,9 @@ used across the project:
 
 LAS tables also carry ``record``, the laspy point record the rows came from, so that a task
 which subsets or reclassifies points writes every other LAS attribute back unchanged.
+``meta["in_record"]`` names the columns that still equal the record's fields; a writer copies
+those straight from the record instead of converting them again. Change columns only through
+:meth:`PointTable.with_columns`, which keeps that set honest.
 """
 
 from __future__ import annotations
@@ -66,12 +69,15 @@ class PointTable:
     def with_columns(self, **new: np.ndarray) -> "PointTable":
         """A table with columns added or replaced (same rows)."""
         cols = dict(self.columns)
+        meta = dict(self.meta)
+        if "in_record" in meta:
+            meta["in_record"] = frozenset(meta["in_record"]) - set(new)
         for k, v in new.items():
             v = np.asarray(v)
             if len(v) != len(self):
                 raise ValueError(f"column {k!r} has {len(v)} rows, table has {len(self)}")
             cols[k] = v
-        return PointTable(cols, self.record, dict(self.meta))
+        return PointTable(cols, self.record, meta)
 
     def select(self, names: Iterable[str]) -> "PointTable":
         """A table with only the named columns, in that order."""
@@ -93,4 +99,7 @@ class PointTable:
             first = tables[0].record
             array = np.concatenate([t.record.array for t in tables])
             rec = laspy.PackedPointRecord(array, first.point_format)
-        return PointTable(cols, rec, dict(tables[0].meta))
+        meta = dict(tables[0].meta)
+        if "in_record" in meta:
+            meta["in_record"] = frozenset.intersection(*(frozenset(t.meta.get("in_record", ())) for t in tables))
+        return PointTable(cols, rec, meta)

@@ -97,3 +97,20 @@ def test_truncated_files_are_reported_not_crashed(tmp_path, ext):
     stub.write_bytes(data[:100])
     with pytest.raises(InputFormatError, match="truncated or corrupt"):
         open_points(stub).read()
+
+
+def test_writing_a_reclassified_table_leaves_the_source_table_untouched(tmp_path):
+    src = tmp_path / "in.las"
+    make_las(src, n=50)
+    reader = open_points(src)
+    table = reader.read()
+    before = table.record.array.copy()
+    changed = table.with_columns(classification=np.full(50, 2, dtype=np.uint8), z=table.z + 1.0)
+    assert changed.meta["in_record"] == frozenset(table.names) - {"classification", "z"}
+    with write_points(tmp_path / "out.las", reader.names, like=reader) as w:
+        w.write(changed)
+    np.testing.assert_array_equal(table.record.array, before)
+    back = laspy.read(tmp_path / "out.las")
+    assert (back.classification == 2).all()
+    np.testing.assert_allclose(back.z, table.z + 1.0, atol=0.0006)
+    np.testing.assert_array_equal(back.X, before["X"])
