@@ -75,8 +75,9 @@ class Spec:
             extra.append(bounds)
         if self.choices:
             extra.append("one of: " + ", ".join(map(str, self.choices)))
-        extra.append(f"default: {format_value(self.default)}")
-        return parts[0] + " (" + "; ".join(extra) + ")"
+        if not (self.default is None and "default:" in self.help):  # the help already says it
+            extra.append(f"default: {format_value(self.default)}")
+        return parts[0] + (" (" + "; ".join(extra) + ")" if extra else "")
 
 
 def param(

@@ -104,7 +104,7 @@ def make_command(task: Task) -> click.Command:
     params.append(click.Option(["-q", "--quiet"], count=True, help="only errors on stderr, no progress"))
     return click.Command(
         task.name, callback=callback, params=params, help=task.summary + ("\n\n" + task.epilog if task.epilog else ""),
-        short_help=task.summary.split(". ")[0].rstrip("."), context_settings={"max_content_width": 110},
+        short_help=task.summary.rstrip("."), context_settings={"max_content_width": 110},
         no_args_is_help=task.inputs != "none",
     )
 
