@@ -25,7 +25,7 @@ log = logging.getLogger(__name__)
 _COL_BITS = 21  # rows up to 2 million cells long
 _COL_MASK = (1 << _COL_BITS) - 1
 _Z_SCALE = 1000.0  # heights quantized to the millimetre inside the keys
-_BIG = np.iinfo(np.int64).max
+_BIG = 1 << 62  # exactly representable as a float (ndimage passes cval as a double)
 
 
 def local_minima(z: np.ndarray, unfiltered: np.ndarray) -> np.ndarray:

@@ -61,7 +61,8 @@ class GapmParams(GroundParams):
         4.0, "the adaptive threshold is capped at cluster threshold x half window / this", gt=0,
     )
     use_cluster_diff: bool = param(
-        True, "cap the threshold across clusters by the jump to the neighbouring cluster (§6.2.3 step 5)",
+        False, "also cap the threshold across clusters by the jump to the neighbouring cluster "
+        "(§6.2.3 steps 1 and 5; the printed CalThreshArray leaves it out)",
     )
 
 
@@ -93,7 +94,7 @@ def adaptive_rows(
     *,
     init_thresh_bin: int = 4,
     max_threshold_divisor: float = 4.0,
-    use_cluster_diff: bool = True,
+    use_cluster_diff: bool = False,
 ) -> np.ndarray:
     """``AdaptiveMorphFilter`` along the rows of ``z`` (axis 1); returns the mark matrix.
 

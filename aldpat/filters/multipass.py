@@ -79,9 +79,12 @@ def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams) -> np.n
         standing = ~removed & ~empty
         if not standing.any():
             break
-        # cells without a point take the nearest standing cell, as before pass 1; the sets of
+        # Cells without a point take the nearest standing cell, as before pass 1; the sets of
         # removed cells are then interpolated from their lowest boundary (small sets keep the
-        # nearest-neighbour value)
+        # nearest-neighbour value). Counting cells without a point into the sets, as the
+        # -9999 marks of PQBoundInterp would on dense data, joins the sets of sparse data into
+        # one sheet flooded from its lowest corner (ISPRS samples: mean total error 19 %
+        # instead of 9 %).
         base = fill_nearest(np.where(standing, z, np.nan), ~standing)
         surface = priority_fill(base, removed, min_conn=p.min_conn, connectivity=p.connectivity,
                                 rise=p.fill_rise)

@@ -39,10 +39,14 @@ def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | Non
     """Mark matrix of the morphological outlier test (§4.1.1): ``window`` where an outlier."""
     z = np.asarray(z, dtype=np.float64)
     out = np.zeros(z.shape, dtype=bool)
+    if low_threshold is not None:
+        closed = morphology.closing(z, window, window=shape)
+        out = closed - z > low_threshold
+        # a pit pulls the opening of its neighbours down with it: test the high side on the
+        # surface with the low outliers lifted to their closing
+        z = np.where(out, closed, z)
     if high_threshold is not None:
         out |= z - morphology.opening(z, window, window=shape) > high_threshold
-    if low_threshold is not None:
-        out |= morphology.closing(z, window, window=shape) - z > low_threshold
     return np.where(out, np.int32(window), np.int32(0))
 
 

@@ -1,0 +1,66 @@
+"""Priority boundary interpolation (dissertation ch. 4 §4.2.4 PQBoundInterp, findEmpConn)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aldpat.core.lowest_grid import fill_nearest
+from aldpat.core.priority_fill import empty_sets, priority_fill
+
+
+def test_empty_sets_four_and_eight_connectivity():
+    empty = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1]], bool)
+    assert empty_sets(empty, connectivity=8)[1] == 1
+    assert empty_sets(empty, connectivity=4)[1] == 3
+    with pytest.raises(ValueError):
+        empty_sets(empty, connectivity=6)
+
+
+def test_set_floods_at_its_lowest_boundary_with_a_mean_rim():
+    # ground 0 on the left, 3 on the right; a hole in between
+    z = np.array([[0.0, np.nan, np.nan, np.nan, 3.0]] * 3)
+    empty = np.isnan(z)
+    out = priority_fill(z, empty, connectivity=4)
+    # interior cell: the lowest boundary value; rims: mean of 4-neighbours (set cells at 0)
+    np.testing.assert_allclose(out[1], [0.0, 0.0, 0.0, 0.75, 3.0])  # (0 + 3 + 0 + 0) / 4
+    np.testing.assert_allclose(out[0], [0.0, 0.0, 0.0, 1.0, 3.0])   # (0 + 3 + 0) / 3 at the edge
+
+
+def test_remnant_is_not_widened_as_nearest_neighbour_widens_it():
+    z = np.zeros((15, 15))
+    empty = np.zeros_like(z, bool)
+    empty[2:13, 2:13] = True       # removed ring around ...
+    z[6:9, 6:9] = 10.0             # ... a remnant left standing
+    empty[6:9, 6:9] = False
+    near = fill_nearest(np.where(empty, np.nan, z), empty)
+    prio = priority_fill(z, empty, connectivity=8)
+    high = lambda a: int((a > 5).sum())  # noqa: E731
+    assert high(near) > 9 * 4           # nearest neighbour spreads the remnant
+    assert high(prio) == 9              # priority interpolation leaves it its own size
+    assert prio[empty].max() < 10.0 * 3 / 8 + 1e-9  # rim cells see at most 3 remnant cells of 8
+
+
+def test_small_sets_are_left_alone():
+    z = np.zeros((6, 6))
+    z[0, 0] = 5.0
+    empty = np.zeros_like(z, bool)
+    empty[3, 3] = True
+    z[3, 3] = 42.0
+    out = priority_fill(z, empty, min_conn=1)
+    assert out[3, 3] == 42.0
+    out = priority_fill(z, empty, min_conn=0)
+    assert out[3, 3] == 0.0
+
+
+def test_rising_flood_follows_the_nearest_low_boundary():
+    # a wide removed block on a 1 m/cell slope: rise 0 floods it at its lowest boundary,
+    # a rise of 1 m per cell lets each cell take min(z(b) + distance) = its own slope height
+    x = np.arange(30.0)
+    z = np.tile(x, (12, 1))
+    empty = np.zeros_like(z, bool)
+    empty[2:10, 1:29] = True
+    flat = priority_fill(z, empty, connectivity=8)
+    np.testing.assert_allclose(flat[4:8, 3:27], 0.0)
+    rising = priority_fill(z, empty, connectivity=8, rise=1.0)
+    np.testing.assert_allclose(rising[4:8, 3:27], np.tile(x[3:27], (4, 1)))
