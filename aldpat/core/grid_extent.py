@@ -82,15 +82,20 @@ class GridSpec:
         return col, row, inside
 
 
+def whole_cells(lo: float, hi: float, cell: float) -> bool:
+    """Whether ``hi - lo`` is a whole number of cells (to a relative 1e-6)."""
+    steps = (hi - lo) / cell
+    return abs(steps - round(steps)) <= _WHOLE * max(1.0, steps)
+
+
 def _count(lo: float, hi: float, cell: float, what: str) -> int:
     """Nodes from ``lo`` to ``hi`` inclusive at ``cell`` spacing; ranges not a whole number of
     cells are extended (with a warning) so the grid still covers them."""
     if hi < lo:
         raise UsageError(f"{what}: maximum {hi:g} is below minimum {lo:g}")
     steps = (hi - lo) / cell
-    whole = round(steps)
-    if abs(steps - whole) <= _WHOLE * max(1.0, steps):
-        return int(whole) + 1
+    if whole_cells(lo, hi, cell):
+        return int(round(steps)) + 1
     log.warning("%s range %g..%g is not a whole number of %g cells; grid extended to %g",
                 what, lo, hi, cell, lo + math.ceil(steps) * cell)
     return int(math.ceil(steps)) + 1

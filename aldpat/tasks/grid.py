@@ -1,0 +1,124 @@
+"""``aldpat grid``: interpolate a tile's points to a Surfer grid (Surfer's job in ALDPAT).
+
+ALDPAT 1.0 manual (003), task 9 "Gridding Tiles": each tile is gridded with the range of its
+row in ``tile_parameter.txt`` (task 7, Fig. 8) and the cell size, so that "the last row and
+column of a grid tile overlaps with the first row and column of the adjacent tiles" (Fig. 7);
+without the reference file the range comes from the tile's points. The range may also be given
+as ``--bounds``. Methods and blanking: :mod:`aldpat.core.interpolate`, :mod:`aldpat.core.kriging`;
+extents: :mod:`aldpat.core.grid_extent`; files: :mod:`aldpat.io.surfer`.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.core.grid_extent import GridSpec, from_bounds, from_data, tile_row_for, whole_cells
+from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
+from aldpat.core.kriging import DRIFTS, MODELS
+from aldpat.errors import DataError, UsageError
+from aldpat.io.surfer import FORMATS, write_surfer
+from aldpat.params import param
+from aldpat.tasks._prep_options import OriginOption
+from aldpat.tasks.base import JobContext, Task, register_task
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class GridParams(OriginOption):
+    cell: float = param(1.0, "grid cell size: spacing of the nodes", unit="m", gt=0)
+    method: str = param("linear", "interpolation: nearest point, Delaunay TIN, inverse distance, ordinary "
+                        "kriging, or the min/max/mean of the points in each node's cell", choices=METHODS)
+    tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile': the grid range is the "
+                                    "input's tile row, so adjacent tile grids share their last/first row and "
+                                    "column", path=True, metavar="FILE")
+    bounds: tuple[float, float, float, float] | None = param(
+        None, "grid range MINX MINY MAXX MAXY: the outer nodes lie on it", unit="m", metavar="MINX MINY MAXX MAXY")
+    grid_format: str = param("surfer7", "Surfer grid written: 7 binary (DSRB), 6 binary (DSBB), 6 ASCII (DSAA)",
+                             choices=FORMATS)
+    nodata: float | None = param(None, "blank value of a surfer7 grid; none: Surfer's 1.70141e38")
+    max_distance: float | None = param(None, "leave nodes blank farther than this from any point (linear: "
+                                       "in triangles with a longer edge)", unit="m", gt=0)
+    power: float = param(2.0, "inverse distance weighting power (idw)", gt=0)
+    radius: float | None = param(None, "search radius for neighbours (idw, kriging); none: unlimited",
+                                 unit="m", gt=0)
+    max_points: int = param(16, "neighbours used per node (idw, kriging)", ge=1)
+    variogram: str = param("linear", "variogram model fitted to the data (kriging)", choices=MODELS)
+    nugget: float = param(0.0, "variogram nugget (kriging)", unit="m^2", ge=0)
+    drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS)
+
+
+def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = None,
+                  xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
+    """The grid range from the tile row or the bounds; None when it must come from the data."""
+    if params.tile_params and params.bounds:
+        raise UsageError("give either --tile-params or --bounds, not both")
+    if params.tile_params:
+        row = tile_row_for(params.tile_params, source)
+        lo_hi = (row.minx, row.maxx, row.miny, row.maxy)
+    elif params.bounds:
+        minx, miny, maxx, maxy = params.bounds
+        if maxx <= minx or maxy <= miny:
+            raise UsageError(f"--bounds: maximum must exceed minimum (got {minx:g} {miny:g} {maxx:g} {maxy:g})")
+        lo_hi = (minx, maxx, miny, maxy)
+    elif xy is not None:
+        return from_data(*xy, params.cell, origin=params.origin or (0.0, 0.0))
+    else:
+        return None
+    minx, maxx, miny, maxy = lo_hi
+    if ctx is not None and not (whole_cells(minx, maxx, params.cell) and whole_cells(miny, maxy, params.cell)):
+        ctx.warn(f"{source.name}: range {minx:g}..{maxx:g} x {miny:g}..{maxy:g} is not a whole number of "
+                 f"{params.cell:g} m cells; the grid is extended east/north to cover it")
+    return from_bounds(minx, miny, maxx, maxy, params.cell)
+
+
+def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
+    if params.nodata is not None and params.grid_format != "surfer7":
+        raise UsageError("--nodata applies to surfer7 grids; Surfer 6 grids always use 1.70141e38")
+    reader = ctx.open_input(source)
+    out = ctx.output_path(source, "", ".grd")
+    spec = grid_spec_for(source, params, ctx)
+    if spec is not None and params.method in BINNING:
+        binner = Binner(spec, params.method)  # streams: memory is the grid's, not the points'
+        count = 0
+        for chunk in reader.chunks():
+            binner.add(chunk.x, chunk.y, chunk.z)
+            count += len(chunk)
+        values = binner.result()
+    else:
+        xs, ys, zs = [], [], []
+        for chunk in reader.chunks():
+            xs.append(np.asarray(chunk.x, dtype=np.float64))
+            ys.append(np.asarray(chunk.y, dtype=np.float64))
+            zs.append(np.asarray(chunk.z, dtype=np.float64))
+        x, y, z = (np.concatenate(a) if a else np.zeros(0) for a in (xs, ys, zs))
+        count = len(x)
+        if count == 0:
+            raise DataError("no points to grid", path=source)
+        if spec is None:
+            spec = grid_spec_for(source, params, ctx, xy=(x, y))
+        values = interpolate(x, y, z, spec, method=params.method, power=params.power, radius=params.radius,
+                             max_points=params.max_points, max_distance=params.max_distance,
+                             variogram=params.variogram, nugget=params.nugget, drift=params.drift)
+    blank = int(np.isnan(values).sum())
+    if blank == values.size:
+        raise DataError(f"every node is blank: none of the {count} points lies near the grid range "
+                        f"{spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g}", path=source)
+    write_surfer(out, values, spec, fmt=params.grid_format, blank=params.nodata, overwrite=ctx.overwrite)
+    log.info("%s: %d points -> %d x %d nodes (%d blank)", source, count, spec.nx, spec.ny, blank)
+    if blank:
+        ctx.warn(f"{out.name}: {blank} of {values.size} nodes are blank (no data near them)")
+    ctx.wrote(out)
+
+
+register_task(Task(
+    name="grid",
+    summary="Interpolate points to a Surfer grid: nearest, TIN, IDW, kriging or binning (manual task 9, "
+            "Surfer's job).",
+    params=GridParams,
+    run_one=grid_one,
+))

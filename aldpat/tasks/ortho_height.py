@@ -1,0 +1,66 @@
+"""``aldpat ortho-height``: ellipsoidal -> orthometric heights, optionally re-projecting x, y.
+
+ALDPAT 1.0 manual (003), task 3 "Convert ellipsoid to orthometric heights" (Corpscon's job):
+``H = h - N`` with a geoid grid, ``--reverse`` for ``h = H + N``, and x, y converted between
+datums, UTM zones or State Plane (``--to-crs``). Streams chunk by chunk in bounded memory; a
+point outside the geoid grid stops that file with a message naming it (no silent 0 or NaN).
+Conversion: :mod:`aldpat.core.heights`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from aldpat.core.heights import Z_UNITS, HeightConverter
+from aldpat.errors import UsageError
+from aldpat.params import param
+from aldpat.tasks.base import JobContext, Task, register_task
+
+
+@dataclass(frozen=True)
+class OrthoHeightParams:
+    crs: str | None = param(None, "horizontal CRS of the input x, y: EPSG code, UTM zone such as 17N, or WKT "
+                            "(default: a LAS file's own CRS)")
+    geoid: str | None = param(None, "geoid grid: a GTX or GeoTIFF file (such as egm96_15.gtx) or a grid name "
+                              "PROJ knows", metavar="GRID")
+    to_crs: str | None = param(None, "re-project x, y to this CRS (datum, UTM zone, State Plane...)")
+    reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N)")
+    z_unit: str = param("m", "unit of the input and output heights (the geoid is in metres)",
+                        choices=tuple(Z_UNITS))
+
+
+def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -> None:
+    if not params.geoid:
+        raise UsageError("--geoid is required (a GTX or GeoTIFF grid file, or a PROJ grid name)")
+    reader = ctx.open_input(source)
+    crs = params.crs or reader.crs
+    if crs is None:
+        raise UsageError("--crs is required: the input does not say which CRS its x, y are in", path=source)
+    convert = HeightConverter(crs, params.geoid, to_crs=params.to_crs, reverse=params.reverse,
+                              z_unit=params.z_unit)
+    out = ctx.output_path(source, "_Ortho", reader=reader)
+    like, decimals, out_crs = reader, None, convert.crs
+    if convert.to_crs is not None:
+        out_crs = convert.to_crs
+        like = None  # a LAS header's scale and offset belong to the old coordinates
+        dec = dict(getattr(reader, "decimals", None) or {})
+        if convert.to_crs.is_geographic:
+            dec.update(x=9, y=9)  # degrees need more decimals than metres
+        decimals = dec or None
+    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=out_crs) as writer:
+        done = 0
+        for chunk in reader.chunks():
+            x, y, z = convert(chunk.x, chunk.y, chunk.z, first=done, path=source)
+            writer.write(chunk.with_columns(x=x, y=y, z=z))
+            done += len(chunk)
+    ctx.wrote(out, writer.count)
+
+
+register_task(Task(
+    name="ortho-height",
+    summary="Ellipsoidal -> orthometric heights with a geoid grid (H = h - N), optionally re-projecting x, y "
+            "(manual task 3, Corpscon's job).",
+    params=OrthoHeightParams,
+    run_one=ortho_height_one,
+))

@@ -1,0 +1,125 @@
+"""``aldpat grid``: tile grids share their last/first row and column (manual task 9, Fig. 7),
+GDAL finds every input point at the centre of its node, every Surfer format, CLI errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio  # test-only dependency: GDAL as the real client
+
+from aldpat.io.surfer import FORMATS, read_surfer
+from aldpat.tasks import get_task
+
+DRIVERS = {"surfer7": "GS7BG", "surfer6": "GSBG", "surfer6-ascii": "GSAG"}
+
+
+def terrain(x, y):
+    return 100.0 + 0.05 * (x - 500000) + 3.0 * np.sin((y - 4000000) / 6.0)
+
+
+def write_points(path, x, y, z, fmt="%.3f"):
+    np.savetxt(path, np.column_stack([x, y, z]), fmt=fmt)
+    return path
+
+
+def make_tiles(tmp_path, width=40.0, buffer=5.0, n=9000):
+    """Two tiles side by side (x 500000..500040..500080), each with its buffer points."""
+    rng = np.random.default_rng(7)
+    x = rng.uniform(500000 - buffer, 500000 + 2 * width + buffer, n)
+    y = rng.uniform(4000000 - buffer, 4000000 + width + buffer, n)
+    z = terrain(x, y)
+    rows = []
+    for k in range(2):
+        lo, hi = 500000 + k * width, 500000 + (k + 1) * width
+        keep = (x >= lo - buffer) & (x <= hi + buffer)
+        name = f"tile_{lo:.0f}_4000000.txt"
+        write_points(tmp_path / name, x[keep], y[keep], z[keep])
+        rows.append(f"{tmp_path / name} {lo:.0f} {hi:.0f} 4000000 {4000000 + width:.0f} {width:.0f} {width:.0f} "
+                    f"{buffer:.0f}")
+    (tmp_path / "tile_parameter.txt").write_text("\n".join(rows) + "\n")
+    return [tmp_path / "tile_500000_4000000.txt", tmp_path / "tile_500040_4000000.txt"]
+
+
+@pytest.mark.parametrize("method", ["nearest", "linear"])
+def test_adjacent_tile_grids_share_the_boundary_column(tmp_path, method):
+    tiles = make_tiles(tmp_path)
+    report = get_task("grid")(tiles, tile_params=str(tmp_path / "tile_parameter.txt"), method=method,
+                              odir=str(tmp_path / "grids"))
+    assert report.exit_code == 0, report.results[0].error
+    (west, ws), (east, es) = (read_surfer(tmp_path / "grids" / (t.stem + ".grd")) for t in tiles)
+    assert (ws.nx, ws.ny, es.nx) == (41, 41, 41)
+    assert ws.xmin == 500000 and ws.xmax == es.xmin == 500040 and es.xmax == 500080
+    if method == "nearest":
+        np.testing.assert_array_equal(west[:, -1], east[:, 0])
+    else:
+        np.testing.assert_allclose(west[:, -1], east[:, 0], atol=1e-9)
+    assert not np.isnan(west).any() and not np.isnan(east).any()
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_gdal_finds_each_input_point_at_its_node(tmp_path, fmt):
+    # points exactly on the nodes of a 2 m lattice (one missing): every method must give them back
+    gx, gy = np.meshgrid(np.arange(300000.0, 300021.0, 2.0), np.arange(4500000.0, 4500015.0, 2.0))
+    x, y = gx.ravel(), gy.ravel()
+    z = terrain(x, y)
+    keep = np.ones(len(x), bool)
+    keep[17] = False
+    src = write_points(tmp_path / "pts.txt", x[keep], y[keep], z[keep])
+    report = get_task("grid")([src], cell=2.0, method="min", grid_format=fmt, odir=str(tmp_path))
+    assert report.exit_code == 0, report.results[0].error
+    with rasterio.open(tmp_path / "pts.grd") as ds:
+        assert ds.driver == DRIVERS[fmt]
+        assert (ds.width, ds.height) == (11, 8)
+        band = ds.read(1, masked=True)
+        for px, py, pz in zip(x[keep], y[keep], z[keep]):
+            row, col = ds.index(px, py)
+            assert ds.xy(row, col) == pytest.approx((px, py))
+            assert band[row, col] == pytest.approx(pz, abs=1e-3)
+        row, col = ds.index(x[17], y[17])
+        assert band.mask[row, col]  # the node without a point is blank
+    assert "blank" in " ".join(report.results[0].warnings)
+
+
+def test_bounds_binning_streams_and_data_extent_snaps(tmp_path):
+    src = write_points(tmp_path / "p.txt", [10.2, 10.4, 13.9, 25.0], [20.1, 19.8, 22.0, 25.0], [1.0, 3.0, 7.0, 9.0])
+    report = get_task("grid")([src], cell=2.0, method="mean", bounds=(10.0, 20.0, 14.0, 22.0), odir=str(tmp_path))
+    assert report.exit_code == 0, report.results[0].error
+    vals, spec = read_surfer(tmp_path / "p.grd")
+    assert (spec.xmin, spec.ymin, spec.nx, spec.ny) == (10.0, 20.0, 3, 2)
+    assert vals[0, 0] == 2.0 and vals[1, 2] == 7.0 and np.isnan(vals).sum() == 4
+    report = get_task("grid")([src], cell=2.0, method="nearest", odir=str(tmp_path), suffix="_data")
+    vals, spec = read_surfer(tmp_path / "p_data.grd")
+    assert (spec.xmin, spec.ymin, spec.xmax, spec.ymax) == (10.0, 18.0, 26.0, 26.0)
+
+
+def test_kriging_and_idw_through_the_cli_with_a_log(tmp_path, runner, cli):
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0, 30, (2, 1500))
+    src = write_points(tmp_path / "k.txt", x, y, 5 + 0.2 * x - 0.1 * y, fmt="%.9f")
+    for method, extra in (("kriging", ["--drift", "linear"]), ("idw", ["--power", "3", "--max-points", "8"])):
+        res = runner.invoke(cli, ["grid", str(src), "--cell", "1", "--method", method, *extra, "--bounds", "2", "2",
+                                  "28", "28", "--odir", str(tmp_path / method)])
+        assert res.exit_code == 0, res.output
+        vals, spec = read_surfer(tmp_path / method / "k.grd")
+        gx, gy = np.meshgrid(spec.x_nodes(), spec.y_nodes())
+        tol = 1e-6 if method == "kriging" else 0.3
+        np.testing.assert_allclose(vals, 5 + 0.2 * gx - 0.1 * gy, atol=tol)
+        log = (tmp_path / method / "k.log").read_text()
+        assert "method" in log and method in log and "k.grd" in log
+
+
+def test_errors_name_the_file(tmp_path, runner, cli):
+    tiles = make_tiles(tmp_path)
+    other = write_points(tmp_path / "elsewhere.txt", [1.0, 2.0, 3.0], [1.0, 2.0, 1.0], [1.0, 1.0, 1.0])
+    res = runner.invoke(cli, ["grid", str(tiles[0]), str(other), "--tile-params", str(tmp_path / "tile_parameter.txt"),
+                              "--odir", str(tmp_path / "out")])
+    assert res.exit_code == 1
+    assert "elsewhere.txt" in res.output and "Traceback" not in res.output
+    assert (tmp_path / "out" / "tile_500000_4000000.grd").exists()
+    assert not (tmp_path / "out" / "elsewhere.grd").exists()
+    res = runner.invoke(cli, ["grid", str(tiles[0]), "--tile-params", str(tmp_path / "tile_parameter.txt"),
+                              "--bounds", "0", "0", "1", "1", "--odir", str(tmp_path / "out2")])
+    assert res.exit_code != 0 and "not both" in res.output
+    res = runner.invoke(cli, ["grid", str(other), "--bounds", "100", "100", "110", "110", "--method", "nearest",
+                              "--max-distance", "2", "--odir", str(tmp_path / "out3")])
+    assert res.exit_code == 1 and "every node is blank" in res.output
