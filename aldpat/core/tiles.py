@@ -8,7 +8,8 @@ height is ignored); "Y" increments only y (the width is ignored). A buffer aroun
 
 Every point inside the rectangle belongs to exactly one tile core: cores are half-open
 [x0, x1) x [y0, y1), except that the last column and row also take their upper edge (so the
-point at Max X, Max Y is not lost). A point also goes to every other tile whose buffered box
+point at Max X, Max Y is not lost). Tiles keep their full size: the last column and row may
+reach beyond Max X and Max Y, and points there belong to them. A point also goes to every other tile whose buffered box
 [x0 - b, x1 + b) x [y0 - b, y1 + b) holds it.
 """
 
@@ -68,20 +69,21 @@ class TileLayout:
         y0 = self.miny + j * self.height
         return x0, x0 + self.width, y0, y0 + self.height
 
-    def _axis_core(self, v: np.ndarray, lo: float, hi: float, size: float, n: int) -> np.ndarray:
-        """Core index along one axis; -1 outside [lo, hi] (upper edge kept by the last tile)."""
+    def _axis_core(self, v: np.ndarray, lo: float, size: float, n: int) -> np.ndarray:
+        """Core index along one axis; -1 outside [lo, lo + n*size] (the last tile keeps its upper edge)."""
         if size > 0:
             k = np.floor((v - lo) / size).astype(np.int64)
         else:
             k = np.zeros(len(v), dtype=np.int64)
+        hi = lo + n * size
         k[(k >= n) & (v <= hi)] = n - 1
         k[(v < lo) | (v > hi) | (k >= n)] = -1
         return k
 
     def core_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tile column and row whose core holds each point (-1, -1 outside the bounds)."""
-        i = self._axis_core(np.asarray(x, np.float64), self.minx, self.maxx, self.width, self.nx)
-        j = self._axis_core(np.asarray(y, np.float64), self.miny, self.maxy, self.height, self.ny)
+        i = self._axis_core(np.asarray(x, np.float64), self.minx, self.width, self.nx)
+        j = self._axis_core(np.asarray(y, np.float64), self.miny, self.height, self.ny)
         out = (i < 0) | (j < 0)
         i[out] = -1
         j[out] = -1

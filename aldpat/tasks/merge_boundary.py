@@ -1,0 +1,122 @@
+"""``aldpat merge-boundary``: combine strip boundary files into the manual's 5-column file.
+
+ALDPAT manual (003_*), Task 5 "Merge Boundary Files": "The result is a 5-column text file
+showing x, y and z coordinates, which strip contains the coordinates and the name of the input
+file. Note that '-1111' separates the strips." The output is named explicitly (``-o``).
+
+Each line is ``x y z strip_index file_name`` (strips numbered from 1 in input order, the file
+name without its folder); a line holding ``-1111`` stands between two strips. Inputs are
+streamed, so memory does not depend on their size. :func:`read_merged` reads the file back
+(the shapefile task uses it); a file name may hold the delimiter, as it is the last column.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.io.atomic import atomic_output
+from aldpat.io.text import format_rows
+from aldpat.params import param
+from aldpat.tasks.base import JobContext, Task, register_task
+
+log = logging.getLogger(__name__)
+
+SEPARATOR = "-1111"
+
+
+@dataclass(frozen=True)
+class MergeBoundaryParams:
+    output: str | None = param(None, "merged boundary file to write (required)", path=True, metavar="FILE")
+
+
+@dataclass
+class Strip:
+    index: int
+    name: str
+    xyz: np.ndarray  # (n, 3)
+
+
+def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:
+    if not params.output:
+        raise UsageError("merge-boundary needs the output file name: -o FILE")
+    out = Path(params.output)
+    if ctx.output is not None and ctx.output.odir and not out.is_absolute():
+        out = Path(ctx.output.odir) / out
+    delim = "," if ctx.delimiter == "comma" else " "
+    count = 0
+    with atomic_output(out, overwrite=ctx.overwrite) as tmp:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+            for index, source in enumerate(sources, start=1):
+                if index > 1:
+                    fh.write(SEPARATOR + "\n")
+                reader = ctx.open_input(source)
+                tail = f"{delim}{source.name}\n"
+                for chunk in reader.chunks():
+                    table = chunk.select(("x", "y", "z")).with_columns(
+                        strip_index=np.full(len(chunk), index, dtype=np.int64))
+                    text = format_rows(table, ("x", "y", "z", "strip_index"), delim)
+                    fh.write(text.replace("\n", tail))
+                    count += len(chunk)
+    ctx.wrote(out, count)
+    log.info("%s: %d boundary points of %d strips", out, count, len(sources))
+
+
+def read_merged(path: str | Path) -> list[Strip]:
+    """The strips of a merged boundary file, in file order."""
+    path = Path(path)
+    try:
+        fh = open(path, "r", encoding="utf-8", errors="replace", newline=None)
+    except OSError as exc:
+        raise InputMissingError(f"cannot read: {exc.strerror or exc}", path=path) from None
+    strips: list[Strip] = []
+    rows: list[tuple[float, float, float]] = []
+    key: tuple[int, str] | None = None
+
+    def close() -> None:
+        if rows:
+            strips.append(Strip(key[0], key[1], np.asarray(rows, dtype=np.float64)))
+
+    # a boundary file holds hundreds of points, not millions: a line loop is fine here
+    with fh:
+        for number, line in enumerate(fh, start=1):
+            text = line.strip()
+            if not text:
+                continue
+            delim = "," if "," in text else None
+            parts = [p.strip() for p in text.split(delim, 4)] if delim else text.split(None, 4)
+            if parts[0] == SEPARATOR and len(parts) == 1:
+                close()
+                rows, key = [], None
+                continue
+            if len(parts) < 5:
+                raise InputFormatError(f"expected 5 columns (x y z strip_index file_name), found {len(parts)}",
+                                       path=path, line=number)
+            try:
+                x, y, z = float(parts[0]), float(parts[1]), float(parts[2])
+                index = int(float(parts[3]))
+            except ValueError:
+                raise InputFormatError("x, y, z and strip_index must be numbers", path=path, line=number) from None
+            this = (index, parts[4])
+            if key is not None and this != key:  # a new strip without a separator line
+                close()
+                rows = []
+            key = this
+            rows.append((x, y, z))
+    close()
+    if not strips:
+        raise InputFormatError("no boundary points in file", path=path)
+    return strips
+
+
+register_task(Task(
+    name="merge-boundary",
+    summary="Combine strip boundary files into one 5-column file (x y z strip_index file_name, -1111 between "
+            "strips) (manual task 5).",
+    params=MergeBoundaryParams,
+    run_all=merge_boundary_all,
+))

@@ -1,0 +1,66 @@
+"""``aldpat shapefile``: a merged boundary file -> an ESRI polygon shapefile.
+
+ALDPAT manual (003_*), Task 6 "Create Shape File": one polygon per strip of the merged boundary
+file (Task 5), for display in a GIS. Attributes: ``strip`` (the strip index) and ``file`` (the
+boundary file's name). ``--crs`` writes the ``.prj`` that ALDPAT left to ArcCatalog. Rings are
+written clockwise and closed, as the shapefile specification requires
+(:mod:`aldpat.io.shapefile`).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+from aldpat.errors import UsageError
+from aldpat.io.shapefile import Polygon, parse_crs, write_polygons
+from aldpat.params import param
+from aldpat.tasks.base import JobContext, Task, register_task
+from aldpat.tasks.merge_boundary import read_merged
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ShapefileParams:
+    output: str | None = param(None, "shapefile to write (default: the input's name with .shp)", path=True,
+                               metavar="FILE.shp")
+    crs: str | None = param(None, "CRS of the coordinates, written to the .prj (e.g. EPSG:32617)")
+
+
+FIELDS = [("strip", "N", 10, 0), ("file", "C", 254, 0)]
+
+
+def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext) -> None:
+    crs = parse_crs(params.crs)
+    if params.output:
+        out = Path(params.output)
+        if ctx.output is not None and ctx.output.odir and not out.is_absolute():
+            out = Path(ctx.output.odir) / out
+    elif len(sources) == 1:
+        out = ctx.output_path(sources[0], "", ".shp")
+    else:
+        raise UsageError("several merged files go into one shapefile: name it with -o FILE.shp")
+    polygons = []
+    for source in sources:
+        for strip in read_merged(source):
+            if len({(x, y) for x, y in strip.xyz[:, :2].tolist()}) < 3:
+                ctx.warn(f"{source}: strip {strip.index} ({strip.name}) has fewer than 3 distinct points; skipped")
+                continue
+            polygons.append(Polygon([strip.xyz[:, :2]], (strip.index, strip.name)))
+    if not polygons:
+        raise UsageError("no strip with a usable boundary", path=sources[0])
+    files = write_polygons(out, polygons, FIELDS, crs=crs, overwrite=ctx.overwrite)
+    for f in files:
+        ctx.wrote(f)
+    log.info("%s: %d polygons", files[0], len(polygons))
+
+
+register_task(Task(
+    name="shapefile",
+    summary="Merged boundary file -> ESRI polygon shapefile, one polygon per strip with its index and file "
+            "name, .prj from --crs (manual task 6).",
+    params=ShapefileParams,
+    run_all=shapefile_all,
+))

@@ -1,0 +1,63 @@
+"""``aldpat strip-boundary``: the boundary polygon of a flight strip.
+
+ALDPAT manual (003_*), Task 4 "Estimate strip boundary" (algorithm in
+:mod:`aldpat.core.boundary`). Output: ``x y z i`` of the boundary points, real data points, in
+ring order and closed (the first point repeated last), suffix ``_Bound``. The strip is read
+chunk by chunk; only the extreme cells of each row and column are kept.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.core.boundary import BoundaryScan
+from aldpat.errors import DataError
+from aldpat.io.table import PointTable
+from aldpat.params import param
+from aldpat.tasks._prep_options import OriginOption
+from aldpat.tasks.base import JobContext, Task, register_task
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StripBoundaryParams(OriginOption):
+    cell_width: float = param(5.0, "cell width of the min-z mesh", unit="m", gt=0, manual="Width")
+    cell_height: float = param(5.0, "cell height of the min-z mesh", unit="m", gt=0, manual="Height")
+    scan: str = param("auto", "scan rows for min and max x (x), columns for min and max y (y), or rows when the "
+                      "x extent is the longer (auto)", choices=("auto", "x", "y"), manual="Scan Direction")
+
+
+def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
+    """The closed boundary ring of a strip (columns x y z intensity) and the scan used."""
+    scan = BoundaryScan(params.cell_width, params.cell_height, params.origin)
+    for chunk in reader.chunks():
+        scan.add(chunk.x, chunk.y, chunk.z, chunk["intensity"] if "intensity" in chunk else None)
+    return scan.ring(params.scan), scan.direction(params.scan)
+
+
+def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContext) -> None:
+    reader = ctx.open_input(source)
+    ring, direction = boundary_of(reader, params)
+    if len(ring["x"]) < 4:
+        raise DataError(f"too few occupied cells for a boundary ({len(ring['x']) - 1} boundary points); "
+                        "use smaller cells", path=source)
+    names = ("x", "y", "z", "intensity")
+    ring["intensity"] = np.rint(ring["intensity"]).astype(np.int64)
+    out = ctx.output_path(source, "_Bound", reader=reader)
+    with ctx.write_points(out, names, like=reader) as writer:
+        writer.write(PointTable(ring, meta={"decimals": reader.decimals}))
+    ctx.wrote(out, writer.count)
+    log.info("%s: %d boundary points (scan %s)", source, writer.count - 1, direction)
+
+
+register_task(Task(
+    name="strip-boundary",
+    summary="Boundary polygon of a strip from a min-z grid, scanning rows or columns (manual task 4).",
+    params=StripBoundaryParams,
+    run_one=strip_boundary_one,
+))

@@ -1,0 +1,93 @@
+"""``aldpat thin``: reduce point density, one point per cell.
+
+ALDPAT manual (003_*), Miscellaneous Tasks, "Reduce Point Density": Width and Height of the
+window (cell), Method (Lowest, Median, Center) and XY Type ("If 'xy Type' is the 'Integer', the
+x and y coordinates of an output point is derived by rounding the coordinates of a selected point
+to nearest integers"); selection rules in :mod:`aldpat.core.cells`. Cells are aligned to whole
+multiples of the cell size (SPEC §2) unless ``--origin``. Rounding is half away from zero
+(12.5 -> 13), as a C++ ``floor(x + 0.5)`` did for positive coordinates, not numpy's half-to-even.
+
+Memory: the points of one cell may be anywhere in the file, so large inputs are partitioned by
+cell block into temporary bucket files first (:mod:`aldpat.tasks._spill`) and each bucket is
+thinned in memory; the output lists bucket after bucket, each in input order. Inputs of up to
+one chunk (2 million points) are thinned in memory and keep their input order.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.core.cells import METHODS, cell_of, select_per_cell
+from aldpat.params import param
+from aldpat.tasks._prep_options import OriginOption
+from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
+from aldpat.tasks.base import JobContext, Task, register_task
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ThinParams(OriginOption):
+    cell_width: float = param(1.0, "cell (window) width", unit="m", gt=0, manual="Width")
+    cell_height: float = param(1.0, "cell (window) height", unit="m", gt=0, manual="Height")
+    method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
+                        "nearest the cell centre", choices=METHODS, manual="Method")
+    xy: str = param("float", "output x and y as read (float) or rounded to the nearest integer",
+                    choices=("float", "integer"), manual="XY Type")
+
+
+def round_half_away(v: np.ndarray) -> np.ndarray:
+    return np.where(v >= 0, np.floor(v + 0.5), np.ceil(v - 0.5))
+
+
+def thin_table(table, params: ThinParams):
+    """The points ``table`` keeps (one per occupied cell), x and y rounded if asked."""
+    keep = select_per_cell(table.x, table.y, table.z, params.cell_width, params.cell_height,
+                           method=params.method, origin=params.origin)
+    out = table.take(keep)
+    if params.xy == "integer":
+        out = out.with_columns(x=round_half_away(out.x), y=round_half_away(out.y))
+    return out
+
+
+def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
+    reader = ctx.open_input(source)
+    out = ctx.output_path(source, "_thin", reader=reader)
+    decimals = dict(reader.decimals)
+    if params.xy == "integer":
+        decimals.update(x=0, y=0)
+    k = bucket_count(estimate_points(reader))
+    total = 0
+    with ctx.write_points(out, reader.names, like=reader, decimals=decimals) as writer:
+        if k == 1:
+            from aldpat.io.table import PointTable
+
+            table = PointTable.concat(list(reader.chunks()))
+            total = len(table)
+            writer.write(thin_table(table, params))
+        else:
+            spill = Spill(out.parent, k)
+            try:
+                for chunk in reader.chunks():
+                    i, j = cell_of(chunk.x, chunk.y, params.cell_width, params.cell_height, params.origin)
+                    spill.add(chunk, bucket_of(i, j, k))
+                    total += len(chunk)
+                for bucket in spill.buckets():
+                    writer.write(thin_table(bucket, params))
+            finally:
+                spill.close()
+    ctx.wrote(out, writer.count)
+    log.info("%s: %d of %d points kept (%d buckets)", source, writer.count, total, k)
+
+
+register_task(Task(
+    name="thin",
+    summary="Reduce point density: one point per cell, the lowest, the median or the one nearest the centre "
+            "(manual: Reduce Point Density).",
+    params=ThinParams,
+    run_one=thin_one,
+))
