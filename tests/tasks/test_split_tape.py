@@ -1,0 +1,77 @@
+"""split-tape (manual task 1): a new strip where GPS time jumps by more than the interval."""
+
+import numpy as np
+import pytest
+
+from aldpat.tasks import get_task
+from aldpat.tasks.split_tape import strip_starts
+from tests.tasks.prep_data import tape_rows, write_tape
+
+# strips of 40, 25 and 30 shots: gaps of 100 s and 61 s; a 60 s pause inside the second strip
+TIMES = np.concatenate([
+    1000 + 0.5 * np.arange(40),
+    1119.5 + 100 + 0.5 * np.arange(10),
+    1219.5 + 4.5 + 60 + 0.5 * np.arange(15),
+])
+TIMES = np.concatenate([TIMES, TIMES[-1] + 61 + 0.5 * np.arange(30)])
+
+
+def test_strip_starts_by_hand():
+    t = np.array([0.0, 1.0, 62.0, 63.0, 123.0])
+    assert strip_starts(t, None, 60.0).tolist() == [2]  # 61 s > 60; 60 s is not more than 60
+    assert strip_starts(np.array([200.0, 201.0]), 123.0, 60.0).tolist() == [0]
+    assert strip_starts(np.array([150.0, 151.0]), 123.0, 60.0).tolist() == []
+
+
+@pytest.mark.parametrize("order", ["last-first", "first-last"])
+def test_split_into_strips_records_unchanged(tmp_path, order):
+    rows = tape_rows(TIMES)
+    tape = write_tape(tmp_path / "tape.txt", rows, order)
+    report = get_task("split-tape")([tape], interval=60.0, order=order, odir=str(tmp_path / "out"))
+    assert report.exit_code == 0, report.results[0].error
+    names = [p.split("/")[-1] for p in (w.path for w in report.outputs)]
+    assert names == ["tape_strip01.txt", "tape_strip02.txt", "tape_strip03.txt"]
+    on_disk = np.loadtxt(tape)
+    pieces = [np.loadtxt(tmp_path / "out" / n) for n in names]
+    assert [len(p) for p in pieces] == [40, 25, 30]
+    assert np.array_equal(np.concatenate(pieces), on_disk)  # same records, same order, same columns
+    assert (tmp_path / "out" / "tape_strip01.log").exists()
+
+
+def test_strips_split_across_chunks(tmp_path, monkeypatch):
+    from aldpat.io.text import TextReader
+
+    whole = TextReader.chunks
+    monkeypatch.setattr(TextReader, "chunks", lambda self, size=5: whole(self, 5))  # both cuts (40, 65) fall on chunk edges
+    tape = write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
+    report = get_task("split-tape")([tape], odir=str(tmp_path / "out"))
+    assert [w.count for w in report.outputs] == [40, 25, 30]
+    pieces = [np.loadtxt(w.path) for w in report.outputs]
+    assert np.array_equal(np.concatenate(pieces), np.loadtxt(tape))
+
+
+def test_a_bad_line_leaves_no_strip_files(tmp_path, runner, cli):
+    tape = write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
+    lines = tape.read_text().splitlines()
+    lines[70] = lines[70].replace(" ", " x", 1)
+    tape.write_text("\n".join(lines) + "\n")
+    out = runner.invoke(cli, ["split-tape", str(tape), "--odir", str(tmp_path / "out")])
+    assert out.exit_code == 1
+    assert "tape.txt:71" in out.output
+    assert list((tmp_path / "out").glob("*.txt")) == []  # neither strips nor temporaries
+
+
+def test_existing_strips_need_overwrite(tmp_path, runner, cli):
+    tape = write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
+    args = ["split-tape", str(tape), "--interval", "60"]
+    assert runner.invoke(cli, args).exit_code == 0
+    again = runner.invoke(cli, args)
+    assert again.exit_code == 1 and "exists" in again.output
+    assert runner.invoke(cli, args + ["--overwrite"]).exit_code == 0
+    assert len(np.loadtxt(tmp_path / "tape_strip01.txt")) == 40
+
+
+def test_las_output_is_refused_for_tapes(tmp_path):
+    tape = write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
+    report = get_task("split-tape")([tape], out_format="las")
+    assert report.exit_code == 1 and "9-column text" in report.results[0].error
