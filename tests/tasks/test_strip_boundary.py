@@ -1,0 +1,56 @@
+"""strip-boundary (manual task 4) on a real strip and on a hand-made one."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aldpat.core.polygon import points_in_polygons
+from aldpat.tasks import get_task
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+STRIP = DATA / "fsite5_strip.laz"
+
+
+def test_real_strip_ring_encloses_the_strip(tmp_path):
+    import laspy
+
+    report = get_task("strip-boundary")([STRIP], cell_width=3.0, cell_height=3.0, out_format="text",
+                                        odir=str(tmp_path))
+    assert report.exit_code == 0, report.results[0].error
+    out = tmp_path / "fsite5_strip_Bound.txt"
+    ring = np.loadtxt(out)
+    assert ring.shape[1] == 4  # x y z i
+    assert np.array_equal(ring[0], ring[-1])  # closed
+    las = laspy.read(STRIP)
+    x, y, z, i = (np.asarray(v, dtype=float) for v in (las.x, las.y, las.z, las.intensity))
+    real = set(zip(np.round(x, 2), np.round(y, 2), np.round(z, 2), i))
+    assert all(tuple(p) in real for p in np.round(ring, 2))  # real data points
+    inside = points_in_polygons(x, y, [[ring[:, :2]]])
+    assert inside.mean() >= 0.97
+
+
+def test_scan_option_and_grid_alignment(tmp_path):
+    # points at cell centres of a 3 x 2 block of 2 m cells, lower left corner at (1, 1):
+    # aligned cells are [0, 2) [2, 4) [4, 6) -> the block spans cells 0..3 in x
+    xs, ys = np.meshgrid([1.5, 2.5, 3.5, 4.5, 5.5], [1.5, 2.5, 3.5])
+    pts = np.column_stack([xs.ravel(), ys.ravel(), np.arange(15.0), np.ones(15)])
+    src = tmp_path / "s.txt"
+    np.savetxt(src, pts, fmt="%.2f %.2f %.2f %d")
+    assert get_task("strip-boundary")([src], cell_width=2.0, cell_height=2.0, scan="x").exit_code == 0
+    ring = np.loadtxt(tmp_path / "s_Bound.txt")
+    # rows [0,2) and [2,4): row 0 holds y 1.5, row 1 holds y 2.5 and 3.5; each end cell keeps its lowest z
+    # right ends going north: cell (2,0) -> (4.5,1.5) z 3; cell (2,1) -> (4.5,2.5) z 8
+    # left ends going south: cell (0,1) -> (1.5,2.5) z 5; cell (0,0) -> (1.5,1.5) z 0
+    assert ring[:, :3].tolist() == [[4.5, 1.5, 3], [4.5, 2.5, 8], [1.5, 2.5, 5], [1.5, 1.5, 0], [4.5, 1.5, 3]]
+    get_task("strip-boundary")([src], cell_width=2.0, cell_height=2.0, scan="x", origin=(1.0, 1.0),
+                               overwrite=True)
+    moved = np.loadtxt(tmp_path / "s_Bound.txt")
+    assert moved[:, :2].tolist() != ring[:, :2].tolist()  # --origin moves the cells
+
+
+def test_too_few_cells_is_reported(tmp_path):
+    src = tmp_path / "one.txt"
+    np.savetxt(src, [[1.0, 1.0, 1.0], [1.1, 1.1, 1.0]], fmt="%.2f")
+    report = get_task("strip-boundary")([src], cell_width=5.0, cell_height=5.0)
+    assert report.exit_code == 1 and "too few occupied cells" in report.results[0].error
