@@ -62,7 +62,7 @@ class LowestGrid:
     spec : GridSpec
     z : float64 array (rows, cols)
         elevation of the lowest point; NaN where the cell is empty.
-    lowest : int64 array (rows, cols)
+    lowest : int32 array (rows, cols) (int64 beyond 2**31 points)
         index (into the input arrays) of the lowest point; -1 where empty.
         Ties go to the smallest index, so the result does not depend on chance.
     cell_index : int64 array (n,)
@@ -133,7 +133,7 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     spec = grid_spec(x, y, cell, origin=origin)
     if len(x) == 0:
         shape = spec.shape
-        return LowestGrid(spec, np.full(shape, np.nan), np.full(shape, -1, np.int64), np.zeros(0, np.int64))
+        return LowestGrid(spec, np.full(shape, np.nan), np.full(shape, -1, np.int32), np.zeros(0, np.int64))
     row, col = cell_indices(x, y, spec, origin=origin)
     flat = row
     flat *= spec.cols
@@ -142,7 +142,8 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     zmin = np.full(spec.size, np.inf)
     np.minimum.at(zmin, flat, z)
     hit = np.flatnonzero(z == zmin[flat])
-    lowest = np.full(spec.size, -1, np.int64)
+    # int32 halves the largest per-cell array; MAX_CELLS keeps cell counts far below 2**31
+    lowest = np.full(spec.size, -1, np.int32 if len(x) < 2**31 else np.int64)
     # several points may share the minimum: assigning in reverse order leaves the smallest index
     lowest[flat[hit[::-1]]] = hit[::-1]
     zmin[lowest < 0] = np.nan
@@ -177,4 +178,9 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None) -> np.ndarray:
     if not empty.any() or empty.all():
         return z.copy()
     idx = ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
-    return z[tuple(idx)]
+    # one flat gather is about twice as fast as indexing with the two index planes
+    flat = idx[0].astype(np.int64)
+    flat *= z.shape[1]
+    flat += idx[1]
+    del idx
+    return z.ravel()[flat]

@@ -141,9 +141,6 @@ class FilterResult:
         the axis-aligned lowest-point grid (``grid.cell_index`` is every point's cell).
     marks : int32 (rows, cols)
         mark matrix on that grid: the lowest point's mark, ``MARK_INTERPOLATED`` where empty.
-    surface : float64 (rows, cols)
-        final ground surface: ground cells' lowest elevations, other cells filled from the
-        nearest ground cell (NaN everywhere if nothing is ground).
     angles : rotation angles (degrees) the data were filtered at.
     """
 
@@ -151,7 +148,6 @@ class FilterResult:
     is_ground: np.ndarray
     grid: LowestGrid
     marks: np.ndarray
-    surface: np.ndarray
     angles: tuple[float, ...] = (0.0,)
     algorithm: str = ""
     params: object = None
@@ -163,6 +159,12 @@ class FilterResult:
     @property
     def count(self) -> int:
         return len(self.is_ground)
+
+    @property
+    def surface(self) -> np.ndarray:
+        """Final ground surface: ground cells' lowest elevations, every other cell filled from
+        the nearest ground cell (all NaN when nothing is ground). Computed on demand."""
+        return ground_surface(self.grid.z, (self.marks == MARK_GROUND) & ~self.grid.empty)
 
     def center(self) -> CenterPoints:
         """ALDPAT's ``center`` data mode: the lowest point of each cell moved to the centre."""
@@ -187,55 +189,67 @@ def ground_surface(z: np.ndarray, ground: np.ndarray) -> np.ndarray:
     return fill_nearest(np.where(ground, z, np.nan), ~ground)
 
 
-def _bilinear(surface: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Surface (values at cell centres) at points x, y; clamped at the border."""
+def _ground_height(flat_z: np.ndarray, ground: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray
+                   ) -> np.ndarray:
+    """Ground surface at points x, y: bilinear between the centres of the four cells around
+    each point, over those that are ground, weights renormalised.
+
+    ``flat_z`` holds the cells' lowest elevations, ``ground`` flags ground cells (both flat).
+    NaN where none of the four is ground: such a point sits in a cell whose lowest point was
+    removed, amid removed or empty cells, so it cannot be ground either. Local by design -- a
+    nearest-ground search over the whole grid would cost a distance transform per run.
+    """
     fc = (x - spec.x0) / spec.cell - 0.5
     fr = (y - spec.y0) / spec.cell - 0.5
-    np.clip(fc, 0.0, spec.cols - 1.0, out=fc)
-    np.clip(fr, 0.0, spec.rows - 1.0, out=fr)
+    np.clip(fc, 0.0, max(spec.cols - 1.0, 0.0), out=fc)
+    np.clip(fr, 0.0, max(spec.rows - 1.0, 0.0), out=fr)
     c0 = np.minimum(fc.astype(np.int64), max(spec.cols - 2, 0))
     r0 = np.minimum(fr.astype(np.int64), max(spec.rows - 2, 0))
-    c1 = np.minimum(c0 + 1, spec.cols - 1)
-    r1 = np.minimum(r0 + 1, spec.rows - 1)
     tc = fc - c0
     tr = fr - r0
-    s = surface
-    bottom = s[r0, c0] * (1 - tc) + s[r0, c1] * tc
-    top = s[r1, c0] * (1 - tc) + s[r1, c1] * tc
-    return bottom * (1 - tr) + top * tr
+    dc = (c0 + 1 < spec.cols).astype(np.int64)  # 0 on a one-column grid
+    dr = np.where(r0 + 1 < spec.rows, spec.cols, 0)
+    i00 = r0 * spec.cols + c0
+    num = np.zeros(len(x))
+    den = np.zeros(len(x))
+    for idx, w in ((i00, (1 - tr) * (1 - tc)), (i00 + dc, (1 - tr) * tc),
+                   (i00 + dr, tr * (1 - tc)), (i00 + dr + dc, tr * tc)):
+        w = np.where(ground[idx], w, 0.0)
+        den += w
+        w *= np.nan_to_num(flat_z[idx])  # empty cells are NaN but never ground (weight 0)
+        num += w
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return num / den
 
 
 def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
     """Point marks and classes from a cell mark matrix (issue 5 "Behaviour").
 
-    The lowest point of a cell takes the cell's mark; any other point is ground when it lies
-    no more than ``tolerance`` above the final ground surface, interpolated bilinearly between
-    cell centres so that a sloping cell does not push its upper points out of the ground.
-    Points exactly as low as the lowest one share its mark: which of them the grid kept is an
-    accident of input order, and the classes must not depend on it.
+    The lowest point of a cell takes the cell's mark. Points exactly as low share it: which of
+    them the grid kept is an accident of input order, and classes must not depend on it. Any
+    other point is ground when it lies no more than ``tolerance`` above the final ground
+    surface, interpolated bilinearly between ground cell centres so that a sloping cell does
+    not push its upper points out of the ground.
     """
     n = len(z)
     flat_marks = marks.ravel()
     flat_z = grid.z.ravel()
-    ground_cells = (marks == MARK_GROUND) & ~grid.empty
-    surface = ground_surface(grid.z, ground_cells)
+    ground = flat_marks == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
     point_marks = np.empty(n, np.int32)
     is_ground = np.empty(n, bool)
-    have_ground = bool(ground_cells.any())
     for a in range(0, n, _CHUNK):
         b = min(n, a + _CHUNK)
         ci = grid.cell_index[a:b]
         cm = flat_marks[ci]
-        if have_ground:
-            h = z[a:b] - _bilinear(surface, grid.spec, x[a:b], y[a:b])
-            ok = h <= tolerance
-        else:
-            ok = np.zeros(b - a, bool)
-        tied = z[a:b] == flat_z[ci]
-        ok[tied] = cm[tied] == MARK_GROUND
-        is_ground[a:b] = ok
-        point_marks[a:b] = np.where(ok, MARK_GROUND, np.where(tied, cm, np.maximum(cm, MARK_ABOVE_SURFACE)))
-    return point_marks, is_ground, surface
+        pm = cm.copy()
+        other = np.flatnonzero(z[a:b] != flat_z[ci])
+        if len(other):
+            h = z[a:b][other] - _ground_height(flat_z, ground, grid.spec, x[a:b][other], y[a:b][other])
+            ok = h <= tolerance  # NaN (no ground around) compares False
+            pm[other] = np.where(ok, MARK_GROUND, np.maximum(cm[other], MARK_ABOVE_SURFACE))
+        point_marks[a:b] = pm
+        is_ground[a:b] = pm == MARK_GROUND
+    return point_marks, is_ground
 
 
 def _run_grid(spec: FilterSpec, grid: LowestGrid, params) -> np.ndarray:
@@ -292,8 +306,7 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
     base = lowest_grid(x, y, z, params.cell, origin=origin)
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
-                            np.full(base.z.shape, MARK_INTERPOLATED, np.int32), np.full(base.z.shape, np.nan),
-                            angles, algorithm, params)
+                            np.full(base.z.shape, MARK_INTERPOLATED, np.int32), angles, algorithm, params)
     point_marks = None
     is_ground = None
     for angle in angles:
@@ -303,17 +316,17 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
             xr, yr = _rotate(x, y, angle)
             grid = lowest_grid(xr, yr, z, params.cell, origin=None)
         marks = _run_grid(spec, grid, params)
-        pm, ig, _ = _classify(grid, marks, xr, yr, z, params.ground_tolerance)
+        pm, ig = _classify(grid, marks, xr, yr, z, params.ground_tolerance)
         if point_marks is None:
             point_marks, is_ground = pm, ig
         else:
             is_ground &= ig
             np.maximum(point_marks, pm, out=point_marks)
         log.debug("%s at %g deg: %d of %d points ground", algorithm, angle, int(ig.sum()), len(ig))
+        del marks, pm, ig
 
-    # the mark matrix and ground surface reported are those of the axis-aligned grid
+    # the mark matrix reported is that of the axis-aligned grid
     real = ~base.empty
     base_marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
     base_marks[real] = point_marks[base.lowest[real]]
-    surface = ground_surface(base.z, (base_marks == MARK_GROUND) & real)
-    return FilterResult(point_marks, is_ground, base, base_marks, surface, angles, algorithm, params)
+    return FilterResult(point_marks, is_ground, base, base_marks, angles, algorithm, params)
