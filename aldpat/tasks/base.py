@@ -425,8 +425,12 @@ def run_task(task: Task, inputs: list[str | Path], layers: list[tuple[str, Mappi
         ctx = multiprocessing.get_context("spawn" if sys.platform == "darwin" else "fork")
         with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
             futures = [pool.submit(_execute, task.key, job, run, command) for job in jobs]
-            for fut in futures:  # in input order, so output and logs do not depend on -j
-                results.append(fut.result())
+            for job, fut in zip(jobs, futures):  # in input order, so output and logs do not depend on -j
+                try:
+                    results.append(fut.result())
+                except Exception as exc:  # a worker died (killed, out of memory): that job failed
+                    results.append(JobResult(inputs=job, error=f"{', '.join(job)[:200]}: worker process "
+                                                               f"failed: {type(exc).__name__}: {exc}"))
                 _report(results[-1], progress)
     return RunReport(task.key, results, input_errors)
 
