@@ -39,8 +39,8 @@ def estimate_points(reader) -> int:
     return int(size / (len(head) / lines)) + 1
 
 
-def bucket_count(points: int, per_bucket: int = BUCKET_POINTS) -> int:
-    return max(1, math.ceil(points / per_bucket))
+def bucket_count(points: int, per_bucket: int | None = None) -> int:
+    return max(1, math.ceil(points / (per_bucket or BUCKET_POINTS)))
 
 
 def bucket_of(i: np.ndarray, j: np.ndarray, k: int) -> np.ndarray:

@@ -1,0 +1,111 @@
+"""tile (manual task 7): cores, buffers, directions, tile_parameter.txt, no doubling on re-runs."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aldpat.tasks import get_task
+
+
+def make_strips(tmp_path: Path) -> list[Path]:
+    """Two overlapping strips on a 1 m lattice with unique z, so every point can be traced."""
+    rng = np.random.default_rng(5)
+    paths = []
+    for k, (x0, x1) in enumerate([(1000, 1250), (1150, 1420)]):
+        xs, ys = np.meshgrid(np.arange(x0, x1, 3.0) + 0.5, np.arange(2000, 2170, 3.0) + 0.5)
+        n = xs.size
+        pts = np.column_stack([xs.ravel(), ys.ravel(), k * 1e5 + np.arange(n) * 0.01, rng.integers(0, 255, n)])
+        path = tmp_path / f"strip{k + 1}_2.txt"
+        np.savetxt(path, pts, fmt="%.2f %.2f %.2f %d")
+        paths.append(path)
+    return paths
+
+
+def read_tiles(folder: Path) -> dict[str, np.ndarray]:
+    return {p.name: np.loadtxt(p, ndmin=2) for p in sorted(folder.glob("tile_*_*.txt"))}
+
+
+@pytest.mark.parametrize("direction", ["xy", "x", "y"])
+def test_every_point_in_one_core_and_the_buffers_it_falls_in(tmp_path, direction):
+    strips = make_strips(tmp_path)
+    out = tmp_path / "tiles"
+    report = get_task("tile")(strips, width=100, height=50, buffer=10, direction=direction,
+                              bounds=(1000, 2000, 1420, 2170), odir=str(out))
+    assert report.exit_code == 0, report.results[0].error
+    tiles = read_tiles(out)
+    params = [ln.split() for ln in (out / "tile_parameter.txt").read_text().splitlines()]
+    assert len(params) == len(tiles)
+    everything = np.concatenate([np.loadtxt(p) for p in strips])
+    core_hits = np.zeros(len(everything), dtype=int)
+    key = {z: k for k, z in enumerate(everything[:, 2].round(2))}
+    for row in params:
+        path, (x0, x1, y0, y1, w, h, b) = Path(row[0]), map(float, row[1:])
+        assert path.parent == out.resolve() and path.name == f"tile_{x0:g}_{y0:g}.txt"  # lower-left corner
+        assert b == 10 and w == x1 - x0 and h == y1 - y0
+        if direction == "xy":
+            assert (w, h) == (100, 50)
+        if direction == "x":
+            assert (y0, y1) == (2000, 2170) and w == 100
+        if direction == "y":
+            assert (x0, x1) == (1000, 1420) and h == 50
+        data = tiles[path.name]
+        # buffered box: exactly the points of all strips inside it
+        expected = everything[(everything[:, 0] >= x0 - b) & (everything[:, 0] < x1 + b)
+                              & (everything[:, 1] >= y0 - b) & (everything[:, 1] < y1 + b)]
+        assert sorted(data[:, 2].round(2)) == sorted(expected[:, 2].round(2))
+        core = data[(data[:, 0] >= x0) & (data[:, 0] < x1) & (data[:, 1] >= y0) & (data[:, 1] < y1)]
+        for z in core[:, 2].round(2):
+            core_hits[key[z]] += 1
+    assert (core_hits == 1).all()  # each input point in exactly one tile core
+
+
+def test_rerun_does_not_double_points(tmp_path):
+    strips = make_strips(tmp_path)
+    out = tmp_path / "tiles"
+    kwargs = dict(width=200, height=200, buffer=5, bounds=(1000, 2000, 1400, 2200), odir=str(out))
+    assert get_task("tile")(strips, **kwargs).exit_code == 0
+    first = {k: len(v) for k, v in read_tiles(out).items()}
+    again = get_task("tile")(strips, **kwargs)
+    assert again.exit_code == 1 and "exists" in again.results[0].error
+    assert {k: len(v) for k, v in read_tiles(out).items()} == first  # untouched
+    assert list(out.glob("*aldpat-tmp*")) == []
+    assert get_task("tile")(strips, overwrite=True, **kwargs).exit_code == 0
+    assert {k: len(v) for k, v in read_tiles(out).items()} == first
+    # --append is ALDPAT's behaviour, on request: the points are added again
+    assert get_task("tile")(strips[:1], append=True, **kwargs).exit_code == 0
+    once = {k: len(v) for k, v in read_tiles(out).items()}
+    strip1 = np.loadtxt(strips[0])
+    added = sum(once.values()) - sum(first.values())
+    assert added >= len(strip1)
+    assert len((out / "tile_parameter.txt").read_text().splitlines()) == len(first)
+
+
+def test_default_bounds_are_the_data_extent_and_fields_xyz(tmp_path):
+    strips = make_strips(tmp_path)
+    report = get_task("tile")(strips, width=1000, height=1000, fields="xyz", odir=str(tmp_path / "t"))
+    assert report.exit_code == 0
+    tiles = read_tiles(tmp_path / "t")
+    assert list(tiles) == ["tile_1000.5_2000.5.txt"]
+    data = tiles["tile_1000.5_2000.5.txt"]
+    assert data.shape[1] == 3
+    assert len(data) == sum(len(np.loadtxt(p)) for p in strips)
+
+
+def test_las_tiles_keep_attributes(tmp_path):
+    import laspy
+
+    src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
+    report = get_task("tile")([src], width=300, height=300, bounds=(494200, 5420300, 494800, 5420600),
+                              odir=str(tmp_path))
+    assert report.exit_code == 0, report.results[0].error
+    tiles = sorted(tmp_path.glob("tile_*_*.laz"))
+    assert [p.name for p in tiles] == ["tile_494200_5420300.laz", "tile_494500_5420300.laz"]
+    total = 0
+    for p in tiles:
+        las = laspy.read(p)
+        total += len(las.points)
+        assert las.header.parse_crs().to_epsg() == 32632
+        assert np.all(np.asarray(las.return_number) == 1)
+    assert total == laspy.read(src).header.point_count
+    assert get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path)).exit_code == 1
