@@ -1,0 +1,37 @@
+"""The demo worksheet's data-preparation chain runs end to end, from any folder."""
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import shapefile as pyshp
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_demo_chain_from_another_folder(tmp_path, runner, cli, monkeypatch):
+    work = tmp_path / "jobs"
+    shutil.copytree(REPO / "jobs" / "data", work / "data")
+    shutil.copy(REPO / "jobs" / "demo.toml", work / "demo.toml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    out = runner.invoke(cli, ["run", str(work / "demo.toml")])
+    assert out.exit_code == 0, out.output
+    demo = work / "demo-out"
+    strips = sorted((demo / "strips").glob("*_strip*.txt"))
+    assert [len(np.loadtxt(p)) for p in strips] == [2292, 2564, 2588]  # the three synthesised strips
+    tape = np.loadtxt(work / "data" / "fsite5_tape.txt")
+    assert np.array_equal(np.concatenate([np.loadtxt(p) for p in strips]), tape)
+    with pyshp.Reader(str(demo / "strips.shp")) as r:
+        assert len(r) == 3 and [rec[0] for rec in r.records()] == [1, 2, 3]
+    assert pyproj.CRS.from_wkt((demo / "strips.prj").read_text()).to_epsg() == 32632
+    rows = (demo / "tiles" / "tile_parameter.txt").read_text().splitlines()
+    assert len(rows) == 6 and all(len(r.split()) == 8 for r in rows)
+    assert len(list((demo / "thin").glob("*_thin.txt"))) == 6
+    assert len(list((demo / "poly").glob("*_poly.txt"))) == 3
+    assert list(elsewhere.iterdir()) == []  # nothing written to the current folder
+    again = runner.invoke(cli, ["run", str(work / "demo.toml")])  # overwrite = true in [settings]
+    assert again.exit_code == 0, again.output
+    assert len((demo / "tiles" / "tile_parameter.txt").read_text().splitlines()) == 6
