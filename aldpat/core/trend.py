@@ -117,3 +117,107 @@ def threshold_array(
     np.maximum(thresh, cluster_threshold, out=thresh)
     np.minimum(thresh, cluster_threshold * k / max_divisor, out=thresh)
     return thresh
+
+
+def candidate_thresholds(
+    z: np.ndarray,
+    unfiltered: np.ndarray,
+    positions: np.ndarray,
+    half_window: int,
+    cluster_threshold: float,
+    *,
+    max_divisor: float = 4.0,
+    use_cluster_diff: bool = False,
+    chunk: int = 1 << 17,
+) -> np.ndarray:
+    """:func:`threshold_array` for a few cells only (flat ``positions`` into ``z``).
+
+    Same clusters (``MakeCluster``), minima (``MakeTrendArray``) and rules (``CalThreshArray``)
+    as the dense version, computed on the sequence of unfiltered cells in row-major order:
+    a cell's cluster is that of the last unfiltered cell at or before it in its row, and the
+    minima of a window are a contiguous stretch of the sorted minima positions, found by
+    binary search. The filter only needs thresholds where the height above the opening lies
+    between the smallest and the largest threshold possible, a small share of the cells.
+    """
+    rows, n = z.shape
+    k = int(half_window)
+    ct = float(cluster_threshold)
+    positions = np.asarray(positions, dtype=np.int64)
+    out = np.empty(positions.size)
+    if positions.size == 0:
+        return out
+    zf = z.ravel()
+    upos = np.flatnonzero(unfiltered.ravel())
+    if upos.size == 0:
+        out[:] = min(ct, ct * k / max_divisor)
+        return out
+    uz = zf[upos]
+    urow = upos // n
+    same_prev = np.zeros(upos.size, dtype=bool)
+    same_prev[1:] = urow[1:] == urow[:-1]
+    dz = np.zeros(upos.size)
+    dz[1:] = uz[1:] - uz[:-1]
+    gap = np.ones(upos.size, dtype=np.int64)
+    gap[1:] = upos[1:] - upos[:-1]
+    breaks = same_prev & (np.abs(dz) > ct * gap)
+    start = ~same_prev | breaks
+    cluster = np.cumsum(start) - 1
+    jump = np.full(int(cluster[-1]) + 2, np.nan)  # one spare: "next cluster" of the last
+    jump[cluster[breaks]] = dz[breaks]
+    # loose local minima of the unfiltered sequence (MakeTrendArray)
+    same_next = np.zeros(upos.size, dtype=bool)
+    same_next[:-1] = same_prev[1:]
+    left = np.where(same_prev, np.roll(uz, 1), np.nan)
+    right = np.where(same_next, np.roll(uz, -1), np.nan)
+    hl, hr = same_prev, same_next
+    with np.errstate(invalid="ignore"):
+        both = ((uz < left) & (uz <= right)) | ((uz <= left) & (uz < right))
+        is_min = (hl & hr & both) | (hl & ~hr & (uz < left)) | (hr & ~hl & (uz < right))
+    if n > _COL_MASK:
+        raise ValueError(f"row of {n} cells is longer than the trend analysis supports")
+    mpos = upos[is_min]
+    mkey = (np.rint(uz[is_min] * _Z_SCALE).astype(np.int64) << _COL_BITS) | (mpos % n)
+
+    def cluster_at(q, row):
+        e = np.searchsorted(upos, q, side="right") - 1
+        ok = (e >= 0) & (urow[np.maximum(e, 0)] == row)
+        return np.where(ok, cluster[np.maximum(e, 0)], -1)
+
+    for s in range(0, positions.size, chunk):
+        p = positions[s:s + chunk]
+        row, col = p // n, p % n
+        base = row * n
+        lq = base + np.maximum(col - k, 0)
+        rq = base + np.minimum(col + k, n - 1)
+        ci = cluster_at(p, row)
+        same = (ci == cluster_at(lq, row)) & (ci == cluster_at(rq, row))
+        thresh = np.full(p.size, ct)
+        if mpos.size:
+            row_first = np.searchsorted(mpos, base, side="left")
+            row_last = np.searchsorted(mpos, base + n, side="left") - 1
+            a = np.maximum(np.searchsorted(mpos, lq, side="right") - 1, row_first)
+            b = np.minimum(np.searchsorted(mpos, rq, side="left"), row_last)
+            found = a <= b
+            width = int((b - a + 1)[found].max()) if found.any() else 0
+            if width:
+                idx = a[:, None] + np.arange(width)[None, :]
+                valid = idx <= b[:, None]
+                keys = mkey[np.minimum(idx, mpos.size - 1)]
+                low = np.where(valid, keys, _BIG).min(axis=1)
+                high = np.where(valid, keys, -_BIG).max(axis=1)
+                zlow, clow = _decode(np.where(found, low, 0))
+                zhigh, chigh = _decode(np.where(found, high, 0))
+                rise = zhigh - zlow
+                lift = rise / np.maximum(np.abs(chigh - clow), 1) * k
+                if use_cluster_diff:
+                    has = ci >= 0
+                    cc = np.maximum(ci, 0)
+                    pre = np.where(has, np.abs(jump[cc]), np.nan)
+                    post = np.where(has, np.abs(jump[cc + 1]), np.nan)
+                    cdiff = np.fmin(pre, post)
+                    lift = np.minimum(lift, np.where(np.isnan(cdiff), np.inf, cdiff))
+                thresh = np.where(found, np.where(same, rise, lift), ct)
+        np.maximum(thresh, ct, out=thresh)
+        np.minimum(thresh, ct * k / max_divisor, out=thresh)
+        out[s:s + chunk] = thresh
+    return out

@@ -22,8 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
-from aldpat.core.clusters import make_clusters
-from aldpat.core.trend import local_minima, threshold_array
+from aldpat.core.trend import candidate_thresholds
 from aldpat.errors import ParamError
 from aldpat.filters.base import GroundParams, register_filter
 from aldpat.params import param
@@ -117,15 +116,22 @@ def _adaptive_block(z, windows, cts, init_bin, divisor, use_cluster_diff) -> np.
     mark = np.zeros(z.shape, np.int32)
     for k, ct in zip(windows, cts):
         unfiltered = mark == 0
-        if k >= init_bin:
-            clusters = make_clusters(zc, unfiltered, ct)
-            minima = local_minima(zc, unfiltered)
-            thresh = threshold_array(zc, clusters, minima, k, ct, max_divisor=divisor,
-                                     use_cluster_diff=use_cluster_diff)
-        else:
-            thresh = ct
         zo = morphology.opening(zc, k, window="line", axis=1)
-        removed = unfiltered & (zc - zo > thresh)
+        diff = zc - zo
+        if k >= init_bin:
+            # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines
+            # 16-20): beyond that band the answer is known without the analysis, so clusters
+            # and minima are evaluated only for the cells inside it.
+            cap = ct * k / divisor
+            removed = unfiltered & (diff > cap)
+            band = unfiltered & (diff > min(ct, cap)) & (diff <= cap)
+            pos = np.flatnonzero(band)
+            if pos.size:
+                thresh = candidate_thresholds(zc, unfiltered, pos, k, ct, max_divisor=divisor,
+                                              use_cluster_diff=use_cluster_diff)
+                removed.ravel()[pos[diff.ravel()[pos] > thresh]] = True
+        else:
+            removed = unfiltered & (diff > ct)
         mark[removed] = k
         zc = zo
     return mark

@@ -86,3 +86,22 @@ def test_floor_and_cap():
     c = make_clusters(flat, np.ones_like(flat, bool), 0.5)
     t = threshold_array(flat, c, local_minima(flat, np.ones_like(flat, bool)), 8, 0.5)
     np.testing.assert_allclose(t, 0.5)  # no minima on a flat row: the cluster threshold
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_candidate_thresholds_equal_the_dense_ones(seed):
+    from aldpat.core.trend import candidate_thresholds
+
+    rng = np.random.default_rng(seed)
+    rows, n = int(rng.integers(1, 25)), int(rng.integers(2, 80))
+    z = np.cumsum(rng.normal(0, 0.8, (rows, n)), axis=1)
+    z[:, n // 3: n // 2] += 5.0
+    unf = rng.random((rows, n)) > rng.uniform(0.0, 0.9)
+    for k in (1, 4, 8, 20):
+        for ct in (0.5, 2.0):
+            for ucd in (False, True):
+                dense = threshold_array(z, make_clusters(z, unf, ct), local_minima(z, unf), k, ct,
+                                        use_cluster_diff=ucd)
+                pos = rng.permutation(z.size)[: max(1, z.size // 2)]
+                sparse = candidate_thresholds(z, unf, pos, k, ct, use_cluster_diff=ucd)
+                np.testing.assert_allclose(sparse, dense.ravel()[pos])
