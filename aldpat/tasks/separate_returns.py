@@ -3,7 +3,8 @@
 ALDPAT manual (003_*), Task 2 "Separate First and Last Return Measurements from a 9 Column
 Strip File", with its parameters UTM Zone, Stop Gap and Fields (see :mod:`aldpat.core.returns`
 for the rules). The first-return file gets the suffix ``_1``, the last-return file ``_2``
-("second stop files (identified by the suffix '_2')"). Streamed chunk by chunk.
+("second stop files (identified by the suffix '_2')"), which the manual recommends moving "into
+the appropriate directory": ``--last-odir`` writes them there directly. Streamed chunk by chunk.
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ class SeparateReturnsParams(FieldsOption, OrderOption):
                           "zone number to strip", manual="UTM Zone", metavar="auto|none|N")
     stop_gap: float = param(5.0, "where first minus last return elevation is below this, the last return is "
                             "replaced by the first", unit="m", manual="Stop Gap")
+    last_odir: str | None = param(None, "folder for the last-return (_2) files, which the manual recommends "
+                                  "keeping apart (default: with the first-return files)", path=True, metavar="DIR")
 
     def __post_init__(self) -> None:
         parse_zone(self.utm_zone)
@@ -87,6 +90,8 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
     suffix = ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_"
     first_out = ctx.output_path(source, f"{suffix}1", reader=reader, use_suffix_option=False)
     last_out = ctx.output_path(source, f"{suffix}2", reader=reader, use_suffix_option=False)
+    if params.last_odir:
+        last_out = Path(params.last_odir) / last_out.name
     names = ("x", "y", "z") + (("intensity",) if params.fields == "xyzi" else ())
     dec = reader.decimals
     decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": dec.get("z1"), "intensity": 0}

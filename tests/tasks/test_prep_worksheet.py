@@ -35,3 +35,26 @@ def test_demo_chain_from_another_folder(tmp_path, runner, cli, monkeypatch):
     again = runner.invoke(cli, ["run", str(work / "demo.toml")])  # overwrite = true in [settings]
     assert again.exit_code == 0, again.output
     assert len((demo / "tiles" / "tile_parameter.txt").read_text().splitlines()) == 6
+
+
+def test_broward_worksheet_runs_once_tapes_are_dropped_in(tmp_path, runner, cli):
+    from tests.tasks.prep_data import tape_rows, write_tape
+
+    shutil.copy(REPO / "jobs" / "broward.toml", tmp_path / "broward.toml")
+    before = runner.invoke(cli, ["run", str(tmp_path / "broward.toml"), "--dry-run"])
+    assert before.exit_code == 2 and "tapes" in before.output  # no tapes yet: said before anything runs
+    (tmp_path / "tapes").mkdir()
+    times = np.concatenate([100 + 0.1 * np.arange(300), 500 + 0.1 * np.arange(300)])
+    rows = tape_rows(times, seed=2)
+    rows[:, [1, 5]] += 67000 + 17_000_000  # Broward, with the zone 17 prefix in x and y
+    rows[:, [2, 6]] += 89000 + 170_000_000
+    write_tape(tmp_path / "tapes" / "tape01.txt", rows)
+    out = runner.invoke(cli, ["run", str(tmp_path / "broward.toml")])
+    assert out.exit_code == 0, out.output
+    assert len(list((tmp_path / "strips").glob("tape01_strip*.txt"))) == 2
+    assert len(list((tmp_path / "returns" / "last").glob("*_2.txt"))) == 2
+    last = np.loadtxt(tmp_path / "returns" / "last" / "tape01_strip01_2.txt")
+    assert 567000 <= last[:, 0].min() and last[:, 1].max() < 2889200  # zone stripped
+    assert [p.name for p in (tmp_path / "tiles").glob("tile_*_*.txt")] == ["tile_566000_2888000.txt"]
+    assert (tmp_path / "boundary" / "broward_strips.prj").exists()
+    assert len(list((tmp_path / "thin").glob("*_thin.txt"))) == 1

@@ -85,3 +85,11 @@ def test_a_nine_column_check(tmp_path):
     np.savetxt(bad, ROWS[:, :5], fmt=" ".join(FMT.split()[:5]))
     report = get_task("separate-returns")([bad])
     assert report.exit_code == 1 and "expected 9 columns" in report.results[0].error
+
+
+def test_last_returns_in_their_own_folder(tmp_path):
+    tape = write_tape(tmp_path / "s.txt", ROWS)
+    report = get_task("separate-returns")([tape], odir=str(tmp_path / "first"), last_odir=str(tmp_path / "last"))
+    assert report.exit_code == 0, report.results[0].error
+    assert (tmp_path / "first" / "s_1.txt").exists() and (tmp_path / "last" / "s_2.txt").exists()
+    assert not (tmp_path / "first" / "s_2.txt").exists()
