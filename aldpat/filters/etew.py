@@ -38,7 +38,7 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class ETEWParams(GroundParams):
-    slope: float = param(0.3, "terrain slope: a point more than slope x window width above the window's "
+    slope: float = param(0.4, "terrain slope: a point more than slope x window width above the window's "
                               "lowest point is removed", unit="m/m", gt=0, manual="Slope")
     loop_times: int = param(5, "number of iterations; the window doubles each time", ge=1, le=30,
                             manual="Loop Times")

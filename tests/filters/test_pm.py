@@ -9,11 +9,13 @@ from aldpat.filters.pm import PMParams, pm, progressive_open, rotation_angles, t
 
 
 def test_power_window_series_and_min_window():
-    assert window_series(PMParams()) == (1, 2, 4, 8, 16)
-    assert window_series(PMParams(window_base=3.0, window_series_length=3)) == (1, 3, 9)
+    # 2 ** (0, 0.5, 1 ... 4) = 1, 1.41, 2, 2.83, 4, 5.66, 8, 11.3, 16: rounded, repeats dropped
+    assert window_series(PMParams()) == (1, 2, 3, 4, 6, 8, 11, 16)
+    assert window_series(PMParams(power_increment=1.0, window_series_length=5)) == (1, 2, 4, 8, 16)
+    assert window_series(PMParams(window_base=3.0, power_increment=1.0, window_series_length=3)) == (1, 3, 9)
     # base 1.5: 1, 1.5, 2.25, 3.375 -> 1, 2, 2, 3: repeats dropped
-    assert window_series(PMParams(window_base=1.5, window_series_length=4)) == (1, 2, 3)
-    assert window_series(PMParams(min_window=3)) == (4, 8, 16)
+    assert window_series(PMParams(window_base=1.5, power_increment=1.0, window_series_length=4)) == (1, 2, 3)
+    assert window_series(PMParams(min_window=3)) == (3, 4, 6, 8, 11, 16)
     assert window_series(PMParams(window_series=(2, 5, 9))) == (2, 5, 9)
     with pytest.raises(ParamError, match="ascending"):
         window_series(PMParams(window_series=(4, 2)))
