@@ -1,13 +1,17 @@
 """``aldpat filter ALGO``: outputs, result modes, marks, data modes, LAS attributes (SPEC §4)."""
 
 import json
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.pm import PMParams
-from aldpat.tasks.base import get_task
+from aldpat.tasks.base import get_task, resolve_run
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("name", sorted(FILTERS))
@@ -120,3 +124,17 @@ def test_bad_input_is_one_line_and_others_go_on(runner, cli, samp24, tmp_path):
     assert out.exit_code == 1
     assert "bad.txt" in out.output and "Traceback" not in out.output
     assert (tmp_path / "samp24_pm.txt").exists()
+
+
+PARAM_FILES = sorted((REPO / "jobs" / "params").glob("*.toml"))
+
+
+@pytest.mark.parametrize("path", PARAM_FILES, ids=[p.name for p in PARAM_FILES])
+def test_shipped_parameter_files_are_valid(path):
+    """Every jobs/params/<algo>[-variant].toml names only its filter's keys, within bounds."""
+    algo = max((a for a in FILTERS if path.stem == a or path.stem.startswith(a + "-")), key=len)
+    task = get_task("filter", algo)
+    data = tomllib.loads(path.read_text())
+    run = resolve_run(task, [("params file", data)])
+    for key in data:
+        assert run.params.sources.get(key) == "params file"
