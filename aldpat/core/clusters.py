@@ -87,7 +87,8 @@ class Clusters:
         return np.where(np.isnan(out), np.inf, out)
 
 
-def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float) -> Clusters:
+def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float,
+                  gap_threshold: float | None = None) -> Clusters:
     """Split the unfiltered cells of every row into clusters (``MakeCluster``, §5.2.1).
 
     Consecutive unfiltered cells stay in one cluster while the slope between them,
@@ -95,11 +96,16 @@ def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float) -> Cl
     rule covers adjacent cells (gap 1: a height difference) and cells separated by filtered
     ones, as line 8 of the algorithm prescribes.
 
+    The dissertation notes that "different thresholds could be given for the two scenarios if
+    needed": ``gap_threshold`` is the slope allowed across filtered cells (default
+    ``threshold``).
+
     Parameters
     ----------
     z : (rows, n) float array, current surface.
     unfiltered : (rows, n) bool array, cells still marked ground (0 or -7777 in Table 5-1).
     threshold : cluster threshold, height per cell.
+    gap_threshold : slope threshold between unfiltered cells separated by filtered ones.
     """
     rows, n = z.shape
     prev = prev_index(unfiltered, strict=True)
@@ -107,7 +113,10 @@ def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float) -> Cl
     gap = np.arange(n, dtype=np.int64)[None, :] - prev
     jump = z - zprev  # preDiff of line 7
     with np.errstate(invalid="ignore"):
-        breaks = unfiltered & (prev >= 0) & (np.abs(jump) > threshold * gap)
+        limit = threshold * gap
+        if gap_threshold is not None and gap_threshold != threshold:
+            limit = np.where(gap > 1, gap_threshold * gap, limit)
+        breaks = unfiltered & (prev >= 0) & (np.abs(jump) > limit)
     first = unfiltered & (prev < 0)
     start = breaks | first
     ids = np.cumsum(start, axis=1, dtype=np.int64)
@@ -117,7 +126,7 @@ def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float) -> Cl
     return Clusters(ids=ids, pre_diff=pre, post_diff=post)
 
 
-def recover_runs(removed: np.ndarray, ids: np.ndarray) -> np.ndarray:
+def recover_runs(removed: np.ndarray, ids: np.ndarray, candidates: np.ndarray | None = None) -> np.ndarray:
     """Cells of removed runs that fall completely inside one cluster (``UpdateMark``, §5.2.3).
 
     ``removed`` marks the cells removed at the current window. Each run of consecutive removed
@@ -125,6 +134,11 @@ def recover_runs(removed: np.ndarray, ids: np.ndarray) -> np.ndarray:
     it (those that exist) belong to the same cluster: the run is then continuous with the
     candidate ground surface on both sides (a hilltop cut off by a large window, Fig. 5-6),
     not a separate surface such as a roof, whose cells form a cluster of their own.
+
+    With ``candidates`` (the cells that were unfiltered before the current window) the cells
+    just before and after the run must also be candidates themselves: a run whose side is a
+    gap of cells removed earlier (trees along a wall) joins its cluster only through the
+    slope across that gap, which a roof next to a row of trees passes as easily as terrain.
 
     Returns the bool mask of cells to reset to ground.
     """
@@ -150,6 +164,10 @@ def recover_runs(removed: np.ndarray, ids: np.ndarray) -> np.ndarray:
     left_id = np.where(has_left, idflat[np.maximum(first_pos - 1, 0)], lo)
     right_id = np.where(has_right, idflat[np.minimum(last_pos + 1, idflat.size - 1)], lo)
     ok &= (left_id == lo) & (right_id == lo)
+    if candidates is not None:
+        cand = candidates.ravel()
+        ok &= ~has_left | cand[np.maximum(first_pos - 1, 0)]
+        ok &= ~has_right | cand[np.minimum(last_pos + 1, idflat.size - 1)]
     keep = np.repeat(ok, ends - starts + 1)
     out.ravel()[pos[keep]] = True
     return out

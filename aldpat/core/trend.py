@@ -128,6 +128,7 @@ def candidate_thresholds(
     *,
     max_divisor: float = 4.0,
     use_cluster_diff: bool = False,
+    break_slope: float | None = None,
     chunk: int = 1 << 17,
 ) -> np.ndarray:
     """:func:`threshold_array` for a few cells only (flat ``positions`` into ``z``).
@@ -151,28 +152,47 @@ def candidate_thresholds(
     if upos.size == 0:
         out[:] = min(ct, ct * k / max_divisor)
         return out
+    m = upos.size
     uz = zf[upos]
-    urow = upos // n
-    same_prev = np.zeros(upos.size, dtype=bool)
-    same_prev[1:] = urow[1:] == urow[:-1]
-    dz = np.zeros(upos.size)
-    dz[1:] = uz[1:] - uz[:-1]
-    gap = np.ones(upos.size, dtype=np.int64)
-    gap[1:] = upos[1:] - upos[:-1]
-    breaks = same_prev & (np.abs(dz) > ct * gap)
-    start = ~same_prev | breaks
-    cluster = np.cumsum(start) - 1
+    # the first unfiltered cell of every row starts a new sequence (no division per cell)
+    row_heads = np.searchsorted(upos, np.arange(rows, dtype=np.int64) * n)
+    same_prev = np.ones(m, dtype=bool)
+    same_prev[row_heads[row_heads < m]] = False
+    same_prev[0] = False
+    dz = np.empty(m)
+    dz[0] = 0.0
+    np.subtract(uz[1:], uz[:-1], out=dz[1:])
+    gap = np.empty(m)
+    gap[0] = 1.0
+    np.subtract(upos[1:], upos[:-1], out=gap[1:], casting="unsafe")
+    gap *= ct if break_slope is None else float(break_slope)
+    breaks = same_prev & (np.abs(dz) > gap)
+    del gap
+    start = ~same_prev
+    start |= breaks
+    cluster = np.cumsum(start)
+    cluster -= 1
+    del start
     jump = np.full(int(cluster[-1]) + 2, np.nan)  # one spare: "next cluster" of the last
     jump[cluster[breaks]] = dz[breaks]
-    # loose local minima of the unfiltered sequence (MakeTrendArray)
-    same_next = np.zeros(upos.size, dtype=bool)
+    del breaks
+    # loose local minima of the unfiltered sequence (MakeTrendArray): dz[i] = z_i - z_{i-1}
+    same_next = np.empty(m, dtype=bool)
     same_next[:-1] = same_prev[1:]
-    left = np.where(same_prev, np.roll(uz, 1), np.nan)
-    right = np.where(same_next, np.roll(uz, -1), np.nan)
-    hl, hr = same_prev, same_next
-    with np.errstate(invalid="ignore"):
-        both = ((uz < left) & (uz <= right)) | ((uz <= left) & (uz < right))
-        is_min = (hl & hr & both) | (hl & ~hr & (uz < left)) | (hr & ~hl & (uz < right))
+    same_next[-1] = False
+    down = np.zeros(m, dtype=bool)   # lower than the left neighbour
+    down_eq = np.zeros(m, dtype=bool)
+    np.less(dz, 0.0, out=down)
+    np.less_equal(dz, 0.0, out=down_eq)
+    down &= same_prev
+    down_eq &= same_prev
+    up = np.zeros(m, dtype=bool)     # lower than the right neighbour: z_{i+1} - z_i > 0
+    up_eq = np.zeros(m, dtype=bool)
+    np.greater(dz[1:], 0.0, out=up[:-1])
+    np.greater_equal(dz[1:], 0.0, out=up_eq[:-1])
+    up &= same_next
+    up_eq &= same_next
+    is_min = (down & up_eq) | (down_eq & up) | (down & ~same_next) | (up & ~same_prev)
     if n > _COL_MASK:
         raise ValueError(f"row of {n} cells is longer than the trend analysis supports")
     mpos = upos[is_min]
@@ -180,8 +200,9 @@ def candidate_thresholds(
 
     def cluster_at(q, row):
         e = np.searchsorted(upos, q, side="right") - 1
-        ok = (e >= 0) & (urow[np.maximum(e, 0)] == row)
-        return np.where(ok, cluster[np.maximum(e, 0)], -1)
+        e0 = np.maximum(e, 0)
+        ok = (e >= 0) & (upos[e0] >= row * n)
+        return np.where(ok, cluster[e0], -1)
 
     for s in range(0, positions.size, chunk):
         p = positions[s:s + chunk]

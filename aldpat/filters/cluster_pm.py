@@ -43,7 +43,15 @@ class ClusterPmParams(GroundParams):
         8, "smallest half window with cluster analysis and recovery; none: plain PM", unit="cells", ge=1,
     )
     cluster_threshold: float = param(
-        1.0, "cluster threshold: largest height change per cell inside one cluster", unit="m", gt=0,
+        2.0, "cluster threshold: largest height change per cell inside one cluster", unit="m", gt=0,
+    )
+    gap_threshold: float | None = param(
+        None, "slope per cell allowed across cells removed earlier; none: cluster_threshold "
+        "(the dissertation uses one threshold for both and allows two)", unit="m", gt=0,
+    )
+    recover_across_gaps: bool = param(
+        False, "let a removed run whose side is a cell removed earlier be recovered too (the "
+        "printed UpdateMark); by default its sides must be cells still standing",
     )
     direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
 
@@ -61,6 +69,8 @@ def progressive_marks(
     axes: tuple[int, ...] = (1, 0),
     cluster_window_size: int | None = None,
     cluster_threshold: float = 1.0,
+    gap_threshold: float | None = None,
+    recover_across_gaps: bool = True,
     skip: np.ndarray | None = None,
 ) -> np.ndarray:
     """Mark matrix of the (cluster-based) progressive morphological filter (§5.2.2).
@@ -73,6 +83,9 @@ def progressive_marks(
     axes : 1 filters along rows (x), 0 along columns (y), in the given order at every window.
     cluster_window_size : first half window with cluster analysis; ``None`` for plain PM.
     cluster_threshold : slope threshold of ``MakeCluster`` (height per cell).
+    gap_threshold : its slope threshold across filtered cells (default: the same).
+    recover_across_gaps : whether a run may be recovered when a cell beside it was removed at
+        an earlier window (see :func:`aldpat.core.clusters.recover_runs`).
     skip : cells that are never marked (they only support the openings).
 
     A cell keeps the first window that removed it. The surface handed to the next window is
@@ -87,12 +100,14 @@ def progressive_marks(
         for axis in axes:
             unfiltered = mark == 0
             if clustering:
-                ids = make_clusters(_along(axis, zc), _along(axis, unfiltered), cluster_threshold).ids
+                ids = make_clusters(_along(axis, zc), _along(axis, unfiltered), cluster_threshold,
+                                    gap_threshold).ids
             zo = morphology.opening(zc, k, window="line", axis=axis)
             removed = unfiltered & (zc - zo > thresh)
             mark[removed] = k
             if clustering:
-                reset = recover_runs(_along(axis, removed), ids)
+                reset = recover_runs(_along(axis, removed), ids,
+                                     None if recover_across_gaps else _along(axis, unfiltered))
                 mark[reset if axis == 1 else reset.T] = 0
             zc = zo
     if skip is not None:
@@ -109,4 +124,5 @@ def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams) -> np.
     return progressive_marks(
         z, p.window_series, p.threshold_series, axes=AXES[p.direction],
         cluster_window_size=p.cluster_window_size, cluster_threshold=p.cluster_threshold,
+        gap_threshold=p.gap_threshold, recover_across_gaps=p.recover_across_gaps,
     )

@@ -93,3 +93,20 @@ def test_recovery_run_straddling_clusters_and_at_row_ends():
 
 def test_recovery_of_nothing():
     assert not recover_runs(np.zeros((3, 4), bool), np.ones((3, 4), int)).any()
+
+
+def test_recovery_can_require_standing_cells_beside_the_run():
+    ids = np.array([[1, 1, 1, 1, 1, 1, 1]])
+    removed = np.array([[0, 0, 1, 1, 0, 0, 0]], bool)
+    standing = np.array([[1, 0, 1, 1, 1, 1, 1]], bool)  # the cell left of the run went earlier
+    assert recover_runs(removed, ids)[0, 2:4].all()
+    assert not recover_runs(removed, ids, standing).any()
+    assert recover_runs(removed, ids, np.ones_like(standing))[0, 2:4].all()
+
+
+def test_gap_threshold_applies_across_filtered_cells_only():
+    z = np.array([[0.0, 9.0, 9.0, 1.5, 2.4]])
+    unf = np.array([[True, False, False, True, True]])
+    # across the gap 1.5 m / 3 cells = 0.5 per cell; adjacent step 0.9
+    assert make_clusters(z, unf, 1.0, gap_threshold=0.4).ids.tolist() == [[1, 1, 1, 2, 2]]
+    assert make_clusters(z, unf, 0.8, gap_threshold=1.0).ids.tolist() == [[1, 1, 1, 1, 2]]

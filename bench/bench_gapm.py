@@ -1,0 +1,183 @@
+"""The dissertation's filters (outlier, cluster-pm, gapm, multipass): ISPRS accuracy and speed.
+
+    python bench/bench_gapm.py accuracy            # the seven ISPRS samples, all points
+    python bench/bench_gapm.py speed --points 10   # gapm set 01 end to end on 10 M points
+    python bench/bench_gapm.py speed --points 2 --algos outlier cluster-pm gapm multipass
+
+``accuracy`` (reads ``/work/shared/data/isprs``) prints, per sample, Type I / Type II / total
+error of:
+
+* ``gapm`` with the dissertation's parameter sets 01, 02, 03 (``jobs/params/gapm-isprs-set0N``)
+  next to the published set 01 errors (Table 6-9) and the two targets of issue 5 (mean total at
+  most 4.42 %, no sample more than 1.5 points worse than published);
+* ``cluster-pm`` against the same progressive filter with the cluster analysis switched off
+  (same windows, thresholds and directions), which it must never lose to;
+* ``multipass`` against its own first pass alone (the capped-window PM), counting the object
+  points each accepts as ground: the remnants the second pass removes;
+* ``outlier`` with its defaults.
+
+``speed`` builds (once, under ``bench/_work/``) a LAS file of tiled copies of the ISPRS site
+FSite5 (``/work/shared/data/isprs-sites``) and runs ``aldpat filter ALGO`` on it in a fresh
+process per algorithm (read, grid, filter, classify, write), printing points/second and peak
+resident memory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(HERE))
+
+from _measure import measure, mib  # noqa: E402
+from isprs import PUBLISHED_GAPM_SET01, SAMPLES, load_samples, score  # noqa: E402
+
+from aldpat.filters import FILTERS, ground_filter  # noqa: E402
+from aldpat.params import resolve  # noqa: E402
+
+PARAMS = REPO / "jobs" / "params"
+WORK = HERE / "_work"
+
+
+def params_from(algo: str, path: Path | None = None, **overrides):
+    layers = []
+    if path is not None:
+        with open(path, "rb") as fh:
+            layers.append(("params file", tomllib.load(fh)))
+    layers.append(("bench", overrides))
+    return resolve(FILTERS[algo].params, layers).values
+
+
+def evaluate(samples, algo: str, params) -> dict:
+    out = {}
+    for s in samples:
+        t = time.perf_counter()
+        r = ground_filter(s.x, s.y, s.z, algo, params)
+        out[s.name] = (score(s.ground, r.is_ground), time.perf_counter() - t, r.is_ground)
+    return out
+
+
+def table(title: str, runs: dict[str, dict], published: dict | None = None) -> None:
+    names = list(next(iter(runs.values())))
+    print(f"\n### {title}\n")
+    head = "| sample |" + "".join(f" {k} I / II / total |" for k in runs)
+    if published:
+        head += " published set 01 I / II / total |"
+    print(head)
+    print("|---|" + "---|" * (len(runs) + (1 if published else 0)))
+    means = {k: [] for k in runs}
+    for n in names:
+        line = f"| {n} |"
+        for k, res in runs.items():
+            sc = res[n][0]
+            means[k].append((sc.type1, sc.type2, sc.total))
+            line += f" {sc.type1:.2f} / {sc.type2:.2f} / **{sc.total:.2f}** |"
+        if published:
+            t, a, b = published[n]
+            line += f" {a:.2f} / {b:.2f} / {t:.2f} |"
+        print(line)
+    line = "| mean |"
+    for k in runs:
+        m = np.mean(means[k], axis=0)
+        line += f" {m[0]:.2f} / {m[1]:.2f} / **{m[2]:.2f}** |"
+    if published:
+        m = np.mean([v for v in published.values()], axis=0)
+        line += f" {m[1]:.2f} / {m[2]:.2f} / {m[0]:.2f} |"
+    print(line)
+
+
+def run_accuracy() -> None:
+    samples = load_samples(SAMPLES)
+    print(f"# ISPRS samples {', '.join(SAMPLES)}: all {sum(len(s) for s in samples):,} points")
+
+    gapm = {f"set0{i}": evaluate(samples, "gapm", params_from("gapm", PARAMS / f"gapm-isprs-set0{i}.toml"))
+            for i in (1, 2, 3)}
+    table("gapm, dissertation parameter sets (jobs/params/gapm-isprs-set0N.toml)", gapm, PUBLISHED_GAPM_SET01)
+    s01 = gapm["set01"]
+    mean = np.mean([s01[n][0].total for n in s01])
+    worst = max(s01[n][0].total - PUBLISHED_GAPM_SET01[n][0] for n in s01)
+    print(f"\nset 01: mean total {mean:.2f} % (target <= 4.42 %); worst sample {worst:+.2f} points "
+          f"against its published total (target <= +1.5)")
+
+    cpm_file = PARAMS / "cluster-pm.toml"
+    cpm = params_from("cluster-pm", cpm_file)
+    runs = {"cluster-pm": evaluate(samples, "cluster-pm", cpm),
+            "same PM, no clusters": evaluate(samples, "cluster-pm",
+                                             params_from("cluster-pm", cpm_file, cluster_window_size=None))}
+    table(f"cluster-pm ({cpm_file.name}) against plain PM with the same windows", runs)
+    worse = [n for n in runs["cluster-pm"]
+             if runs["cluster-pm"][n][0].total > runs["same PM, no clusters"][n][0].total]
+    print(f"\ncluster-pm worse than plain PM on: {', '.join(worse) or 'no sample'}")
+
+    mp_file = PARAMS / "multipass.toml"
+    mp = params_from("multipass", mp_file)
+    first = params_from("cluster-pm", None, cell=mp.cell, ground_tolerance=mp.ground_tolerance,
+                        window_series=mp.window_series, threshold_series=mp.threshold_series,
+                        cluster_window_size=None, direction=mp.direction)
+    runs = {"multipass": evaluate(samples, "multipass", mp), "first pass only": evaluate(samples, "cluster-pm", first)}
+    table(f"multipass ({mp_file.name}) against its first pass alone (PM capped at half window "
+          f"{max(mp.window_series)})", runs)
+    print("\nobject points accepted as ground (first pass only -> multipass):")
+    for s in samples:
+        a = int((runs["first pass only"][s.name][2] & ~s.ground).sum())
+        b = int((runs["multipass"][s.name][2] & ~s.ground).sum())
+        print(f"  {s.name}: {a:6d} -> {b:6d}")
+
+    runs = {"outlier": evaluate(samples, "outlier", params_from("outlier", PARAMS / "outlier.toml"))}
+    table("outlier (outlier.toml): points it keeps counted as ground", runs)
+
+
+def run_speed(algos: list[str], millions: float, cell: float | None) -> None:
+    from bench_filters import build_sites  # the same tiled FSite5 file as the other filter benchmarks
+
+    las = build_sites(int(millions * 1_000_000))
+    import laspy
+
+    n = laspy.open(las).header.point_count
+    out = WORK / "out_f2"
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"# {las.name}: {n:,} points; fresh process per row: read, grid, filter, classify, write")
+    print(f"{'algorithm':12} {'params':26} {'cell':>5} {'time':>9} {'rate':>12} {'peak RSS':>10}")
+    for algo in algos:
+        pf = PARAMS / ("gapm-isprs-set01.toml" if algo == "gapm" else f"{algo}.toml")
+        kwargs = tomllib.loads(pf.read_text())
+        if cell is not None:
+            kwargs["cell"] = cell
+        code = (
+            f"import sys; sys.path.insert(0, {str(REPO)!r})\n"
+            "from aldpat.tasks.base import get_task\n"
+            f"rep = get_task('filter', {algo!r})([{str(las)!r}], odir={str(out)!r}, overwrite=True, "
+            f"result='classified', **{kwargs!r})\n"
+            "assert rep.exit_code == 0, [r.error for r in rep.results]\n"
+            "result = dict(n=sum(w.count for w in rep.outputs))"
+        )
+        r = measure(code)
+        print(f"{algo:12} {pf.name:26} {kwargs.get('cell', 1.0):5g} {r['seconds']:7.1f} s "
+              f"{n / r['seconds'] / 1e6:7.2f} M/s {mib(r['peak_bytes']):>10}", flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    sub.add_parser("accuracy", help="ISPRS Type I / II / total per sample")
+    sp = sub.add_parser("speed", help="points/second and peak memory, end to end")
+    sp.add_argument("--points", type=float, default=10.0, help="millions of points (default 10)")
+    sp.add_argument("--algos", nargs="+", default=["gapm"], choices=["outlier", "cluster-pm", "gapm", "multipass"])
+    sp.add_argument("--cell", type=float, default=None, help="override the parameter file's cell size")
+    args = ap.parse_args()
+    if args.what == "accuracy":
+        run_accuracy()
+    else:
+        run_speed(args.algos, args.points, args.cell)
+
+
+if __name__ == "__main__":
+    main()
