@@ -4,7 +4,8 @@ ALDPAT manual (003_*), Miscellaneous Tasks, "Extract Points by Polygon": the pol
 come from a text file "with the following format of x, y", in clockwise or anticlockwise order,
 with no repeated vertex (a repeated closing vertex is tolerated here). Dissertation (000_*)
 §3.1.2: the crossing-number (Jordan curve) test, in :mod:`aldpat.core.polygon`. A polygon
-shapefile may be given instead: every polygon in it, holes included. Streamed chunk by chunk.
+shapefile may be given instead: every polygon in it, holes included. Streamed chunk by chunk;
+text records are copied byte for byte when the output keeps the input's columns and delimiter.
 """
 
 from __future__ import annotations
@@ -18,7 +19,10 @@ import numpy as np
 
 from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.io.atomic import atomic_output
 from aldpat.params import param
+from aldpat.tasks._prep_options import write_blocks
+from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
@@ -78,10 +82,27 @@ def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobCont
     reader = ctx.open_input(source)
     out = ctx.output_path(source, "_poly", reader=reader)
     total = 0
+    if passthrough_ok(reader, reader.names, ctx.delimiter, out.suffix):
+        # the kept records are copied byte for byte
+        count = 0
+        with atomic_output(out, overwrite=ctx.overwrite) as tmp, open(tmp, "wb") as fh, \
+                RawLines(source, reader.header_lines) as raw:
+            for chunk in reader.chunks():
+                lines = raw.take(len(chunk))
+                if not lines.in_step_with(chunk.x):
+                    raise RuntimeError(f"{source}: raw line copy out of step with the parser")
+                keep = points_in_polygons(chunk.x, chunk.y, polygons) != params.outside
+                fh.write(lines.gather(keep))
+                count += int(keep.sum())
+                total += len(chunk)
+        ctx.wrote(out, count)
+        log.info("%s: %d of %d points %s the polygon", source, count, total,
+                 "outside" if params.outside else "inside")
+        return
     with ctx.write_points(out, reader.names, like=reader) as writer:
         for chunk in reader.chunks():
             inside = points_in_polygons(chunk.x, chunk.y, polygons)
-            writer.write(chunk.take(~inside if params.outside else inside))
+            write_blocks(writer, chunk.take(~inside if params.outside else inside))
             total += len(chunk)
     ctx.wrote(out, writer.count)
     log.info("%s: %d of %d points %s the polygon", source, writer.count, total,

@@ -6,6 +6,8 @@ records ... is used to determine the separation of strips. If the time interval 
 a given threshold value (i.e., 60 seconds), a new strip file is generated. The output format of
 the strip file is the same as the input file."
 
+Records are copied byte for byte (:mod:`aldpat.tasks._rawtext`) unless ``--delimiter`` asks for
+another delimiter than the tape's, in which case they are written again with the tape's decimals.
 Streamed chunk by chunk (memory does not grow with the tape); strips are consecutive in time,
 so each chunk splits at the positions where t jumps by more than Interval, the last time of a
 chunk carrying over to the next. Every strip file is renamed into place only when the whole tape
@@ -22,8 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.errors import UsageError
+from aldpat.io.atomic import atomic_output
 from aldpat.params import param
-from aldpat.tasks._prep_options import OrderOption
+from aldpat.tasks._prep_options import OrderOption, write_blocks
+from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
@@ -44,6 +48,18 @@ def strip_starts(t: np.ndarray, previous: float | None, interval: float) -> np.n
     return starts
 
 
+class _RawStrip:
+    """A strip written by copying the tape's lines byte for byte."""
+
+    def __init__(self, fh):
+        self.fh = fh
+        self.count = 0
+
+    def write_lines(self, lines, rows: slice) -> None:
+        self.fh.write(lines.gather(rows))
+        self.count += rows.stop - rows.start
+
+
 def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source, layout="altm9", order=params.order)
     suffix = ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_strip"
@@ -51,31 +67,49 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
     if probe.suffix in (".las", ".laz"):
         raise UsageError("strips keep the tape's 9-column text layout; --out-format las/laz does not apply",
                          path=source)
+    raw = passthrough_ok(reader, reader.names, ctx.delimiter, probe.suffix)
 
     with contextlib.ExitStack() as stack:
         written: list[tuple[Path, object]] = []
-        writer = None
-        previous = None
+        lines_of = stack.enter_context(RawLines(source, reader.header_lines)) if raw else None
 
         def open_strip():
             number = len(written) + 1
             out = ctx.output_path(source, f"{suffix}{number:02d}", reader=reader, use_suffix_option=False)
-            w = stack.enter_context(ctx.write_points(out, reader.names, like=reader))
+            if raw:
+                tmp = stack.enter_context(atomic_output(out, overwrite=ctx.overwrite))
+                w = _RawStrip(stack.enter_context(open(tmp, "wb")))
+            else:
+                w = stack.enter_context(ctx.write_points(out, reader.names, like=reader))
             written.append((out, w))
             return w
 
+        def put(w, chunk, lines, a: int, b: int) -> None:
+            if b <= a:
+                return
+            if raw:
+                w.write_lines(lines, slice(a, b))
+            else:
+                write_blocks(w, chunk.take(slice(a, b)))
+
+        writer = None
+        previous = None
         for chunk in reader.chunks():
             t = chunk["t"]
+            lines = None
+            if raw:
+                lines = lines_of.take(len(chunk))
+                if not lines.in_step_with(t):
+                    raise RuntimeError(f"{source}: raw line copy out of step with the parser")
             cuts = strip_starts(t, previous, params.interval)
             if writer is None:
                 writer = open_strip()
             pos = 0
             for cut in cuts.tolist():
-                if cut > pos:
-                    writer.write(chunk.take(slice(pos, cut)))
+                put(writer, chunk, lines, pos, cut)
                 writer = open_strip()
                 pos = cut
-            writer.write(chunk.take(slice(pos, len(chunk))))
+            put(writer, chunk, lines, pos, len(chunk))
             previous = float(t[-1])
         # leaving the stack renames every strip into place; only then are they recorded
     for out, w in written:

@@ -23,7 +23,7 @@ import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.params import param
-from aldpat.tasks._prep_options import OriginOption
+from aldpat.tasks._prep_options import OriginOption, write_blocks
 from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -68,7 +68,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
 
             table = PointTable.concat(list(reader.chunks()))
             total = len(table)
-            writer.write(thin_table(table, params))
+            write_blocks(writer, thin_table(table, params))
         else:
             spill = Spill(out.parent, k)
             try:
@@ -77,7 +77,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
                     spill.add(chunk, bucket_of(i, j, k))
                     total += len(chunk)
                 for bucket in spill.buckets():
-                    writer.write(thin_table(bucket, params))
+                    write_blocks(writer, thin_table(bucket, params))
             finally:
                 spill.close()
     ctx.wrote(out, writer.count)

@@ -13,7 +13,8 @@ tile is an error unless ``--overwrite`` (replace) or ``--append`` (ALDPAT's beha
 
 Streaming: each chunk of each input is routed to the tiles it touches and appended to their
 temporary files; memory does not depend on the input size or the number of tiles (text tiles
-are reopened per chunk; LAS/LAZ tiles keep one open writer per tile). All tiles are renamed into
+are reopened per chunk; LAS/LAZ tiles keep one open writer per tile). Text records are copied
+byte for byte when the tiles keep the input's columns and delimiter. All tiles are renamed into
 place when every input has been read.
 """
 
@@ -34,7 +35,8 @@ from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
 from aldpat.io.text import format_rows
 from aldpat.params import param
-from aldpat.tasks._prep_options import FieldsOption, point_names
+from aldpat.tasks._prep_options import WRITE_BLOCK, FieldsOption, point_names
+from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
@@ -121,8 +123,16 @@ class TileSink:
             entry["writer"].write(table)
         else:
             with open(entry["tmp"], "a", encoding="ascii", newline="\n") as fh:
-                fh.write(format_rows(table, self.names, self.delimiter))
+                for a in range(0, len(table), WRITE_BLOCK):
+                    fh.write(format_rows(table.take(slice(a, a + WRITE_BLOCK)), self.names, self.delimiter))
         entry["count"] += len(table)
+
+    def write_raw(self, layout: TileLayout, key: tuple[int, int], data: bytes, count: int) -> None:
+        """Append input lines copied byte for byte (text tiles with the input's columns)."""
+        entry = self.tiles.get(key) or self._open(layout, key)
+        with open(entry["tmp"], "ab") as fh:
+            fh.write(data)
+        entry["count"] += count
 
     def commit(self) -> list[tuple[Path, int]]:
         for entry in self.tiles.values():
@@ -149,8 +159,9 @@ class TileSink:
                 pass
 
 
-def route(sink: TileSink, layout: TileLayout, chunk) -> tuple[int, int]:
-    """Send a chunk's points to their tiles; return (points in a core, points in no tile)."""
+def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> tuple[int, int]:
+    """Send a chunk's points to their tiles (as parsed rows, or as the raw ``lines`` of the input
+    when given); return (points in a core, points in no tile)."""
     placed = np.zeros(len(chunk), dtype=bool)
     in_core = 0
     for ti, tj, mask in layout.memberships(chunk.x, chunk.y):
@@ -162,7 +173,10 @@ def route(sink: TileSink, layout: TileLayout, chunk) -> tuple[int, int]:
         starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
         for a, b in zip(starts, np.r_[starts[1:], len(rows)]):
             key = divmod(int(keys[a]), layout.ny)
-            sink.write(layout, key, chunk.take(rows[a:b]))
+            if lines is not None:
+                sink.write_raw(layout, key, lines.gather(rows[a:b]), int(b - a))
+            else:
+                sink.write(layout, key, chunk.take(rows[a:b]))
     ci, _ = layout.core_index(chunk.x, chunk.y)
     in_core = int((ci >= 0).sum())
     return in_core, int((~placed).sum())
@@ -222,12 +236,24 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     total = in_core = lost = 0
     try:
         for reader in readers:
-            for chunk in reader.chunks():
-                chunk = chunk if sink.is_las else chunk.select(names)
-                c, n = route(sink, layout, chunk)
-                total += len(chunk)
-                in_core += c
-                lost += n
+            raw = None
+            if not sink.is_las and passthrough_ok(reader, names, ctx.delimiter, ext):
+                raw = RawLines(reader.path, reader.header_lines)
+            try:
+                for chunk in reader.chunks():
+                    lines = None
+                    if raw is not None:
+                        lines = raw.take(len(chunk))
+                        if not lines.in_step_with(chunk.x):
+                            raise RuntimeError(f"{reader.path}: raw line copy out of step with the parser")
+                    chunk = chunk if sink.is_las else chunk.select(names)
+                    c, n = route(sink, layout, chunk, lines)
+                    total += len(chunk)
+                    in_core += c
+                    lost += n
+            finally:
+                if raw is not None:
+                    raw.close()
         done = sink.commit()
     except BaseException:
         sink.discard()
