@@ -98,3 +98,17 @@ def test_las_input_keeps_its_attributes(tmp_path):
     assert len(out.points) == len(lowest)
     for x, y, z in zip(np.asarray(out.x), np.asarray(out.y), np.asarray(out.z)):
         assert z == lowest[(int(np.floor(x / 10)), int(np.floor(y / 10)))]
+
+
+def test_las_through_bucket_files_keeps_records(tmp_path, monkeypatch):
+    import laspy
+
+    src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
+    get_task("thin")([src], cell_width=4.0, cell_height=4.0, odir=str(tmp_path / "mem"))
+    monkeypatch.setattr(spill, "BUCKET_POINTS", 4000)  # about 6 buckets
+    get_task("thin")([src], cell_width=4.0, cell_height=4.0, odir=str(tmp_path / "disk"))
+    a = laspy.read(tmp_path / "mem" / "fsite5_strip_thin.laz")
+    b = laspy.read(tmp_path / "disk" / "fsite5_strip_thin.laz")
+    key = lambda las: sorted(zip(np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z),  # noqa: E731
+                                 np.asarray(las.intensity), np.asarray(las.return_number)))
+    assert len(a.points) == len(b.points) and key(a) == key(b)
