@@ -58,15 +58,35 @@ def parse_crs(text) -> pyproj.CRS:
             from None
 
 
-def _geoid_step(geoid: str | Path) -> tuple[str, str]:
-    """The ``+grids=`` value for PROJ and a name for messages."""
+def _vgridshift(grids: str) -> pyproj.Transformer:
+    """lon, lat in degrees, z = 0 -> z = N (metres) from the grid(s)."""
+    return pyproj.Transformer.from_pipeline(
+        "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad "
+        f"+step +proj=vgridshift +grids={grids} +multiplier=1 "
+        "+step +proj=unitconvert +xy_in=rad +xy_out=deg")
+
+
+def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
+    """The undulation transformer of a grid file or of a grid PROJ knows by name.
+
+    A path that does not exist is tried by its file name among PROJ's grids, because worksheets
+    take file parameters relative to their folder and a grid name such as ``us_nga_egm96_15.tif``
+    arrives there as a path.
+    """
     text = str(geoid)
     path = Path(text).expanduser()
     if path.is_file():
-        return '"' + str(path.resolve()) + '"', str(path)
-    if "/" in text or "\\" in text:
-        raise InputMissingError("no such geoid grid file", path=path)
-    return text, text  # a grid name PROJ resolves (its data folder or network)
+        try:
+            return _vgridshift('"' + str(path.resolve()) + '"'), str(path)
+        except ProjError:
+            raise UsageError(f"cannot open geoid grid {str(path)!r}: not a GTX or GeoTIFF grid") from None
+    try:
+        return _vgridshift(path.name), path.name
+    except ProjError:
+        if path.name != text:
+            raise InputMissingError("no such geoid grid file (nor a grid PROJ knows by this name)",
+                                    path=path) from None
+        raise UsageError(f"cannot open geoid grid {text!r}: no such file, nor a grid PROJ knows") from None
 
 
 class HeightConverter:
@@ -83,21 +103,13 @@ class HeightConverter:
         self.to_crs = parse_crs(to_crs) if to_crs is not None else None
         self.reverse = reverse
         self.factor = 1.0 / Z_UNITS[z_unit]
-        grids, self.geoid_name = _geoid_step(geoid)
+        self._geoid, self.geoid_name = geoid_transformer(geoid)
         geographic = self.crs.geodetic_crs
         if geographic is None:
             raise UsageError(f"CRS {self.crs.name!r} has no geographic datum to locate points on the geoid")
         self._to_geo = pyproj.Transformer.from_crs(self.crs, geographic, always_xy=True)
         self._xy = (pyproj.Transformer.from_crs(self.crs, self.to_crs, always_xy=True)
                     if self.to_crs is not None and self.to_crs != self.crs else None)
-        try:
-            self._geoid = pyproj.Transformer.from_pipeline(
-                "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad "
-                f"+step +proj=vgridshift +grids={grids} +multiplier=1 "
-                "+step +proj=unitconvert +xy_in=rad +xy_out=deg")
-        except ProjError:
-            raise UsageError(f"cannot open geoid grid {self.geoid_name!r}: not found, or not a GTX/GeoTIFF grid "
-                             "(give a file path or a grid name PROJ knows)") from None
 
     def __repr__(self) -> str:
         return (f"HeightConverter(crs={self.crs.to_string()!r}, geoid={self.geoid_name!r}, "

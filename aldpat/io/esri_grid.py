@@ -128,9 +128,9 @@ def _spec(head: dict[str, str], path: Path) -> tuple[GridSpec, float | None]:
         else:
             x0, y0 = float(head["XLLCORNER"]) + cell / 2, float(head["YLLCORNER"]) + cell / 2
         nodata = float(head["NODATA_VALUE"]) if "NODATA_VALUE" in head else None
-    except (KeyError, ValueError) as exc:
+        return GridSpec(x0, y0, cell, cell, nx, ny), nodata
+    except (KeyError, ValueError) as exc:  # UsageError from GridSpec is a ValueError too
         raise InputFormatError(f"bad grid header ({exc})", path=path) from None
-    return GridSpec(x0, y0, cell, cell, nx, ny), nodata
 
 
 def read_float_grid(path: str | Path) -> tuple[np.ndarray, GridSpec]:

@@ -23,7 +23,7 @@ class OrthoHeightParams:
     crs: str | None = param(None, "horizontal CRS of the input x, y: EPSG code, UTM zone such as 17N, or WKT "
                             "(default: a LAS file's own CRS)")
     geoid: str | None = param(None, "geoid grid: a GTX or GeoTIFF file (such as egm96_15.gtx) or a grid name "
-                              "PROJ knows", metavar="GRID")
+                              "PROJ knows", path=True, metavar="GRID")
     to_crs: str | None = param(None, "re-project x, y to this CRS (datum, UTM zone, State Plane...)")
     reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N)")
     z_unit: str = param("m", "unit of the input and output heights (the geoid is in metres)",

@@ -123,3 +123,17 @@ def test_bad_parameters_are_reported_before_work(tmp_path):
     junk.write_text("not a grid")
     with pytest.raises(UsageError, match="cannot open geoid grid"):
         HeightConverter("EPSG:4326", junk)
+
+
+def test_grid_found_by_name_in_proj_data_folders(tmp_path):
+    import shutil
+
+    folder = tmp_path / "proj"
+    folder.mkdir()
+    shutil.copy(window(2), folder / "egm96_window_for_test.gtx")
+    pyproj.datadir.append_data_dir(str(folder))
+    lat, lon, n = NGA[1]
+    for name in ("egm96_window_for_test.gtx", str(tmp_path / "worksheet" / "egm96_window_for_test.gtx")):
+        conv = HeightConverter("EPSG:4326", name)  # a worksheet hands names over as rebased paths
+        assert conv.geoid_name == "egm96_window_for_test.gtx"
+        assert conv.undulation([lon180(lon)], [lat])[0] == pytest.approx(n, abs=0.1)

@@ -72,3 +72,16 @@ def test_non_square_cells_and_nodata_clash_are_refused(tmp_path):
     with pytest.raises(DataError, match="nodata"):
         write_float_grid(tmp_path / "b.flt", vals, SPEC)
     assert not list(tmp_path.iterdir())
+
+
+def test_bad_headers_and_sizes_name_the_file(tmp_path):
+    from aldpat.errors import InputFormatError
+
+    (tmp_path / "a.asc").write_text("ncols 0\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n")
+    with pytest.raises(InputFormatError, match="a.asc"):
+        read_ascii_grid(tmp_path / "a.asc")
+    write_float_grid(tmp_path / "b.flt", values(), SPEC)
+    with open(tmp_path / "b.flt", "ab") as fh:
+        fh.write(b"\0\0\0\0")
+    with pytest.raises(InputFormatError, match="expected 24 cells, found 25"):
+        read_float_grid(tmp_path / "b.flt")
