@@ -278,6 +278,11 @@ def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, worker
     buffer = max(8 * spacing, 2 * max(spec.dx, spec.dy))
     if max_distance is not None:
         buffer = max(buffer, 2 * max_distance)
+    # points beyond the buffer around the grid are not used (as within the blocks)
+    near = ((x >= spec.xmin - spec.dx / 2 - buffer) & (x <= spec.xmax + spec.dx / 2 + buffer)
+            & (y >= spec.ymin - spec.dy / 2 - buffer) & (y <= spec.ymax + spec.dy / 2 + buffer))
+    if not near.all():
+        x, y, z = x[near], y[near], z[near]
     # points sorted by block so that each block gathers its neighbours' points by slicing
     nbx = -(-spec.nx // bcols)
     nby = -(-spec.ny // brows)
