@@ -67,7 +67,7 @@ def threshold_array(
     cluster_threshold: float,
     *,
     max_divisor: float = 4.0,
-    use_cluster_diff: bool = True,
+    use_cluster_diff: bool = False,
 ) -> np.ndarray:
     """Per-cell filtering threshold of one window (``CalThreshArray``, §6.2.4 and §6.2.3).
 
@@ -147,6 +147,15 @@ def candidate_thresholds(
     out = np.empty(positions.size)
     if positions.size == 0:
         return out
+    # rows are independent: analyse only the rows that hold a cell in question
+    cand_rows = np.unique(positions // n)
+    if cand_rows.size < 0.8 * rows:
+        rank = np.searchsorted(cand_rows, positions // n)
+        return candidate_thresholds(
+            z[cand_rows], unfiltered[cand_rows], rank * n + positions % n, half_window,
+            cluster_threshold, max_divisor=max_divisor, use_cluster_diff=use_cluster_diff,
+            break_slope=break_slope, chunk=chunk,
+        )
     zf = z.ravel()
     upos = np.flatnonzero(unfiltered.ravel())
     if upos.size == 0:

@@ -105,3 +105,14 @@ def test_candidate_thresholds_equal_the_dense_ones(seed):
                 pos = rng.permutation(z.size)[: max(1, z.size // 2)]
                 sparse = candidate_thresholds(z, unf, pos, k, ct, use_cluster_diff=ucd)
                 np.testing.assert_allclose(sparse, dense.ravel()[pos])
+
+
+def test_candidate_thresholds_on_a_few_rows_only():
+    from aldpat.core.trend import candidate_thresholds
+
+    rng = np.random.default_rng(11)
+    z = np.cumsum(rng.normal(0, 0.8, (40, 50)), axis=1)
+    unf = rng.random(z.shape) > 0.3
+    dense = threshold_array(z, make_clusters(z, unf, 1.0), local_minima(z, unf), 8, 1.0)
+    pos = np.array([3 * 50 + 7, 3 * 50 + 40, 31 * 50 + 0, 39 * 50 + 49])  # rows 3, 31, 39
+    np.testing.assert_allclose(candidate_thresholds(z, unf, pos, 8, 1.0), dense.ravel()[pos])
