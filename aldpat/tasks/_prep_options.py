@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from aldpat.params import param
+from aldpat.params import merge_params, param
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,18 @@ class OriginOption:
         None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
         metavar="X Y",
     )
+
+
+def with_shared(own: type, *shared: type) -> type:
+    """A params class with the task's own fields first and the shared options after them (so
+    ``--help`` lists the task's parameters first), named and placed like ``own`` minus its
+    leading underscore, so that it pickles for ``-j N`` workers."""
+    name = own.__name__.lstrip("_")
+    cls = merge_params(own, *shared, name=name)
+    cls.__module__ = own.__module__
+    cls.__qualname__ = name
+    cls.__doc__ = own.__doc__
+    return cls
 
 
 def point_names(reader, fields: str) -> tuple[str, ...]:

@@ -13,12 +13,14 @@ each batch of lines is checked against the parsed values (first and last line) b
 
 from __future__ import annotations
 
+from collections import deque
 from pathlib import Path
 
 import numpy as np
 
 BLOCK = 1 << 26  # bytes read at a time
-_GATHER_LINES = 262_144  # lines gathered at a time (the byte index is 8x the bytes)
+_GATHER_LINES = 65_536  # lines gathered at a time (the byte index is 8x their bytes)
+_NEWLINE = np.array([10], dtype=np.uint8)
 _WHITE = np.zeros(256, dtype=bool)
 _WHITE[[9, 10, 13, 32]] = True
 
@@ -34,111 +36,168 @@ def passthrough_ok(reader, names: tuple[str, ...], delimiter: str, out_suffix: s
 
 
 class Lines:
-    """``n`` data lines: ``buf[starts[k]:ends[k]]`` is line k without its newline."""
+    """``n`` data lines, in one or more segments of the file's bytes: in segment ``g``,
+    ``buf[starts[k]:ends[k]]`` is a line without its newline."""
 
-    def __init__(self, buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
-        self.buf, self.starts, self.ends = buf, starts, ends
+    def __init__(self, segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
+        self.segments = segments
+        self.offsets = np.cumsum([0] + [len(s) for _, s, _ in segments])
 
     def __len__(self) -> int:
-        return len(self.starts)
+        return int(self.offsets[-1])
+
+    def _line(self, k: int) -> str:
+        g = int(np.searchsorted(self.offsets, k, side="right")) - 1
+        buf, starts, ends = self.segments[g]
+        j = k - int(self.offsets[g])
+        return buf[starts[j]:ends[j]].tobytes().decode("latin-1")
 
     def in_step_with(self, first_column: np.ndarray) -> bool:
         """Whether the first value of the first and last lines is what the parser read."""
         if len(self) != len(first_column):
             return False
-        if len(self) == 0:
-            return True
-        for k in (0, len(self) - 1):
-            text = self.buf[self.starts[k]:self.ends[k]].tobytes().decode("latin-1")
-            token = text.replace(",", " ").split()[0]
+        for k in {0, len(self) - 1} if len(self) else ():
+            tokens = self._line(k).replace(",", " ").split()
             try:
-                if float(token) != first_column[k]:
+                if not tokens or float(tokens[0]) != first_column[k]:
                     return False
             except ValueError:
                 return False
         return True
 
+    def pieces(self, rows: np.ndarray | slice):
+        """The selected lines (a boolean mask, ascending indices or a slice) as byte arrays to
+        write one after the other, each line ended by a newline. A slice copies its stretch of
+        the file as it is (blank lines within a block of the file included), without a copy."""
+        if isinstance(rows, slice):
+            a, b, step = rows.indices(len(self))
+            if step != 1:
+                yield from self.pieces(np.arange(a, b, step))
+                return
+            for g, (buf, starts, ends) in enumerate(self.segments):
+                lo = max(a - int(self.offsets[g]), 0)
+                hi = min(b - int(self.offsets[g]), len(starts))
+                if hi > lo:
+                    yield buf[starts[lo]:ends[hi - 1]]
+                    yield _NEWLINE
+            return
+        rows = np.asarray(rows)
+        if rows.dtype == bool:
+            rows = np.flatnonzero(rows)
+        cuts = np.searchsorted(rows, self.offsets)
+        for g, (buf, starts, ends) in enumerate(self.segments):
+            sel = rows[cuts[g]:cuts[g + 1]] - int(self.offsets[g])
+            for a in range(0, len(sel), _GATHER_LINES):
+                yield _gather(buf, starts[sel[a:a + _GATHER_LINES]], ends[sel[a:a + _GATHER_LINES]])
+
+    def write(self, fh, rows: np.ndarray | slice) -> None:
+        """Write the selected lines to a binary file."""
+        for piece in self.pieces(rows):
+            if len(piece):
+                fh.write(memoryview(piece))
+
     def gather(self, rows: np.ndarray | slice) -> bytes:
-        """The selected lines (a boolean mask, indices or a slice), each ended by a newline."""
-        starts, ends = self.starts[rows], self.ends[rows]
-        if len(starts) == 0:
-            return b""
-        if isinstance(rows, slice) and (rows.step in (None, 1)):
-            # consecutive lines: one slice of the buffer, newlines and blank lines included
-            block = self.buf[starts[0]:ends[-1]].tobytes()
-            return block + b"\n"
-        parts = []
-        for a in range(0, len(starts), _GATHER_LINES):
-            s, e = starts[a:a + _GATHER_LINES], ends[a:a + _GATHER_LINES]
-            lens = e - s
-            out_len = lens + 1
-            pos = np.cumsum(out_len) - out_len
-            total = int(out_len.sum())
-            idx = np.arange(total, dtype=np.int64)
-            idx += np.repeat(s - pos, out_len)
-            out = self.buf[np.minimum(idx, len(self.buf) - 1)]
-            out[pos + lens] = 10
-            parts.append(out.tobytes())
-        return b"".join(parts)
+        """The selected lines as one bytes object (see :meth:`pieces`)."""
+        return b"".join(p.tobytes() for p in self.pieces(rows))
+
+
+def _gather(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Lines ``buf[starts[k]:ends[k]]`` joined, each followed by a newline (one fancy index)."""
+    if len(starts) == 0:
+        return _NEWLINE[:0]
+    lens = ends - starts
+    out_len = lens + 1
+    pos = np.cumsum(out_len) - out_len
+    idx = np.arange(int(out_len.sum()), dtype=np.int64)
+    idx += np.repeat(starts - pos, out_len)
+    np.minimum(idx, len(buf) - 1, out=idx)  # the newline slot of a last line without one
+    out = buf[idx]
+    out[pos + lens] = 10
+    return out
+
+
+def _line_bounds(buf: np.ndarray, final: bool) -> tuple[np.ndarray, np.ndarray, int]:
+    """Starts and ends of the data lines of ``buf`` (blank lines dropped) and the number of bytes
+    they use up (the rest is an unfinished line, unless ``final``)."""
+    nl = np.flatnonzero(buf == 10)
+    used = int(nl[-1]) + 1 if len(nl) else 0
+    ends = nl
+    if final and used < len(buf):
+        ends = np.append(nl, len(buf))
+        used = len(buf)
+    starts = np.empty(len(ends), dtype=np.int64)
+    if len(ends):
+        starts[0] = 0
+        starts[1:] = ends[:-1] + 1
+    data = np.ones(len(ends), dtype=bool)
+    # a blank line is all whitespace; only lines that are empty or start with whitespace can be
+    # (data lines usually start with a digit or a sign), so only those are checked byte by byte
+    lens = ends - starts
+    if len(buf):
+        maybe = np.flatnonzero((lens == 0) | _WHITE[buf[np.minimum(starts, len(buf) - 1)]])
+    else:
+        maybe = np.zeros(0, dtype=np.int64)
+    if len(maybe):
+        s, width = starts[maybe], lens[maybe]
+        pos = np.cumsum(width) - width
+        idx = np.arange(int(width.sum()), dtype=np.int64) + np.repeat(s - pos, width)
+        solid = (~_WHITE[buf[idx]]).astype(np.int64)
+        has = np.zeros(len(maybe), dtype=bool)
+        if len(idx):
+            nz = width > 0
+            has[nz] = np.add.reduceat(solid, pos[nz]) > 0
+        data[maybe] = has
+    return starts[data], ends[data], used
 
 
 class RawLines:
-    """Reads the data lines of a text file in order, ``take(n)`` at a time."""
+    """Reads the data lines of a text file in order, ``take(n)`` at a time.
+
+    The file is read in blocks; each block's line boundaries are found once, and a ``take`` hands
+    out views into the blocks, so memory stays near one chunk of lines plus one block.
+    """
 
     def __init__(self, path: str | Path, header_lines: int):
         self._fh = open(path, "rb")
         for _ in range(header_lines):
             self._fh.readline()
-        self._buf = np.zeros(0, dtype=np.uint8)
+        self._segments: deque = deque()
+        self._available = 0
+        self._tail = b""
         self._eof = False
 
-    def _lines(self, buf: np.ndarray, final: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Starts and ends of the complete lines in ``buf`` and whether each holds data."""
-        nl = np.flatnonzero(buf == 10)
-        ends = nl
-        if final and (len(nl) == 0 or nl[-1] != len(buf) - 1) and len(buf):
-            ends = np.append(nl, len(buf))  # a last line without newline
-        starts = np.empty(len(ends), dtype=np.int64)
-        if len(ends):
-            starts[0] = 0
-            starts[1:] = ends[:-1] + 1
-        data = np.ones(len(ends), dtype=bool)
-        # a blank line is all whitespace; only lines that are empty or start with whitespace can be
-        # (data lines usually start with a digit or a sign), so only those are checked byte by byte
-        lens = ends - starts
-        first = buf[np.minimum(starts, max(len(buf) - 1, 0))] if len(buf) else np.zeros(0, np.uint8)
-        maybe = np.flatnonzero((lens == 0) | _WHITE[first])
-        if len(maybe):
-            s, e = starts[maybe], ends[maybe]
-            width = e - s
-            pos = np.cumsum(width) - width
-            idx = np.arange(int(width.sum()), dtype=np.int64) + np.repeat(s - pos, width)
-            solid = (~_WHITE[buf[idx]]).astype(np.int64)
-            counts = np.add.reduceat(solid, pos[width > 0]) if len(idx) else np.zeros(0, np.int64)
-            has = np.zeros(len(maybe), dtype=bool)
-            has[width > 0] = counts > 0
-            data[maybe] = has
-        return starts, ends, data
+    def _read_block(self) -> None:
+        block = self._fh.read(BLOCK)
+        if not block:
+            self._eof = True
+        data = self._tail + block if self._tail else block
+        if not data:
+            return
+        buf = np.frombuffer(data, dtype=np.uint8)
+        starts, ends, used = _line_bounds(buf, final=self._eof)
+        self._tail = data[used:]
+        if len(starts):
+            self._segments.append([buf, starts, ends])
+            self._available += len(starts)
 
     def take(self, n: int) -> Lines:
-        while True:
-            starts, ends, data = self._lines(self._buf, self._eof)
-            have = int(data.sum())
-            if have >= n or self._eof:
-                break
-            block = self._fh.read(BLOCK)
-            if not block:
-                self._eof = True
+        while self._available < n and not self._eof:
+            self._read_block()
+        if self._available < n:
+            raise ValueError(f"expected {n} more data lines, found {self._available}")
+        parts = []
+        need = n
+        while need:
+            seg = self._segments[0]
+            k = min(need, len(seg[1]))
+            parts.append((seg[0], seg[1][:k], seg[2][:k]))
+            if k == len(seg[1]):
+                self._segments.popleft()
             else:
-                self._buf = np.concatenate([self._buf, np.frombuffer(block, dtype=np.uint8)])
-        keep = np.flatnonzero(data)[:n]
-        if len(keep) < n:
-            raise ValueError(f"expected {n} more data lines, found {len(keep)}")
-        buf = self._buf
-        lines = Lines(buf, starts[keep], ends[keep])
-        cut = int(ends[keep[-1]]) + 1 if len(keep) else 0
-        self._buf = buf[cut:].copy() if cut < len(buf) else np.zeros(0, dtype=np.uint8)
-        return lines
+                seg[1], seg[2] = seg[1][k:], seg[2][k:]
+            need -= k
+        self._available -= n
+        return Lines(parts)
 
     def close(self) -> None:
         self._fh.close()

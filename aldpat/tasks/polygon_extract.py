@@ -92,7 +92,7 @@ def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobCont
                 if not lines.in_step_with(chunk.x):
                     raise RuntimeError(f"{source}: raw line copy out of step with the parser")
                 keep = points_in_polygons(chunk.x, chunk.y, polygons) != params.outside
-                fh.write(lines.gather(keep))
+                lines.write(fh, keep)
                 count += int(keep.sum())
                 total += len(chunk)
         ctx.wrote(out, count)

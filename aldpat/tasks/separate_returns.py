@@ -19,7 +19,7 @@ import numpy as np
 from aldpat.errors import DataError, ParamError
 from aldpat.io.table import PointTable
 from aldpat.params import param
-from aldpat.tasks._prep_options import FieldsOption, OrderOption, write_blocks
+from aldpat.tasks._prep_options import FieldsOption, OrderOption, with_shared, write_blocks
 from aldpat.tasks.base import JobContext, Task, register_task
 from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 
@@ -27,7 +27,7 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class SeparateReturnsParams(FieldsOption, OrderOption):
+class _SeparateReturnsOwn:
     utm_zone: str = param("auto", "UTM zone prefixed to x and y: auto (detect by digit count), none, or the "
                           "zone number to strip", manual="UTM Zone", metavar="auto|none|N")
     stop_gap: float = param(5.0, "where first minus last return elevation is below this, the last return is "
@@ -35,6 +35,9 @@ class SeparateReturnsParams(FieldsOption, OrderOption):
     last_odir: str | None = param(None, "folder for the last-return (_2) files, which the manual recommends "
                                   "keeping apart (default: with the first-return files)", path=True, metavar="DIR")
 
+
+@dataclass(frozen=True)
+class SeparateReturnsParams(with_shared(_SeparateReturnsOwn, FieldsOption, OrderOption)):
     def __post_init__(self) -> None:
         parse_zone(self.utm_zone)
 

@@ -26,7 +26,7 @@ import numpy as np
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
-from aldpat.tasks._prep_options import OrderOption, write_blocks
+from aldpat.tasks._prep_options import OrderOption, with_shared, write_blocks
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -34,9 +34,12 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class SplitTapeParams(OrderOption):
+class _SplitTapeParams:
     interval: float = param(60.0, "a new strip starts where GPS time jumps by more than this", unit="s", gt=0,
                             manual="Interval")
+
+
+SplitTapeParams = with_shared(_SplitTapeParams, OrderOption)
 
 
 def strip_starts(t: np.ndarray, previous: float | None, interval: float) -> np.ndarray:
@@ -56,7 +59,7 @@ class _RawStrip:
         self.count = 0
 
     def write_lines(self, lines, rows: slice) -> None:
-        self.fh.write(lines.gather(rows))
+        lines.write(self.fh, rows)
         self.count += rows.stop - rows.start
 
 

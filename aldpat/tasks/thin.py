@@ -23,7 +23,7 @@ import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.params import param
-from aldpat.tasks._prep_options import OriginOption, write_blocks
+from aldpat.tasks._prep_options import OriginOption, with_shared, write_blocks
 from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -31,13 +31,16 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ThinParams(OriginOption):
+class _ThinParams:
     cell_width: float = param(1.0, "cell (window) width", unit="m", gt=0, manual="Width")
     cell_height: float = param(1.0, "cell (window) height", unit="m", gt=0, manual="Height")
     method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
                         "nearest the cell centre", choices=METHODS, manual="Method")
     xy: str = param("float", "output x and y as read (float) or rounded to the nearest integer",
                     choices=("float", "integer"), manual="XY Type")
+
+
+ThinParams = with_shared(_ThinParams, OriginOption)
 
 
 def round_half_away(v: np.ndarray) -> np.ndarray:

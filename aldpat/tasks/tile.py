@@ -35,7 +35,7 @@ from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
 from aldpat.io.text import format_rows
 from aldpat.params import param
-from aldpat.tasks._prep_options import WRITE_BLOCK, FieldsOption, point_names
+from aldpat.tasks._prep_options import WRITE_BLOCK, FieldsOption, point_names, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -45,7 +45,7 @@ PARAMETER_FILE = "tile_parameter.txt"
 
 
 @dataclass(frozen=True)
-class TileParams(FieldsOption):
+class _TileParams:
     width: float = param(2000.0, "tile width along x (ignored with --direction y)", unit="m", gt=0, manual="Width")
     height: float = param(2000.0, "tile height along y (ignored with --direction x)", unit="m", gt=0,
                           manual="Height")
@@ -56,6 +56,9 @@ class TileParams(FieldsOption):
         None, "area to tile: MINX MINY MAXX MAXY (default: the rectangle covering all inputs)", unit="m",
         metavar="MINX MINY MAXX MAXY", manual="Min/Max X Y")
     append: bool = param(False, "append to existing tile files and tile_parameter.txt, as ALDPAT did")
+
+
+TileParams = with_shared(_TileParams, FieldsOption)
 
 
 def number_text(v: float) -> str:
@@ -127,12 +130,12 @@ class TileSink:
                     fh.write(format_rows(table.take(slice(a, a + WRITE_BLOCK)), self.names, self.delimiter))
         entry["count"] += len(table)
 
-    def write_raw(self, layout: TileLayout, key: tuple[int, int], data: bytes, count: int) -> None:
+    def write_raw(self, layout: TileLayout, key: tuple[int, int], lines, rows: np.ndarray) -> None:
         """Append input lines copied byte for byte (text tiles with the input's columns)."""
         entry = self.tiles.get(key) or self._open(layout, key)
         with open(entry["tmp"], "ab") as fh:
-            fh.write(data)
-        entry["count"] += count
+            lines.write(fh, rows)
+        entry["count"] += len(rows)
 
     def commit(self) -> list[tuple[Path, int]]:
         for entry in self.tiles.values():
@@ -174,7 +177,7 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> tuple[int, i
         for a, b in zip(starts, np.r_[starts[1:], len(rows)]):
             key = divmod(int(keys[a]), layout.ny)
             if lines is not None:
-                sink.write_raw(layout, key, lines.gather(rows[a:b]), int(b - a))
+                sink.write_raw(layout, key, lines, rows[a:b])
             else:
                 sink.write(layout, key, chunk.take(rows[a:b]))
     ci, _ = layout.core_index(chunk.x, chunk.y)
