@@ -33,8 +33,8 @@ from aldpat.errors import DataError, OutputExistsError, UsageError
 from aldpat.io.atomic import atomic_output, check_writable, temp_name
 from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
-from aldpat.io.text import format_rows
 from aldpat.params import param
+from aldpat.tasks._fastfmt import format_block
 from aldpat.tasks._prep_options import WRITE_BLOCK, FieldsOption, point_names, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -125,9 +125,10 @@ class TileSink:
         if self.is_las:
             entry["writer"].write(table)
         else:
-            with open(entry["tmp"], "a", encoding="ascii", newline="\n") as fh:
+            with open(entry["tmp"], "ab") as fh:
                 for a in range(0, len(table), WRITE_BLOCK):
-                    fh.write(format_rows(table.take(slice(a, a + WRITE_BLOCK)), self.names, self.delimiter))
+                    fh.write(memoryview(format_block(table.take(slice(a, a + WRITE_BLOCK)), self.names,
+                                                     self.delimiter)))
         entry["count"] += len(table)
 
     def write_raw(self, layout: TileLayout, key: tuple[int, int], lines, rows: np.ndarray) -> None:
