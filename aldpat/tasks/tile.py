@@ -267,9 +267,9 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
         x0, x1, y0, y1 = layout.core(i, j)
         rows[str(entry["path"].resolve())] = (x0, x1, y0, y1, x1 - x0, y1 - y0, layout.buffer)
     write_parameter_file(param_path, rows, delimiter=ctx.delimiter, overwrite=True)
+    ctx.wrote(param_path)  # first, so the run's log is tile_parameter.log, not one tile's
     for path, count in sorted(done):
         ctx.wrote(path, count)
-    ctx.wrote(param_path)
     if lost:
         ctx.warn(f"{lost} of {total} points lie outside the tiles and their buffers (--bounds)")
     log.info("%d points, %d in tile cores, %d tiles", total, in_core, len(done))
