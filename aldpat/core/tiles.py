@@ -105,17 +105,36 @@ class TileLayout:
         return out
 
     def memberships(self, x: np.ndarray, y: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Yield (tile column, tile row, mask) triples covering every (point, tile) pair where the
-        point lies in the tile's core or buffer. A pair appears once over all triples."""
+        """Yield (tile column, tile row, point index) triples of arrays covering every (point, tile)
+        pair where the point lies in the tile's core or buffer; a pair appears once over all.
+
+        Buffer memberships are only looked for among the points within a buffer of a tile edge
+        (or outside every core), so the cost stays near one pass over the chunk.
+        """
         x = np.asarray(x, np.float64)
         y = np.asarray(y, np.float64)
         ci, cj = self.core_index(x, y)
         has_core = ci >= 0
-        for ti, mx in self._axis_members(x, self.minx, self.width, self.nx):
-            for tj, my in self._axis_members(y, self.miny, self.height, self.ny):
-                # the core pair is handled below, once, with the closed upper edge
-                mask = mx & my & ~(has_core & (ti == ci) & (tj == cj))
-                if mask.any():
-                    yield ti, tj, mask
-        if has_core.any():
-            yield ci, cj, has_core
+        if self.buffer > 0:
+            near = ~has_core | self._near_edge(x, self.minx, self.width) | self._near_edge(y, self.miny, self.height)
+            cand = np.flatnonzero(near)
+            if len(cand):
+                cx, cy, cci, ccj = x[cand], y[cand], ci[cand], cj[cand]
+                for ti, mx in self._axis_members(cx, self.minx, self.width, self.nx):
+                    for tj, my in self._axis_members(cy, self.miny, self.height, self.ny):
+                        # the core pair is given below, once, with the closed upper edge
+                        mask = mx & my & ~((cci == ti) & (ccj == tj))
+                        if mask.any():
+                            yield ti[mask], tj[mask], cand[mask]
+        rows = np.flatnonzero(has_core)
+        if len(rows):
+            yield ci[rows], cj[rows], rows
+
+    def _near_edge(self, v: np.ndarray, lo: float, size: float) -> np.ndarray:
+        """Points within the buffer (plus a rounding margin) of a tile edge along one axis."""
+        if size <= 0:
+            return np.ones(len(v), dtype=bool)
+        u = v - lo
+        off = u - np.floor(u / size) * size
+        margin = self.buffer + 1e-9 * (abs(lo) + size + np.abs(u))
+        return (off <= margin) | (size - off <= margin)

@@ -168,10 +168,9 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> tuple[int, i
     when given); return (points in a core, points in no tile)."""
     placed = np.zeros(len(chunk), dtype=bool)
     in_core = 0
-    for ti, tj, mask in layout.memberships(chunk.x, chunk.y):
-        rows = np.flatnonzero(mask)
+    for ti, tj, rows in layout.memberships(chunk.x, chunk.y):
         placed[rows] = True
-        keys = ti[rows] * layout.ny + tj[rows]
+        keys = ti * layout.ny + tj
         order = np.argsort(keys, kind="stable")  # keep input order within a tile
         rows, keys = rows[order], keys[order]
         starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])

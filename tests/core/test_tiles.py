@@ -8,11 +8,10 @@ from aldpat.core.tiles import TileLayout
 
 def members(layout, x, y):
     out = {}
-    for ti, tj, mask in layout.memberships(x, y):
-        for k in np.flatnonzero(mask):
-            key = (int(ti[k]), int(tj[k]))
-            assert key not in out.setdefault(int(k), set()), "a (point, tile) pair listed twice"
-            out[int(k)].add(key)
+    for ti, tj, rows in layout.memberships(x, y):
+        for a, b, k in zip(ti.tolist(), tj.tolist(), rows.tolist()):
+            assert (a, b) not in out.setdefault(k, set()), "a (point, tile) pair listed twice"
+            out[k].add((a, b))
     return out
 
 
