@@ -20,6 +20,10 @@ compute that result directly instead of popping cell by cell:
 The one difference from the queue is in corridors one cell wide between higher cells, where
 the queue lets the level creep up along the corridor while here it stays at the set's
 lowest level. Everything is vectorized (labels, shifted comparisons, ``np.minimum.at``).
+
+On real data the removed sets join into sheets spanning slopes, and a flat flood from the
+lowest corner cuts the terrain beside it; ``rise`` lets the level climb with the distance from
+the boundary cell it came from (see :func:`priority_fill`).
 """
 
 from __future__ import annotations
@@ -67,7 +71,6 @@ def priority_fill(
     min_conn: int = 0,
     connectivity: int = 8,
     rise: float = 0.0,
-    max_steps: int = 100_000,
 ) -> np.ndarray:
     """Fill empty cells from their lowest boundary upward (``PQBoundInterp``, §4.2.4).
 
@@ -82,9 +85,8 @@ def priority_fill(
         dissertation's queue: every set floods at its lowest boundary level. A positive
         value makes the flood from a low boundary cell rise as it travels, so a large set on
         a slope takes the level of its nearby low boundary instead of its far lowest corner
-        (each empty cell gets ``min over boundary cells b of z(b) + rise * d(b, cell)``,
-        ``d`` the chamfer distance through the set).
-    max_steps : cap on the propagation sweeps when ``rise > 0``.
+        (each empty cell gets ``min over valued cells b of z(b) + rise * d(b, cell)``,
+        ``d`` the city-block distance).
 
     Returns a new array.
     """
@@ -103,7 +105,7 @@ def priority_fill(
     offsets = _offsets(connectivity)
     valued = ~empty
     if rise > 0:
-        filled = _rising_flood(z, valued, work, offsets, float(rise), max_steps)
+        filled = _rising_flood(z, valued, work, float(rise))
     else:
         level = np.full(count + 1, np.inf)
         for dr, dc in offsets:
@@ -133,26 +135,63 @@ def priority_fill(
     return out
 
 
-def _rising_flood(z, valued, work, offsets, rise, max_steps) -> np.ndarray:
+def _segment_envelope(v: np.ndarray, offsets: tuple[np.ndarray, np.ndarray], rise: float,
+                      step: float) -> np.ndarray:
+    """Along each row: ``min_y v(y) + rise * |x - y|`` over ``y`` reachable from ``x``.
+
+    Valued cells and barriers (``v`` +inf) end a stretch of interpolated cells: a value passes
+    into the stretch from them but not through them. Each stretch is made independent of the
+    earlier ones by a per-stretch offset larger than any value (``offsets``, from
+    :func:`_stretch_offsets`), so one running minimum per direction serves the whole row.
+    """
+    rows, n = v.shape
+    ramp = np.arange(n, dtype=np.float64)[None, :] * rise
+    out = np.full(v.shape, np.inf)
+    for sign, offset in zip((1, -1), offsets):
+        vv = v if sign == 1 else v[:, ::-1]
+        acc = np.minimum.accumulate(vv - ramp + offset, axis=1)
+        acc += ramp
+        acc -= offset
+        acc[acc > step / 4.0] = np.inf     # from an earlier stretch: not reachable
+        if sign == -1:
+            acc = acc[:, ::-1]
+        np.minimum(out, acc, out=out)
+    return out
+
+
+def _stretch_offsets(stop: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-stretch offsets for the forward and the backward running minimum of each row."""
+    out = []
+    for src in (stop, stop[:, ::-1]):
+        seg = np.cumsum(src, axis=1, dtype=np.float64)
+        out.append((seg[:, -1:] - seg) * step)   # earlier stretches lie higher
+    return out[0], out[1]
+
+
+def _rising_flood(z, valued, work, rise, max_sweeps: int = 64) -> np.ndarray:
     """``min_b z(b) + rise * d(b, cell)`` over valued cells ``b``, for the ``work`` cells.
 
-    Min-plus propagation by whole-grid sweeps over the neighbour offsets (each sweep is a
-    vectorized slice operation); stops when nothing changes.
+    ``d`` is the city-block length of the shortest path from ``b`` through the set. Exact row
+    and column envelopes (:func:`_segment_envelope`) alternate until nothing changes; each
+    turn of the shortest paths costs one more sweep, a few on real sets.
     """
+    barrier = ~valued & ~work
+    stop = valued | barrier
+    n = max(z.shape)
+    span = float(np.abs(z[valued]).max()) if valued.any() else 0.0
+    step = 4.0 * (span + rise * n + 1.0)
+    offs = _stretch_offsets(stop, step)
+    offs_t = _stretch_offsets(np.ascontiguousarray(stop.T), step)
+    work_t = np.ascontiguousarray(work.T)
     v = np.where(valued, z, np.inf)
-    v[~valued & ~work] = np.inf
-    rows, cols = v.shape
-    steps = [(dr, dc, rise * float(np.hypot(dr, dc))) for dr, dc in offsets]
-    for _ in range(max_steps):
-        changed = False
-        for dr, dc, cost in steps:
-            dst = (slice(max(0, -dr), rows - max(0, dr)), slice(max(0, -dc), cols - max(0, dc)))
-            src = (slice(max(0, dr), rows - max(0, -dr)), slice(max(0, dc), cols - max(0, -dc)))
-            cand = v[src] + cost
-            better = work[dst] & (cand < v[dst])
-            if better.any():
-                v[dst][better] = cand[better]
-                changed = True
-        if not changed:
+    for _ in range(max_sweeps):
+        before = v[work]
+        np.copyto(v, np.minimum(v, _segment_envelope(v, offs, rise, step)), where=work)
+        vt = np.ascontiguousarray(v.T)
+        np.copyto(vt, np.minimum(vt, _segment_envelope(vt, offs_t, rise, step)), where=work_t)
+        v = np.ascontiguousarray(vt.T)
+        if not (before - v[work] > 1e-6).any():  # the offsets cost a few ulps per sweep
             break
-    return np.where(work, v, z)
+    out = z.copy()
+    out[work] = v[work]
+    return out

@@ -53,7 +53,7 @@ class MultipassParams(GroundParams):
     )
     connectivity: int = param(8, "neighbours that connect empty cells", choices=(4, 8))
     fill_rise: float = param(
-        0.4, "height the priority interpolation may rise per cell away from a low boundary "
+        0.8, "height the priority interpolation may rise per cell away from a low boundary "
         "cell; 0 floods every removed set at its lowest boundary, as the queue of §4.2.4 does",
         unit="m", ge=0,
     )
