@@ -28,7 +28,8 @@ _FMT = re.compile(r"^%(?:\.(\d+))?([df])$")
 
 
 def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarray:
-    """(n, width) uint8 matrix of one column's text, right-aligned, 0 where there is no character."""
+    """(width, n) uint8 matrix of one column's text, right-aligned, 0 where there is no character
+    (built column-major: each digit position is one contiguous row)."""
     v = np.asarray(values, dtype=np.float64)
     scaled = np.trunc(v) if integer else np.rint(v * (10.0 ** decimals))
     # %.Nf keeps the sign of a negative zero (-0.00); %d does not
@@ -39,7 +40,7 @@ def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarra
     top = int(a.max()) if len(a) else 0
     ndig_max = max(len(str(top)), d + 1)
     width = ndig_max + (1 if d else 0) + 1  # digits, point, sign
-    out = np.zeros((len(a), width), dtype=np.uint8)
+    out = np.zeros((width, len(a)), dtype=np.uint8)
     ndig = np.maximum(np.floor(np.log10(np.maximum(a, 1))).astype(np.int64) + 1, d + 1)
     # log10 can be off by one just below a power of ten: correct it exactly
     ten = np.power(10, np.minimum(ndig, 18)).astype(np.int64)
@@ -48,17 +49,16 @@ def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarra
     col = width - 1
     for k in range(ndig_max):
         if d and k == d:
-            out[:, col] = ord(".")
+            out[col] = ord(".")
             col -= 1
         rest, digit = np.divmod(rest, 10)
-        out[:, col] = digit
-        out[:, col] += 48
+        np.add(digit, 48, out=out[col], casting="unsafe")
         col -= 1
     # blank out the leading zeros; the sign goes just left of the leading digit
     used = ndig + (1 if d else 0)
-    out[np.arange(width)[None, :] < (width - used)[:, None]] = 0
+    out[np.arange(width)[:, None] < (width - used)[None, :]] = 0
     rows = np.flatnonzero(negative)
-    out[rows, width - 1 - used[rows]] = ord("-")
+    out[width - 1 - used[rows], rows] = ord("-")
     return out
 
 
@@ -74,9 +74,9 @@ def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: 
         m = _FMT.match(fmt)
         places = int(m.group(1) or 0)
         parts.append(_column_bytes(table.columns[name], places, m.group(2) == "d"))
-        parts.append(np.broadcast_to(sep if k < len(names) - 1 else np.array([10], np.uint8),
-                                     (n, len(sep) if k < len(names) - 1 else 1)))
-    matrix = np.concatenate(parts, axis=1)
+        end = sep if k < len(names) - 1 else np.array([10], np.uint8)
+        parts.append(np.broadcast_to(end[:, None], (len(end), n)))
+    matrix = np.ascontiguousarray(np.concatenate(parts, axis=0).T)
     return matrix[matrix != 0]
 
 
