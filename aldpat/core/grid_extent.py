@@ -42,6 +42,11 @@ class GridSpec:
     ny: int
 
     def __post_init__(self) -> None:
+        # plain Python numbers, so that headers print them the same whatever built the spec
+        for name in ("xmin", "ymin", "dx", "dy"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        for name in ("nx", "ny"):
+            object.__setattr__(self, name, int(getattr(self, name)))
         if not (self.dx > 0 and self.dy > 0):
             raise UsageError(f"grid spacing must be positive, got {self.dx:g} x {self.dy:g}")
         if self.nx < 1 or self.ny < 1:
