@@ -25,6 +25,8 @@ from aldpat.io.atomic import atomic_output
 from aldpat.io.text import column_formats
 
 _FMT = re.compile(r"^%(?:\.(\d+))?([df])$")
+#: rows formatted at a time (the byte matrix is about 40 bytes a row)
+BLOCK_ROWS = 500_000
 
 
 def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarray:
@@ -88,7 +90,7 @@ class FastTextWriter:
         self.decimals = decimals
         self.count = 0
 
-    def write(self, table, block: int = 500_000) -> None:
+    def write(self, table, block: int = BLOCK_ROWS) -> None:
         for a in range(0, len(table), block):
             part = table.take(slice(a, a + block)) if len(table) > block else table
             self.fh.write(memoryview(format_block(part, self.names, self.delimiter, self.decimals)))

@@ -53,17 +53,3 @@ def point_names(reader, fields: str) -> tuple[str, ...]:
         names += ("intensity",)
     return names
 
-
-#: rows formatted at a time by text writers: the foundation's formatter builds a Python float per
-#: value, so a 2-million-row chunk of 9 columns would briefly take over 600 MB
-WRITE_BLOCK = 250_000
-
-
-def write_blocks(writer, table) -> None:
-    """``writer.write(table)`` in blocks of :data:`WRITE_BLOCK` rows, to keep the peak low."""
-    n = len(table)
-    if n <= WRITE_BLOCK or getattr(writer, "names", None) is None or table.record is not None:
-        writer.write(table)
-        return
-    for a in range(0, n, WRITE_BLOCK):
-        writer.write(table.take(slice(a, min(a + WRITE_BLOCK, n))))

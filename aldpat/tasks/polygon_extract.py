@@ -22,7 +22,6 @@ from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
 from aldpat.tasks._fastfmt import open_text_writer
-from aldpat.tasks._prep_options import write_blocks
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -103,7 +102,7 @@ def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobCont
     with open_text_writer(ctx, out, reader.names, like=reader) as writer:
         for chunk in reader.chunks():
             inside = points_in_polygons(chunk.x, chunk.y, polygons)
-            write_blocks(writer, chunk.take(~inside if params.outside else inside))
+            writer.write(chunk.take(~inside if params.outside else inside))
             total += len(chunk)
     ctx.wrote(out, writer.count)
     log.info("%s: %d of %d points %s the polygon", source, writer.count, total,

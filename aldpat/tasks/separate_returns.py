@@ -20,7 +20,7 @@ from aldpat.errors import DataError, ParamError
 from aldpat.io.table import PointTable
 from aldpat.params import param
 from aldpat.tasks._fastfmt import open_text_writer
-from aldpat.tasks._prep_options import FieldsOption, OrderOption, with_shared, write_blocks
+from aldpat.tasks._prep_options import FieldsOption, OrderOption, with_shared
 from aldpat.tasks.base import JobContext, Task, register_task
 from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 
@@ -114,8 +114,8 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
             first = {"x": x1, "y": y1, "z": z1, "intensity": i1}
             last = {"x": np.where(swap, x1, x2), "y": np.where(swap, y1, y2), "z": np.where(swap, z1, z2),
                     "intensity": np.where(swap, i1, i2)}
-            write_blocks(w1, PointTable({n: first[n] for n in names}, meta={"decimals": decimals}))
-            write_blocks(w2, PointTable({n: last[n] for n in names}, meta={"decimals": decimals}))
+            w1.write(PointTable({n: first[n] for n in names}, meta={"decimals": decimals}))
+            w2.write(PointTable({n: last[n] for n in names}, meta={"decimals": decimals}))
             replaced += int(swap.sum())
             total += len(chunk)
     ctx.wrote(first_out, w1.count)

@@ -27,7 +27,7 @@ from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
 from aldpat.tasks._fastfmt import open_text_writer
-from aldpat.tasks._prep_options import OrderOption, with_shared, write_blocks
+from aldpat.tasks._prep_options import OrderOption, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -94,7 +94,7 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
             if raw:
                 w.write_lines(lines, slice(a, b))
             else:
-                write_blocks(w, chunk.take(slice(a, b)))
+                w.write(chunk.take(slice(a, b)))
 
         writer = None
         previous = None

@@ -24,7 +24,7 @@ import numpy as np
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.params import param
 from aldpat.tasks._fastfmt import open_text_writer
-from aldpat.tasks._prep_options import OriginOption, with_shared, write_blocks
+from aldpat.tasks._prep_options import OriginOption, with_shared
 from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -72,7 +72,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
 
             table = PointTable.concat(list(reader.chunks()))
             total = len(table)
-            write_blocks(writer, thin_table(table, params))
+            writer.write(thin_table(table, params))
         else:
             spill = Spill(out.parent, k)
             try:
@@ -81,7 +81,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
                     spill.add(chunk, bucket_of(i, j, k))
                     total += len(chunk)
                 for bucket in spill.buckets():
-                    write_blocks(writer, thin_table(bucket, params))
+                    writer.write(thin_table(bucket, params))
             finally:
                 spill.close()
     ctx.wrote(out, writer.count)

@@ -34,8 +34,8 @@ from aldpat.io.atomic import atomic_output, check_writable, temp_name
 from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
 from aldpat.params import param
-from aldpat.tasks._fastfmt import format_block
-from aldpat.tasks._prep_options import WRITE_BLOCK, FieldsOption, point_names, with_shared
+from aldpat.tasks._fastfmt import BLOCK_ROWS, format_block
+from aldpat.tasks._prep_options import FieldsOption, point_names, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -126,8 +126,8 @@ class TileSink:
             entry["writer"].write(table)
         else:
             with open(entry["tmp"], "ab") as fh:
-                for a in range(0, len(table), WRITE_BLOCK):
-                    fh.write(memoryview(format_block(table.take(slice(a, a + WRITE_BLOCK)), self.names,
+                for a in range(0, len(table), BLOCK_ROWS):
+                    fh.write(memoryview(format_block(table.take(slice(a, a + BLOCK_ROWS)), self.names,
                                                      self.delimiter)))
         entry["count"] += len(table)
 

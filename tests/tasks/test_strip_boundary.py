@@ -3,7 +3,6 @@
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from aldpat.core.polygon import points_in_polygons
 from aldpat.tasks import get_task
