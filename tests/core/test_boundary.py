@@ -3,7 +3,6 @@
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from aldpat.core.boundary import BoundaryScan
 from aldpat.core.polygon import points_in_polygons, signed_area
