@@ -34,10 +34,10 @@ AXES = {"row": (1,), "column": (0,), "both": (1, 0)}
 @dataclass(frozen=True)
 class ClusterPmParams(GroundParams):
     window_series: tuple[int, ...] = param(
-        (1, 2, 4, 8, 16, 32), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1,
+        (1, 2, 4, 8, 16, 24), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1,
     )
     threshold_series: tuple[float, ...] = param(
-        (0.4, 0.48, 0.56, 1.0, 1.6, 2.0), "elevation difference threshold of each window", unit="m", gt=0,
+        (0.3, 0.5, 0.8, 1.2, 2.0, 2.5), "elevation difference threshold of each window", unit="m", gt=0,
     )
     cluster_window_size: int | None = param(
         8, "smallest half window with cluster analysis and recovery; none: plain PM", unit="cells", ge=1,
