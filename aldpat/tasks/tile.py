@@ -15,7 +15,8 @@ Streaming: each chunk of each input is routed to the tiles it touches and append
 temporary files; memory does not depend on the input size or the number of tiles (text tiles
 are reopened per chunk; LAS/LAZ tiles keep one open writer per tile). Text records are copied
 byte for byte when the tiles keep the input's columns and delimiter. All tiles are renamed into
-place when every input has been read.
+place when every input has been read. Without ``--bounds`` text inputs are read twice (first
+for their extent; LAS/LAZ headers hold it).
 """
 
 from __future__ import annotations
