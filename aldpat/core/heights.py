@@ -145,11 +145,18 @@ class HeightConverter:
         n = self.undulation(x, y, first=first, path=path) * self.factor
         z = np.asarray(z, dtype=np.float64)
         z_out = z + n if self.reverse else z - n
+        x2, y2 = self.horizontal(x, y, first=first, path=path)
+        return x2, y2, z_out
+
+    def horizontal(self, x, y, *, first: int = 0, path=None) -> tuple[np.ndarray, np.ndarray]:
+        """x, y in ``to_crs`` (unchanged without one)."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
         if self._xy is None:
-            return x, y, z_out
+            return x, y
         x2, y2 = self._xy.transform(x, y, errcheck=False)
-        x2, y2 = np.asarray(x2), np.asarray(y2)
+        x2, y2 = np.asarray(x2, dtype=np.float64), np.asarray(y2, dtype=np.float64)
         bad = ~(np.isfinite(x2) & np.isfinite(y2))
         if bad.any():
             raise self._outside(bad, x, y, first, path, f"cannot be projected to {self.to_crs.name}")
-        return x2, y2, z_out
+        return x2, y2

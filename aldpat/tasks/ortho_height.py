@@ -9,8 +9,12 @@ Conversion: :mod:`aldpat.core.heights`.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
 
 from aldpat.core.heights import Z_UNITS, HeightConverter
 from aldpat.errors import UsageError
@@ -40,21 +44,37 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
     convert = HeightConverter(crs, params.geoid, to_crs=params.to_crs, reverse=params.reverse,
                               z_unit=params.z_unit)
     out = ctx.output_path(source, "_Ortho", reader=reader)
-    like, decimals, out_crs = reader, None, convert.crs
+    like, decimals = reader, None
     if convert.to_crs is not None:
-        out_crs = convert.to_crs
-        like = None  # a LAS header's scale and offset belong to the old coordinates
         dec = dict(getattr(reader, "decimals", None) or {})
         if convert.to_crs.is_geographic:
             dec.update(x=9, y=9)  # degrees need more decimals than metres
         decimals = dec or None
-    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=out_crs) as writer:
+        if reader.format == "las":
+            like = _reprojected_template(reader, convert)
+    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=convert.to_crs or convert.crs) \
+            as writer:
         done = 0
         for chunk in reader.chunks():
             x, y, z = convert(chunk.x, chunk.y, chunk.z, first=done, path=source)
             writer.write(chunk.with_columns(x=x, y=y, z=z))
             done += len(chunk)
     ctx.wrote(out, writer.count)
+
+
+def _reprojected_template(reader, convert: HeightConverter) -> SimpleNamespace:
+    """The LAS source's header (point format, VLRs, every attribute kept) with the target CRS
+    and an x, y scale and offset that suit the new coordinates (1e-7 for degrees)."""
+    header = copy.deepcopy(reader.header)
+    x0, y0 = (float(v[0]) for v in convert.horizontal([header.mins[0]], [header.mins[1]], path=reader.path))
+    if convert.to_crs.is_geographic:
+        header.scales = np.array([1e-7, 1e-7, header.scales[2]])
+        header.offsets = np.array([np.floor(x0), np.floor(y0), header.offsets[2]])
+    else:
+        header.offsets = np.array([np.floor(x0 / 1000.0) * 1000.0, np.floor(y0 / 1000.0) * 1000.0,
+                                   header.offsets[2]])
+    header.add_crs(convert.to_crs)
+    return SimpleNamespace(format="las", header=header, crs=convert.to_crs, decimals=None)
 
 
 register_task(Task(

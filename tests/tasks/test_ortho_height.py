@@ -94,3 +94,24 @@ def test_missing_crs_or_geoid_is_reported(tmp_path, runner, cli):
     assert res.exit_code != 0 and "--geoid is required" in res.output
     res = runner.invoke(cli, ["ortho-height", str(src), "--crs", "15N", "--geoid", str(tmp_path / "x" / "g.gtx")])
     assert res.exit_code != 0 and "g.gtx" in res.output
+
+
+def test_las_reprojected_keeps_its_point_format_and_gets_the_new_crs(tmp_path):
+    e, n = TO_UTM.transform(LON, LAT)
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([0.01, 0.01, 0.01])
+    header.offsets = np.array([700000.0, 4200000.0, 0.0])
+    header.add_crs(pyproj.CRS.from_epsg(32615))
+    las = laspy.LasData(header)
+    las.x = np.array([e, e + 5.0])
+    las.y = np.array([n, n - 3.0])
+    las.z = np.array([150.0, 151.0])
+    las.gps_time = np.array([1.5, 2.5])
+    las.write(tmp_path / "s.las")
+    report = get_task("ortho-height")([tmp_path / "s.las"], geoid=str(GEOID), to_crs="EPSG:4326")
+    assert report.exit_code == 0, report.results[0].error
+    out = laspy.read(tmp_path / "s_Ortho.las")
+    assert out.header.point_format.id == 1 and out.header.parse_crs().to_epsg() == 4326
+    assert (out.x[0], out.y[0]) == pytest.approx((LON, LAT), abs=2e-7)
+    np.testing.assert_array_equal(out.gps_time, [1.5, 2.5])
+    assert out.z[0] == pytest.approx(150.0 - N, abs=0.1)
