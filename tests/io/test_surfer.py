@@ -125,3 +125,11 @@ def test_bad_files_are_format_errors(tmp_path, content):
     with pytest.raises(InputFormatError) as err:
         read_surfer(path)
     assert "bad.grd" in str(err.value)
+
+
+def test_ascii_header_is_plain_numbers_whatever_built_the_spec(tmp_path):
+    spec = GridSpec(np.float64(500000.0), np.float32(4200000.0), np.float64(2.0), 2.0, np.int64(7), 5)
+    write_surfer(tmp_path / "a.grd", sample_values(), spec, fmt="surfer6-ascii")
+    head = (tmp_path / "a.grd").read_text().splitlines()[:5]
+    assert head[:4] == ["DSAA", "7 5", "500000.0 500012.0", "4200000.0 4200008.0"]
+    assert head[4] == "1.25 406.25"  # z range of the non-blank nodes
