@@ -12,6 +12,7 @@ origin (SPEC §2 grid alignment), so tiles gridded apart share their cell bounda
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from dataclasses import dataclass
@@ -74,8 +75,9 @@ class LowestGrid:
     lowest: np.ndarray
     cell_index: np.ndarray
 
-    @property
+    @functools.cached_property
     def empty(self) -> np.ndarray:
+        """Cells without a point (computed once)."""
         return self.lowest < 0
 
 
@@ -178,9 +180,11 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None) -> np.ndarray:
     if not empty.any() or empty.all():
         return z.copy()
     idx = ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
-    # one flat gather is about twice as fast as indexing with the two index planes
-    flat = idx[0].astype(np.int64)
+    # one flat gather is about twice as fast as indexing with the two index planes; the flat
+    # index is built in place in the row plane (MAX_CELLS keeps it within int32)
+    flat = idx[0]
+    if flat.dtype != np.int64 and z.size >= 2**31:
+        flat = flat.astype(np.int64)
     flat *= z.shape[1]
     flat += idx[1]
-    del idx
     return z.ravel()[flat]

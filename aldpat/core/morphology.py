@@ -66,40 +66,68 @@ def _check(z: np.ndarray, k: int, window: str, axis: int) -> np.ndarray:
     return z
 
 
-def _running(z: np.ndarray, k: int, window: str, axis: int, maximum: bool) -> np.ndarray:
+def _running(z: np.ndarray, k: int, window: str, axis: int, maximum: bool,
+             out: np.ndarray | None = None) -> np.ndarray:
+    """Running max/min into ``out`` (a new array when None; must not be ``z``)."""
+    if out is None:
+        out = np.empty_like(z)
     if k == 0 or z.size == 0:
-        return z.copy()
+        out[...] = z
+        return out
     filt1 = ndimage.maximum_filter1d if maximum else ndimage.minimum_filter1d
     filt2 = ndimage.maximum_filter if maximum else ndimage.minimum_filter
     if window == "line":
-        return filt1(z, 2 * k + 1, axis=axis, mode="nearest")
+        filt1(z, 2 * k + 1, axis=axis, mode="nearest", output=out)
+        return out
     if window == "square":
-        return filt2(z, size=(2 * k + 1, 2 * k + 1), mode="nearest")
-    out = None
+        filt2(z, size=(2 * k + 1, 2 * k + 1), mode="nearest", output=out)
+        return out
     pick = np.maximum if maximum else np.minimum
-    for hr, hc in disk_rectangles(int(k)):
-        part = filt2(z, size=(2 * hr + 1, 2 * hc + 1), mode="nearest")
-        out = part if out is None else pick(out, part, out=out)
+    part = None
+    for i, (hr, hc) in enumerate(disk_rectangles(int(k))):
+        if i == 0:
+            filt2(z, size=(2 * hr + 1, 2 * hc + 1), mode="nearest", output=out)
+            continue
+        part = filt2(z, size=(2 * hr + 1, 2 * hc + 1), mode="nearest", output=part)
+        pick(out, part, out=out)
     return out
 
 
-def erosion(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
-    """Running minimum over the window of half size ``k`` (``k = 0``: a copy)."""
+def _out(z: np.ndarray, out: np.ndarray | None) -> np.ndarray | None:
+    if out is not None and (out.shape != z.shape or out.dtype != np.float64 or np.shares_memory(out, z)):
+        raise ValueError("out must be a separate float64 array of the grid's shape")
+    return out
+
+
+def erosion(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1,
+            out: np.ndarray | None = None) -> np.ndarray:
+    """Running minimum over the window of half size ``k`` (``k = 0``: a copy).
+
+    ``out``: a float64 array of the same shape to write into (saves an allocation per call on
+    large grids); it must not share memory with ``z``.
+    """
     z = _check(z, k, window, axis)
-    return _running(z, int(k), window, axis, maximum=False)
+    return _running(z, int(k), window, axis, False, _out(z, out))
 
 
-def dilation(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
-    """Running maximum over the window of half size ``k``."""
+def dilation(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1,
+             out: np.ndarray | None = None) -> np.ndarray:
+    """Running maximum over the window of half size ``k`` (``out`` as for :func:`erosion`)."""
     z = _check(z, k, window, axis)
-    return _running(z, int(k), window, axis, maximum=True)
+    return _running(z, int(k), window, axis, True, _out(z, out))
 
 
-def opening(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:
+def opening(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1,
+            out: np.ndarray | None = None, work: np.ndarray | None = None) -> np.ndarray:
     """Erosion then dilation: removes what is higher than its surroundings and narrower than
-    the window (manual appendix, PM filter; dissertation §4.1.1 for high outliers)."""
+    the window (manual appendix, PM filter; dissertation §4.1.1 for high outliers).
+
+    ``out`` receives the result and ``work`` the intermediate erosion (both optional, float64,
+    separate from ``z`` and from each other).
+    """
     z = _check(z, k, window, axis)
-    return _running(_running(z, int(k), window, axis, False), int(k), window, axis, True)
+    ero = _running(z, int(k), window, axis, False, _out(z, work))
+    return _running(ero, int(k), window, axis, True, _out(ero, out) if out is not None else None)
 
 
 def closing(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> np.ndarray:

@@ -259,8 +259,10 @@ def _run_grid(spec: FilterSpec, grid: LowestGrid, params) -> np.ndarray:
     marks = np.asarray(spec.fn(filled, empty.copy(), params))
     if marks.shape != grid.z.shape:
         raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {grid.z.shape}")
-    marks = marks.astype(np.int32, copy=True)
+    if marks.dtype != np.int32 or not marks.flags.writeable or marks is filled:
+        marks = marks.astype(np.int32)
     marks[empty] = MARK_INTERPOLATED
+    del filled
     return marks
 
 

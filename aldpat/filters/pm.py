@@ -115,15 +115,20 @@ def progressive_open(z: np.ndarray, windows, thresholds, passes) -> np.ndarray:
 
     ``passes`` lists ``(window, axis)`` openings applied in turn at every step; each compares
     the surface before and after itself. A cell keeps the first window that removed it.
+    Three grid-sized float buffers in all, whatever the number of windows; ``z`` is not changed.
     """
     surface = np.array(z, dtype=np.float64, copy=True)
+    opened = np.empty_like(surface)
+    work = np.empty_like(surface)
     marks = np.zeros(surface.shape, np.int32)
     for k, dh in zip(windows, thresholds):
         for window, axis in passes:
-            opened = morphology.opening(surface, k, window=window, axis=axis)
-            removed = (surface - opened > dh) & (marks == MARK_GROUND)
+            morphology.opening(surface, k, window=window, axis=axis, out=opened, work=work)
+            np.subtract(surface, opened, out=work)
+            removed = work > dh
+            removed &= marks == MARK_GROUND
             marks[removed] = k
-            surface = opened
+            surface, opened = opened, surface
         log.debug("window %d (threshold %.3g): %d cells removed so far", k, dh, int((marks > 0).sum()))
     return marks
 

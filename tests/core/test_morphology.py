@@ -92,3 +92,18 @@ def test_bad_arguments(kwargs):
         erosion(np.zeros((3, 3)), k, **kwargs)
     with pytest.raises(ValueError):
         erosion(np.zeros(3), 1)
+
+
+@pytest.mark.parametrize("window", WINDOWS)
+def test_out_and_work_buffers_give_the_same_answer(window):
+    rng = np.random.default_rng(11)
+    z = rng.normal(size=(20, 30))
+    out, work = np.empty_like(z), np.empty_like(z)
+    got = opening(z, 3, window=window, out=out, work=work)
+    assert got is out and np.array_equal(out, opening(z, 3, window=window))
+    assert erosion(z, 2, window=window, out=work) is work
+    assert np.array_equal(work, erosion(z, 2, window=window))
+    with pytest.raises(ValueError, match="separate"):
+        erosion(z, 1, window=window, out=z)
+    with pytest.raises(ValueError, match="separate"):
+        dilation(z, 1, window=window, out=np.empty((3, 3)))
