@@ -79,6 +79,10 @@ def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = Non
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if params.nodata is not None and params.grid_format != "surfer7":
         raise UsageError("--nodata applies to surfer7 grids; Surfer 6 grids always use 1.70141e38")
+    if params.tile_params and Path(source).resolve() == Path(params.tile_params).resolve():
+        # "tiles/tile_*.txt" also matches tile_parameter.txt, which is no tile
+        ctx.warn(f"{source.name}: skipped, it is the tile parameter file")
+        return
     reader = ctx.open_input(source)
     out = ctx.output_path(source, "", ".grd")
     spec = grid_spec_for(source, params, ctx)

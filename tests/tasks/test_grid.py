@@ -123,3 +123,29 @@ def test_errors_name_the_file(tmp_path, runner, cli):
     res = runner.invoke(cli, ["grid", str(other), "--bounds", "100", "100", "110", "110", "--method", "nearest",
                               "--max-distance", "2", "--odir", str(tmp_path / "out3")])
     assert res.exit_code == 1 and "every node is blank" in res.output
+
+
+def test_tiles_of_a_real_sample_grid_seamlessly(tmp_path, samp24):
+    """ISPRS sample 24 cut by 'aldpat tile' into two tiles; the glob also matches
+    tile_parameter.txt, which is skipped."""
+    tiles = tmp_path / "tiles"
+    report = get_task("tile")([samp24], width=60.0, height=80.0, buffer=5.0,
+                              bounds=(513750.0, 5403120.0, 513870.0, 5403200.0), odir=str(tiles))
+    assert report.exit_code == 0, report.results[0].error
+    report = get_task("grid")([str(tiles / "tile_*.txt")], tile_params=str(tiles / "tile_parameter.txt"),
+                              odir=str(tmp_path / "grids"))
+    assert report.exit_code == 0, [r.error for r in report.results]
+    assert any("skipped" in w for r in report.results for w in r.warnings)
+    west, ws = read_surfer(tmp_path / "grids" / "tile_513750_5403120.grd")
+    east, es = read_surfer(tmp_path / "grids" / "tile_513810_5403120.grd")
+    assert ws.xmax == es.xmin == 513810.0 and (ws.ny, es.ny) == (81, 81)
+    shared = ~np.isnan(west[:, -1]) & ~np.isnan(east[:, 0])
+    assert shared.sum() >= 70
+    np.testing.assert_allclose(west[shared, -1], east[shared, 0], atol=1e-9)
+    # blank on one side only: just where the column leaves the sample's data (y 5403124.76 to
+    # 5403197.20), whose convex hull each tile's points draw slightly differently
+    y = ws.y_nodes()
+    one_sided = np.isnan(west[:, -1]) != np.isnan(east[:, 0])
+    assert ((y[one_sided] < 5403124.76 + 1) | (y[one_sided] > 5403197.20 - 1)).all()
+    assert sorted(p.name for p in (tmp_path / "grids").glob("*.grd")) == [
+        "tile_513750_5403120.grd", "tile_513810_5403120.grd"]
