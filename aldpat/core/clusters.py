@@ -66,14 +66,26 @@ class Clusters:
 
     ids:
         int64 cluster id of every cell (0 = before the first unfiltered cell of its row).
-    pre_diff, post_diff:
-        per cell, the elevation jump between its cluster and the previous / next cluster of
-        the row (``preDiff``/``postDiff`` of §6.2.3 step 1); NaN for the first / last cluster.
+    start:
+        bool, the cells that open a cluster.
+    jump:
+        at the cells opening a cluster after another, the elevation jump into it (``preDiff``
+        of line 7); NaN elsewhere.
     """
 
     ids: np.ndarray
-    pre_diff: np.ndarray
-    post_diff: np.ndarray
+    start: np.ndarray
+    jump: np.ndarray
+
+    @property
+    def pre_diff(self) -> np.ndarray:
+        """Per cell, the jump into its cluster from the previous one (NaN for the first)."""
+        return take_rows(self.jump, prev_index(self.start), np.nan)
+
+    @property
+    def post_diff(self) -> np.ndarray:
+        """Per cell, ``postDiff`` of its cluster (line 10: minus the next cluster's preDiff)."""
+        return -take_rows(self.jump, next_index(self.start, strict=True), np.nan)
 
     def cluster_diff(self) -> np.ndarray:
         """``clusterDiff``: the smaller absolute jump to a neighbouring cluster (§6.2.3 step 1).
@@ -120,10 +132,7 @@ def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float,
     first = unfiltered & (prev < 0)
     start = breaks | first
     ids = np.cumsum(start, axis=1, dtype=np.int64)
-    jump = np.where(breaks, jump, np.nan)
-    pre = take_rows(jump, prev_index(start), np.nan)
-    post = -take_rows(jump, next_index(start, strict=True), np.nan)  # line 10: postDiff = -preDiff
-    return Clusters(ids=ids, pre_diff=pre, post_diff=post)
+    return Clusters(ids=ids, start=start, jump=np.where(breaks, jump, np.nan))
 
 
 def recover_runs(removed: np.ndarray, ids: np.ndarray, candidates: np.ndarray | None = None) -> np.ndarray:

@@ -27,6 +27,9 @@ from aldpat.params import param
 
 log = logging.getLogger(__name__)
 
+#: Rows (or columns) analysed together by the cluster recovery.
+_BLOCK = 256
+
 #: ``direction`` -> axes filtered at every window, in order (1: along x / rows, 0: along y).
 AXES = {"row": (1,), "column": (0,), "both": (1, 0)}
 
@@ -99,16 +102,20 @@ def progressive_marks(
         clustering = cluster_window_size is not None and k >= cluster_window_size
         for axis in axes:
             unfiltered = mark == 0
-            if clustering:
-                ids = make_clusters(_along(axis, zc), _along(axis, unfiltered), cluster_threshold,
-                                    gap_threshold).ids
             zo = morphology.opening(zc, k, window="line", axis=axis)
             removed = unfiltered & (zc - zo > thresh)
             mark[removed] = k
             if clustering:
-                reset = recover_runs(_along(axis, removed), ids,
-                                     None if recover_across_gaps else _along(axis, unfiltered))
-                mark[reset if axis == 1 else reset.T] = 0
+                # clusters of the surface before this opening (line 7); rows (or columns) are
+                # independent, so blocks bound the temporaries
+                n_lines = zc.shape[0] if axis == 1 else zc.shape[1]
+                for a in range(0, n_lines, _BLOCK):
+                    part = slice(a, min(a + _BLOCK, n_lines))
+                    take = (part, slice(None)) if axis == 1 else (slice(None), part)
+                    zb, ub, rb = (_along(axis, arr[take]) for arr in (zc, unfiltered, removed))
+                    ids = make_clusters(zb, ub, cluster_threshold, gap_threshold).ids
+                    reset = recover_runs(rb, ids, None if recover_across_gaps else ub)
+                    mark[take][reset if axis == 1 else reset.T] = 0
             zc = zo
     if skip is not None:
         mark[skip] = 0
