@@ -9,13 +9,15 @@ from __future__ import annotations
 
 import copy
 from pathlib import Path
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
-import laspy
 import numpy as np
 
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.table import PointTable
+
+if TYPE_CHECKING:
+    import laspy
 
 DEFAULT_CHUNK = 2_000_000
 #: table column -> LAS dimension for the columns a task may set
@@ -33,6 +35,8 @@ class LasReader:
     format = "las"
 
     def __init__(self, path: str | Path, **_ignored):
+        import laspy  # imported when used: it adds half a second to every command's start-up
+
         self.path = Path(path)
         if not self.path.exists():
             raise InputMissingError("no such file", path=self.path)
@@ -54,6 +58,8 @@ class LasReader:
     def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
         if self.count == 0:
             raise InputFormatError("no points in file", path=self.path)
+        import laspy
+
         done = 0
         try:
             with laspy.open(self.path) as fh:
@@ -80,6 +86,8 @@ class LasReader:
 
 def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> laspy.LasHeader:
     """A LAS 1.4 header for points that did not come from LAS (format 6 when a time exists)."""
+    import laspy
+
     has_time = "t" in table.columns or "gps_time" in table.columns
     header = laspy.LasHeader(point_format=6 if has_time else 0, version="1.4" if has_time else "1.2")
     decimals = decimals or table.meta.get("decimals", {})
@@ -111,6 +119,8 @@ class LasWriter:
         self._extra: list[str] = []
 
     def _open(self, table: PointTable) -> None:
+        import laspy
+
         header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
         known = set(header.point_format.dimension_names)
         self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
@@ -123,6 +133,8 @@ class LasWriter:
         self._fh = laspy.open(self.path, mode="w", header=header, do_compress=self.compress)
 
     def write(self, table: PointTable) -> None:
+        import laspy
+
         if self._fh is None:
             self._open(table)
         n = len(table)

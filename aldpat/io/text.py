@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Iterator
 
 import numpy as np
-import pandas as pd
 
 from aldpat.errors import InputFormatError
 from aldpat.io.table import PointTable
@@ -136,6 +135,7 @@ class TextReader:
     # -------------------------------------------------------------------------- reading
     def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
         """Yield :class:`PointTable` chunks of at most ``size`` rows, in file order."""
+        import pandas as pd  # here, not at import: it costs a second of start-up to every command
         sep = "," if self.delimiter == "," else (" " if self._single_space else r"\s+")
         skip = self.header_lines
         rows_done = 0
@@ -167,6 +167,8 @@ class TextReader:
             raise InputFormatError("no points in file", path=self.path)
 
     def _frames(self, sep: str, skip: int, size: int):
+        import pandas as pd
+
         return pd.read_csv(
             self.path, sep=sep, header=None, names=list(range(self.ncols)), dtype=np.float64,
             skiprows=skip, chunksize=size, engine="c", skip_blank_lines=True,

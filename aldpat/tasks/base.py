@@ -261,7 +261,7 @@ class JobContext:
         self.result.outputs.append(Written(str(path), count))
 
     def warn(self, message: str) -> None:
-        log.warning(message)
+        """A warning for the log file and stderr (reported once the job ends, in input order)."""
         self.result.warnings.append(message)
 
     def emit(self, record: dict) -> None:
