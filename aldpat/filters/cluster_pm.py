@@ -58,6 +58,9 @@ class ClusterPmParams(GroundParams):
     )
     direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
 
+    def __post_init__(self) -> None:
+        check_series(self.window_series, self.threshold_series, ("window_series", "threshold_series"))
+
 
 def _along(axis: int, a: np.ndarray) -> np.ndarray:
     """``a`` with the filtering axis last (rows as the cluster functions expect)."""
@@ -127,7 +130,6 @@ def progressive_marks(
 def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams) -> np.ndarray:
     """Mark matrix of ``MorphClusterFilter`` (dissertation ch. 5 §5.2.2)."""
     p = params
-    check_series(p.window_series, p.threshold_series, ("window_series", "threshold_series"))
     return progressive_marks(
         z, p.window_series, p.threshold_series, axes=AXES[p.direction],
         cluster_window_size=p.cluster_window_size, cluster_threshold=p.cluster_threshold,

@@ -64,6 +64,12 @@ class GapmParams(GroundParams):
         "(§6.2.3 steps 1 and 5; the printed CalThreshArray leaves it out)",
     )
 
+    def __post_init__(self) -> None:
+        # series that do not fit together are a usage error, reported before any file is read
+        check_series(self.window_series, self.cluster_thresholds, ("window_series", "cluster_thresholds"))
+        if not _direction_series(self, "row")[0] and not _direction_series(self, "column")[0]:
+            raise ParamError("row_windows and column_windows are both none: nothing to filter")
+
 
 def check_series(windows: tuple[int, ...], values: tuple[float, ...], names: tuple[str, str]) -> None:
     """Windows ascending and one value per window, or a :class:`ParamError` naming both keys."""
@@ -167,12 +173,9 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
     Empty cells take part as interpolated ground candidates (mark -7777 of Table 5-1); the
     driver marks them interpolated afterwards.
     """
-    p = params
-    check_series(p.window_series, p.cluster_thresholds, ("window_series", "cluster_thresholds"))
+    p = params  # series checked when the params were made (GapmParams.__post_init__)
     rw, rt = _direction_series(p, "row")
     cw, ctc = _direction_series(p, "column")
-    if not rw and not cw:
-        raise ParamError("row_windows and column_windows are both none: nothing to filter")
     opts = dict(init_thresh_bin=p.init_thresh_bin, max_threshold_divisor=p.max_threshold_divisor,
                 use_cluster_diff=p.use_cluster_diff)
     row_fn = (lambda a: adaptive_rows(a, rw, rt, **opts)) if rw else None

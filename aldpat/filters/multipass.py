@@ -59,6 +59,14 @@ class MultipassParams(GroundParams):
     )
     direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
 
+    def __post_init__(self) -> None:
+        check_series(self.window_series, self.threshold_series, ("window_series", "threshold_series"))
+        if len(self.second_window_series) != len(self.second_threshold_series):
+            raise ParamError(
+                f"second_threshold_series: expected one value per window of second_window_series "
+                f"({len(self.second_window_series)}), got {len(self.second_threshold_series)}"
+            )
+
 
 @register_filter("multipass", params=MultipassParams,
                  summary="multi-pass morphological filter with priority boundary interpolation "
@@ -66,12 +74,6 @@ class MultipassParams(GroundParams):
 def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams) -> np.ndarray:
     """Mark matrix of the multi-pass filter (dissertation §4.2.5)."""
     p = params
-    check_series(p.window_series, p.threshold_series, ("window_series", "threshold_series"))
-    if len(p.second_window_series) != len(p.second_threshold_series):
-        raise ParamError(
-            f"second_threshold_series: expected one value per window of second_window_series "
-            f"({len(p.second_window_series)}), got {len(p.second_threshold_series)}"
-        )
     axes = AXES[p.direction]
     marks = progressive_marks(z, p.window_series, p.threshold_series, axes=axes)
     for n in range(p.passes):
