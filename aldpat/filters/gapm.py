@@ -100,20 +100,27 @@ def adaptive_rows(
     init_thresh_bin: int = 4,
     max_threshold_divisor: float = 4.0,
     use_cluster_diff: bool = False,
+    axis: int = 1,
 ) -> np.ndarray:
-    """``AdaptiveMorphFilter`` along the rows of ``z`` (axis 1); returns the mark matrix.
+    """``AdaptiveMorphFilter`` along the rows (``axis=1``) or columns (``axis=0``) of ``z``.
 
-    Progressive: each window opens the surface left by the previous one (line 19) and a cell
-    keeps the first (smallest) window that removed it. Rows never interact, so blocks of
-    rows run through all the windows at once.
+    Returns the mark matrix. Progressive: each window opens the surface left by the previous
+    one (line 19) and a cell keeps the first (smallest) window that removed it. Rows never
+    interact, so blocks of rows (or of columns, transposed one block at a time) run through
+    all the windows at once and the whole grid is never copied.
     """
     z = np.asarray(z, dtype=np.float64)
     marks = np.zeros(z.shape, np.int32)
-    for a in range(0, z.shape[0], BLOCK_ROWS):
-        b = min(a + BLOCK_ROWS, z.shape[0])
-        marks[a:b] = _adaptive_block(
-            z[a:b], windows, cluster_thresholds, init_thresh_bin, max_threshold_divisor, use_cluster_diff,
-        )
+    lines = z.shape[0] if axis == 1 else z.shape[1]
+    for a in range(0, lines, BLOCK_ROWS):
+        b = min(a + BLOCK_ROWS, lines)
+        block = z[a:b] if axis == 1 else np.ascontiguousarray(z[:, a:b].T)
+        m = _adaptive_block(block, windows, cluster_thresholds, init_thresh_bin, max_threshold_divisor,
+                            use_cluster_diff)
+        if axis == 1:
+            marks[a:b] = m
+        else:
+            marks[:, a:b] = m.T
     return marks
 
 
@@ -149,7 +156,8 @@ def combine_directions(row_marks: np.ndarray | None, column_marks: np.ndarray | 
         return column_marks
     if column_marks is None:
         return row_marks
-    return np.where(row_marks > 0, row_marks, column_marks)
+    np.copyto(row_marks, column_marks, where=row_marks == 0)
+    return row_marks
 
 
 def run_directions(z: np.ndarray, row_fn, column_fn) -> np.ndarray:
@@ -159,7 +167,7 @@ def run_directions(z: np.ndarray, row_fn, column_fn) -> np.ndarray:
         if row_fn is not None:
             jobs.append(("row", pool.submit(row_fn, z)))
         if column_fn is not None:
-            jobs.append(("column", pool.submit(lambda: column_fn(np.ascontiguousarray(z.T)).T)))
+            jobs.append(("column", pool.submit(column_fn, z)))
         done = {name: fut.result() for name, fut in jobs}
     return combine_directions(done.get("row"), done.get("column"))
 
@@ -178,8 +186,8 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
     cw, ctc = _direction_series(p, "column")
     opts = dict(init_thresh_bin=p.init_thresh_bin, max_threshold_divisor=p.max_threshold_divisor,
                 use_cluster_diff=p.use_cluster_diff)
-    row_fn = (lambda a: adaptive_rows(a, rw, rt, **opts)) if rw else None
-    col_fn = (lambda a: adaptive_rows(a, cw, ctc, **opts)) if cw else None
+    row_fn = (lambda a: adaptive_rows(a, rw, rt, axis=1, **opts)) if rw else None
+    col_fn = (lambda a: adaptive_rows(a, cw, ctc, axis=0, **opts)) if cw else None
     marks = run_directions(z, row_fn, col_fn)
     log.debug("gapm: %d of %d cells removed", int((marks > 0).sum()), marks.size)
     return marks.astype(np.int32, copy=False)
