@@ -102,3 +102,21 @@ def test_samp24_with_set01_within_the_published_error(samp24):
     r = ground_filter(a[:, 0], a[:, 1], a[:, 2], "gapm", p)
     total = 100.0 * np.mean(r.is_ground != (a[:, 3] == 0))
     assert total <= 5.41 + 1.5
+
+
+def test_printed_order_and_separate_directions():
+    """An L-shaped roof with 12-cell arms: rows remove the arm across x, and in the printed
+    order (rows then columns on one surface, §6.2.4) the columns then see the corner as a short
+    stretch; filtered apart (§6.2.5) neither direction can span the corner."""
+    z = np.zeros((100, 100))
+    z[20:32, 20:80] = 10.0
+    z[20:80, 20:32] = 10.0
+    empty = np.zeros(z.shape, bool)
+    kw = dict(window_series=(1, 2, 4, 8), cluster_thresholds=(0.3, 0.5, 1.0, 1.0),
+              row_windows=(1, 2, 4, 8), column_windows=(1, 2, 4, 8))
+    printed = gapm(z, empty, GapmParams(**kw))
+    separate = gapm(z, empty, GapmParams(directions="separate", **kw))
+    roof = z > 0
+    assert (printed[roof] > 0).all() and not (printed[~roof] > 0).any()
+    assert not (separate[20:32, 20:32] > 0).any()
+    assert (separate[roof] > 0).sum() == roof.sum() - 144
