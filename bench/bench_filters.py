@@ -14,7 +14,7 @@ second (gridding + filter + classification, in process).
 
 ``speed`` builds a large LAS once under ``bench/_work/`` -- ``--source sites``: tiled copies of
 the raw ISPRS site FSite5 (0.31 points/m2, so a 1 m grid has three cells per point);
-``--source isprs``: tiled copies of the seven ISPRS samples (about 1 point/m2) -- and times
+``--source isprs``: tiled copies of ISPRS samp12, urban, about 1 point/m2 -- and times
 ``aldpat filter ALGO`` end to end (read LAS, grid, filter, classify, write a classified LAS) in a
 fresh process per algorithm, reporting points/second and peak resident memory. ``--peers`` adds
 the CSF package (cloth-simulation-filter) and whitebox-workflows' improved_ground_point_filter,
@@ -215,26 +215,21 @@ def build_sites(n_target: int) -> Path:
     return path
 
 
-def build_isprs(n_target: int) -> Path:
-    """Tiled copies of the seven ISPRS samples on a grid of 500 m squares."""
-    samples = load_samples()
-    per_round = sum(len(s) for s in samples)
-    rounds = -(-n_target // per_round)
-    path = WORK / f"isprs_x{rounds}.las"
+def build_isprs(n_target: int, name: str = "samp12") -> Path:
+    """Tiled copies of one ISPRS sample (samp12: urban, about 1 point/m2), packed edge to edge."""
+    (s,) = load_samples([name])
+    copies = -(-n_target // len(s))
+    side = int(np.ceil(np.sqrt(copies)))
+    path = WORK / f"{name}_x{copies}.las"
     if path.exists():
         return path
-    xs, ys, zs = [], [], []
-    k = 0
-    side = int(np.ceil(np.sqrt(rounds * len(samples))))
-    for _ in range(rounds):
-        for s in samples:
-            ox, oy = (k % side) * 500.0, (k // side) * 500.0
-            xs.append(s.x - s.x.min() + ox)
-            ys.append(s.y - s.y.min() + oy)
-            zs.append(s.z)
-            k += 1
+    width = np.ceil(s.x.max() - s.x.min() + 1.0)
+    height = np.ceil(s.y.max() - s.y.min() + 1.0)
+    k = np.arange(copies)
+    dx = np.repeat((k % side) * width, len(s))
+    dy = np.repeat((k // side) * height, len(s))
     WORK.mkdir(exist_ok=True)
-    _write_las(path, np.concatenate(xs) + 500000.0, np.concatenate(ys) + 5400000.0, np.concatenate(zs))
+    _write_las(path, np.tile(s.x, copies) + dx, np.tile(s.y, copies) + dy, np.tile(s.z, copies))
     return path
 
 
