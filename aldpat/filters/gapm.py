@@ -143,9 +143,12 @@ def _adaptive_block(z, windows, cts, init_bin, divisor, use_cluster_diff) -> np.
     return mark
 
 
-def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff):
-    """One window of ``AdaptiveMorphFilter`` along rows: (cells removed, opened surface)."""
-    zo = morphology.opening(zc, k, window="line", axis=1)
+def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1):
+    """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``).
+
+    Returns (cells removed, opened surface).
+    """
+    zo = morphology.opening(zc, k, window="line", axis=axis)
     diff = zc - zo
     if k >= init_bin:
         # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines
@@ -154,11 +157,16 @@ def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff):
         cap = ct * k / divisor
         removed = unfiltered & (diff > cap)
         band = unfiltered & (diff > min(ct, cap)) & (diff <= cap)
-        pos = np.flatnonzero(band)
-        if pos.size:
-            thresh = candidate_thresholds(zc, unfiltered, pos, k, ct, max_divisor=divisor,
-                                          use_cluster_diff=use_cluster_diff)
-            removed.ravel()[pos[diff.ravel()[pos] > thresh]] = True
+        r, c = np.nonzero(band)
+        if r.size:
+            if axis == 1:
+                thresh = candidate_thresholds(zc, unfiltered, r * zc.shape[1] + c, k, ct,
+                                              max_divisor=divisor, use_cluster_diff=use_cluster_diff)
+            else:  # the analysis runs along lines: hand it the transposed views
+                thresh = candidate_thresholds(zc.T, unfiltered.T, c * zc.shape[0] + r, k, ct,
+                                              max_divisor=divisor, use_cluster_diff=use_cluster_diff)
+            hit = diff[r, c] > thresh
+            removed[r[hit], c[hit]] = True
     else:
         removed = unfiltered & (diff > ct)
     return removed, zo
@@ -188,15 +196,9 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams") -> np.ndarray:
 
                 def one(a, axis=axis, zo=zo, k=k, ct=ct):
                     b = min(a + BLOCK_ROWS, lines)
-                    if axis == 1:
-                        removed, zo[a:b] = adaptive_step(zc[a:b], mark[a:b] == 0, k, ct, *opts)
-                        mark[a:b][removed] = k
-                    else:
-                        zb = np.ascontiguousarray(zc[:, a:b].T)
-                        removed, opened = adaptive_step(zb, np.ascontiguousarray(mark[:, a:b].T) == 0,
-                                                        k, ct, *opts)
-                        zo[:, a:b] = opened.T
-                        mark[:, a:b][removed.T] = k
+                    part = (slice(a, b), slice(None)) if axis == 1 else (slice(None), slice(a, b))
+                    removed, zo[part] = adaptive_step(zc[part], mark[part] == 0, k, ct, *opts, axis=axis)
+                    mark[part][removed] = k
 
                 list(pool.map(one, range(0, lines, BLOCK_ROWS)))
                 zc = zo
