@@ -70,14 +70,14 @@ def main() -> None:
     n = int(args.points * 1e6)
     points = make_points(n)
     print(f"{n:,} points, 2 km x 2 km at 1 m (2001 x 2001 nodes), {os.cpu_count()} cores")
-    print(f"load average before: {os.getloadavg()[0]:.1f} (other processes slow every figure but 'cpu s')")
+    print("load: 1-minute load average after each method (above 2, other processes slow every figure)")
     print(f"{'method':10} {'grid s':>8} {'cpu s':>8} {'write s':>8} {'total s':>8} {'M pts/s':>8} {'peak':>10} "
-          f"{'blank':>8}")
+          f"{'blank':>8} {'load':>5}")
     for method in args.methods:
         out = WORK / f"bench_{method}.grd"
         r = measure(CODE.format(repo=str(REPO), points=str(points), method=method, out=str(out)))
         print(f"{method:10} {r['grid']:8.1f} {r['cpu']:8.1f} {r['write']:8.1f} {r['seconds']:8.1f} {n / r['grid'] / 1e6:8.2f} "
-              f"{mib(r['peak_bytes']):>10} {r['blank']:8,}", flush=True)
+              f"{mib(r['peak_bytes']):>10} {r['blank']:8,} {os.getloadavg()[0]:5.1f}", flush=True)
         out.unlink(missing_ok=True)
 
 
