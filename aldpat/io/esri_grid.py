@@ -109,7 +109,7 @@ def write_ascii_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
 
 def _header(lines: list[str], path: Path) -> dict[str, str]:
     out = {}
-    for number, line in enumerate(lines, start=1):
+    for line in lines:
         parts = line.split()
         if len(parts) < 2:
             continue
