@@ -23,7 +23,8 @@ the read floor included, is 2-4x below a quiet machine; compare each task with i
     polygon-extract (comb)          7.2  298 MiB     24.5  774 MiB     47.2  775 MiB
 
 Peak memory is set by the 2-million-row chunk (plus, for split-tape, tile and polygon-extract,
-the raw lines of that chunk): it does not grow from 10 M to 50 M points beyond run-to-run noise.
+the raw lines of that chunk and one 64 MiB read block, whose alignment with the chunks moves the
+peak by up to ~130 MiB): it does not grow with the number of points.
 """
 
 from __future__ import annotations
