@@ -46,6 +46,16 @@ def with_shared(own: type, *shared: type) -> type:
     return cls
 
 
+def kept_names(reader, out) -> tuple[str, ...]:
+    """Columns a task that keeps whole points writes: every column, except that LAS/LAZ going to
+    text keeps x y z and intensity (as ``convert`` does), not the LAS flags."""
+    if reader.format == "las" and str(out).lower().endswith((".las", ".laz")):
+        return reader.names
+    if reader.format == "las":
+        return point_names(reader, "xyzi")
+    return reader.names
+
+
 def point_names(reader, fields: str) -> tuple[str, ...]:
     """Columns a point output carries: x y z, plus intensity when asked for and present."""
     names = ("x", "y", "z")

@@ -112,3 +112,10 @@ def test_las_through_bucket_files_keeps_records(tmp_path, monkeypatch):
     key = lambda las: sorted(zip(np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z),  # noqa: E731
                                  np.asarray(las.intensity), np.asarray(las.return_number)))
     assert len(a.points) == len(b.points) and key(a) == key(b)
+
+
+def test_las_to_text_writes_x_y_z_intensity(tmp_path):
+    src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
+    assert get_task("thin")([src], cell_width=20.0, cell_height=20.0, out_format="text",
+                            odir=str(tmp_path)).exit_code == 0
+    assert np.loadtxt(tmp_path / "fsite5_strip_thin.txt").shape[1] == 4
