@@ -22,6 +22,12 @@ the read floor included, is 2-4x below a quiet machine; compare each task with i
     thin 1 m lowest                 8.5  252 MiB     33.1  505 MiB    104.5  522 MiB
     polygon-extract (comb)          7.2  298 MiB     24.5  774 MiB     47.2  775 MiB
 
+A re-run at 10 M when the load had fallen to about 2.5 (s, peak): read x y z i 2.9 (298 MiB),
+read tape 5.6 (527 MiB), split-tape 11.8 (812 MiB), separate-returns 15.7 (648 MiB), tile 15.4
+(637 MiB), thin 14.1 (504 MiB), polygon-extract 8.0 (774 MiB): 0.65-1.25 M points/s, two to five
+times the bare read, the rest being the writing of the outputs (split-tape writes every byte
+back, tile writes each point plus its buffer copies, separate-returns formats two files).
+
 Peak memory is set by the 2-million-row chunk (plus, for split-tape, tile and polygon-extract,
 the raw lines of that chunk and one 64 MiB read block, whose alignment with the chunks moves the
 peak by up to ~130 MiB): it does not grow with the number of points.
