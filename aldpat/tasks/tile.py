@@ -85,6 +85,18 @@ def data_bounds(readers) -> tuple[float, float, float, float]:
     return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
 
+def _allow_open_files() -> None:
+    """LAS/LAZ tiles keep one open file each: raise the soft limit on open files to the hard one."""
+    try:
+        import resource
+
+        soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+        if soft < hard:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+    except (ImportError, ValueError, OSError):  # not on this platform, or not allowed
+        pass
+
+
 class TileSink:
     """The tile files of one run: temporary files renamed into place by :meth:`commit`."""
 
@@ -100,6 +112,8 @@ class TileSink:
         self.crs = crs
         self.is_las = ext in (".las", ".laz")
         self.tiles: dict[tuple[int, int], dict] = {}
+        if self.is_las:
+            _allow_open_files()
 
     def path(self, layout: TileLayout, i: int, j: int) -> Path:
         x0, _, y0, _ = layout.core(i, j)
