@@ -177,7 +177,9 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams") -> np.ndarray:
     rows (if the window is a row window) and then the columns (if a column window) are opened,
     each on the surface the previous pass left, marking into one mark matrix.
 
-    Within a pass the rows (columns) are independent: blocks of them run on two threads.
+    Within a pass the rows (columns) are independent: blocks of them run on two threads. A
+    column pass works on transposed copies of the surface and the marks, so that every pass
+    reads whole contiguous lines.
     """
     lookup = dict(zip(p.window_series, p.cluster_thresholds))
     rows = set(p.row_windows or ())
@@ -191,17 +193,19 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams") -> np.ndarray:
             for axis, use in ((1, rows), (0, cols)):
                 if k not in use:
                     continue
+                if axis == 0:
+                    zc, mark = np.ascontiguousarray(zc.T), np.ascontiguousarray(mark.T)
                 zo = np.empty_like(zc)
-                lines = zc.shape[0] if axis == 1 else zc.shape[1]
 
-                def one(a, axis=axis, zo=zo, k=k, ct=ct):
-                    b = min(a + BLOCK_ROWS, lines)
-                    part = (slice(a, b), slice(None)) if axis == 1 else (slice(None), slice(a, b))
-                    removed, zo[part] = adaptive_step(zc[part], mark[part] == 0, k, ct, *opts, axis=axis)
-                    mark[part][removed] = k
+                def one(a, zc=zc, zo=zo, mark=mark, k=k, ct=ct):
+                    b = min(a + BLOCK_ROWS, zc.shape[0])
+                    removed, zo[a:b] = adaptive_step(zc[a:b], mark[a:b] == 0, k, ct, *opts)
+                    mark[a:b][removed] = k
 
-                list(pool.map(one, range(0, lines, BLOCK_ROWS)))
+                list(pool.map(one, range(0, zc.shape[0], BLOCK_ROWS)))
                 zc = zo
+                if axis == 0:
+                    zc, mark = np.ascontiguousarray(zc.T), np.ascontiguousarray(mark.T)
     return mark
 
 
