@@ -13,7 +13,9 @@ Every ground filter of SPEC §4 that works on a grid of lowest points is a funct
 :func:`ground_filter` grids the points, fills empties, calls ``fn`` and classifies every point:
 the lowest point of a cell by the cell's mark, every other point by its height above the final
 ground surface (ground within ``ground_tolerance``), so that results compare point for point
-with other tools (issue 5).
+with other tools (issue 5). The surface at a point is interpolated bilinearly between the
+centres of the ground cells among the four around it; a point with no ground cell around it
+lies amid removed cells and is not ground.
 """
 
 from __future__ import annotations
