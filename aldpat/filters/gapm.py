@@ -194,7 +194,7 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams") -> np.ndarray:
                 if k not in use:
                     continue
                 if axis == 0:
-                    zc, mark = np.ascontiguousarray(zc.T), np.ascontiguousarray(mark.T)
+                    zc, mark = _transposed(zc), _transposed(mark)
                 zo = np.empty_like(zc)
 
                 def one(a, zc=zc, zo=zo, mark=mark, k=k, ct=ct):
@@ -205,8 +205,18 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams") -> np.ndarray:
                 list(pool.map(one, range(0, zc.shape[0], BLOCK_ROWS)))
                 zc = zo
                 if axis == 0:
-                    zc, mark = np.ascontiguousarray(zc.T), np.ascontiguousarray(mark.T)
+                    zc, mark = _transposed(zc), _transposed(mark)
     return mark
+
+
+def _transposed(a: np.ndarray, tile: int = 128) -> np.ndarray:
+    """A C-ordered transposed copy, made tile by tile so that reads and writes stay in cache
+    (several times faster than ``np.ascontiguousarray(a.T)`` on large grids)."""
+    out = np.empty((a.shape[1], a.shape[0]), a.dtype)
+    for i in range(0, a.shape[0], tile):
+        for j in range(0, a.shape[1], tile):
+            out[j:j + tile, i:i + tile] = a[i:i + tile, j:j + tile].T
+    return out
 
 
 def combine_directions(row_marks: np.ndarray | None, column_marks: np.ndarray | None) -> np.ndarray:

@@ -120,3 +120,12 @@ def test_printed_order_and_separate_directions():
     assert (printed[roof] > 0).all() and not (printed[~roof] > 0).any()
     assert not (separate[20:32, 20:32] > 0).any()
     assert (separate[roof] > 0).sum() == roof.sum() - 144
+
+
+def test_tiled_transpose():
+    from aldpat.filters.gapm import _transposed
+
+    a = np.arange(300 * 257, dtype=np.float64).reshape(300, 257)
+    t = _transposed(a)
+    assert t.flags.c_contiguous and np.array_equal(t, a.T)
+    assert np.array_equal(_transposed(a.astype(np.int32), tile=7), a.T.astype(np.int32))
