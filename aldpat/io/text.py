@@ -11,7 +11,6 @@ the input had (detected from its first lines), so a round trip does not change c
 
 from __future__ import annotations
 
-import io
 import itertools
 import re
 from pathlib import Path
@@ -254,7 +253,11 @@ def format_rows(table: PointTable, names: tuple[str, ...], delimiter: str = " ",
 
 
 class TextWriter:
-    """Appends chunks of a table to an open text file (the caller handles atomic rename)."""
+    """Appends chunks of a table to an open text file (the caller handles atomic rename).
+
+    Chunks are formatted in blocks by array arithmetic (:func:`aldpat.io.textfmt.format_block`),
+    which writes the same text as :func:`format_rows` several times faster.
+    """
 
     def __init__(self, path: Path, names: tuple[str, ...], *, delimiter: str = "space",
                  decimals: dict | None = None):
@@ -263,11 +266,16 @@ class TextWriter:
         self.delimiter = _DELIMS.get(delimiter, delimiter)
         self.decimals = decimals
         self.count = 0
-        self._fh = open(self.path, "w", encoding="ascii", newline="\n", buffering=1 << 20)
+        self._fh = open(self.path, "wb", buffering=1 << 20)
 
     def write(self, table: PointTable) -> None:
-        self._fh.write(format_rows(table, self.names, self.delimiter, self.decimals))
-        self.count += len(table)
+        from aldpat.io.textfmt import BLOCK_ROWS, format_block
+
+        n = len(table)
+        for start in range(0, n, BLOCK_ROWS):
+            part = table.take(slice(start, start + BLOCK_ROWS)) if n > BLOCK_ROWS else table
+            self._fh.write(memoryview(format_block(part, self.names, self.delimiter, self.decimals)))
+        self.count += n
 
     def close(self) -> None:
         self._fh.close()

@@ -21,7 +21,6 @@ from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
-from aldpat.tasks._fastfmt import open_text_writer
 from aldpat.tasks._prep_options import kept_names
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -100,7 +99,7 @@ def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobCont
         log.info("%s: %d of %d points %s the polygon", source, count, total,
                  "outside" if params.outside else "inside")
         return
-    with open_text_writer(ctx, out, kept_names(reader, out), like=reader) as writer:
+    with ctx.write_points(out, kept_names(reader, out), like=reader) as writer:
         for chunk in reader.chunks():
             inside = points_in_polygons(chunk.x, chunk.y, polygons)
             writer.write(chunk.take(~inside if params.outside else inside))

@@ -19,7 +19,6 @@ import numpy as np
 from aldpat.errors import DataError, ParamError
 from aldpat.io.table import PointTable
 from aldpat.params import param
-from aldpat.tasks._fastfmt import open_text_writer
 from aldpat.tasks._prep_options import FieldsOption, OrderOption, with_shared
 from aldpat.tasks.base import JobContext, Task, register_task
 from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
@@ -103,8 +102,8 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
     strip = ZoneStripper(parse_zone(params.utm_zone), source, reader.first_data_line)
     replaced = total = 0
     with contextlib.ExitStack() as stack:
-        w1 = stack.enter_context(open_text_writer(ctx, first_out, names, decimals=decimals))
-        w2 = stack.enter_context(open_text_writer(ctx, last_out, names, decimals=decimals))
+        w1 = stack.enter_context(ctx.write_points(first_out, names, decimals=decimals))
+        w2 = stack.enter_context(ctx.write_points(last_out, names, decimals=decimals))
         for chunk in reader.chunks():
             x1, y1 = strip(chunk["x1"], chunk["y1"], total)
             x2, y2 = strip(chunk["x2"], chunk["y2"], total)

@@ -26,7 +26,6 @@ import numpy as np
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
-from aldpat.tasks._fastfmt import open_text_writer
 from aldpat.tasks._prep_options import OrderOption, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -84,7 +83,7 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
                 tmp = stack.enter_context(atomic_output(out, overwrite=ctx.overwrite))
                 w = _RawStrip(stack.enter_context(open(tmp, "wb")))
             else:
-                w = stack.enter_context(open_text_writer(ctx, out, reader.names, like=reader))
+                w = stack.enter_context(ctx.write_points(out, reader.names, like=reader))
             written.append((out, w))
             return w
 

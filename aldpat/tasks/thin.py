@@ -23,7 +23,6 @@ import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.params import param
-from aldpat.tasks._fastfmt import open_text_writer
 from aldpat.tasks._prep_options import OriginOption, kept_names, with_shared
 from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -66,7 +65,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
         decimals.update(x=0, y=0)
     k = bucket_count(estimate_points(reader))
     total = 0
-    with open_text_writer(ctx, out, kept_names(reader, out), like=reader, decimals=decimals) as writer:
+    with ctx.write_points(out, kept_names(reader, out), like=reader, decimals=decimals) as writer:
         if k == 1:
             from aldpat.io.table import PointTable
 

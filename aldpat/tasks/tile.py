@@ -35,7 +35,7 @@ from aldpat.io.atomic import atomic_output, check_writable, temp_name
 from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
 from aldpat.params import param
-from aldpat.tasks._fastfmt import BLOCK_ROWS, format_block
+from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.tasks._prep_options import FieldsOption, point_names, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task

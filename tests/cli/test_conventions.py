@@ -43,7 +43,6 @@ def test_output_beside_input_by_default_and_suffix_option(tmp_path, samp24):
 
 
 def test_comma_delimiter_and_fields(tmp_path, samp24):
-    las = tmp_path / "s.laz"
     get_task("convert")([samp24], out_format="laz", odir=str(tmp_path))
     get_task("convert")([tmp_path / "samp24.laz"], out_format="text", delimiter="comma", fields="xyz",
                         odir=str(tmp_path / "t"))

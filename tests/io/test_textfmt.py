@@ -5,7 +5,7 @@ import pytest
 
 from aldpat.io.table import PointTable
 from aldpat.io.text import format_rows
-from aldpat.tasks._fastfmt import format_block
+from aldpat.io.textfmt import format_block
 
 
 @pytest.mark.parametrize("decimals", [0, 1, 2, 3, 6])

@@ -1,6 +1,6 @@
 """Fixed-decimal text output without a Python object per value.
 
-The foundation's formatter (``aldpat.io.text.format_rows``) turns every value into a Python
+The plain formatter (``aldpat.io.text.format_rows``) turns every value into a Python
 float and formats it with ``%``: simple and exact, but several times slower than parsing, so a
 task writing millions of rows is bound by it. Here each column becomes digits by integer
 arithmetic on whole arrays: the value is scaled by 10^decimals and rounded (``np.rint``; integer
@@ -8,21 +8,16 @@ columns truncate like ``%d``), its digits are peeled off right to left into a by
 the matrix is compacted into lines. For values read from text with that many decimals (what these
 tasks write) the digits are exactly those ``%.Nf`` gives.
 
-:func:`open_text_writer` returns an atomic writer with the same ``write(table)`` / ``count``
-interface as the foundation's, honouring ``--overwrite`` and ``--delimiter``.
+:class:`aldpat.io.text.TextWriter` formats every chunk through :func:`format_block`;
+:func:`aldpat.io.text.format_rows` stays as the plain reference the tests compare against.
 """
 
 from __future__ import annotations
 
-import contextlib
 import re
-from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
-from aldpat.io.atomic import atomic_output
-from aldpat.io.text import column_formats
 
 _FMT = re.compile(r"^%(?:\.(\d+))?([df])$")
 #: rows formatted at a time (the byte matrix is about 40 bytes a row)
@@ -65,11 +60,13 @@ def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarra
 
 
 def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: dict | None = None) -> np.ndarray:
-    """The rows of ``table`` as text lines (a uint8 array), with the columns and decimals the
-    foundation's ``format_rows`` would use."""
+    """The rows of ``table`` as text lines (a uint8 array), with the columns and decimals
+    :func:`aldpat.io.text.format_rows` would use."""
     n = len(table)
     if n == 0:
         return np.zeros(0, dtype=np.uint8)
+    from aldpat.io.text import column_formats  # (text.py imports this module)
+
     parts = []
     sep = np.frombuffer(delimiter.encode("ascii"), dtype=np.uint8)
     for k, (name, fmt) in enumerate(zip(names, column_formats(table, names, decimals))):
@@ -80,34 +77,3 @@ def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: 
         parts.append(np.broadcast_to(end[:, None], (len(end), n)))
     matrix = np.ascontiguousarray(np.concatenate(parts, axis=0).T)
     return matrix[matrix != 0]
-
-
-class FastTextWriter:
-    def __init__(self, fh, names: tuple[str, ...], delimiter: str, decimals: dict | None):
-        self.fh = fh
-        self.names = tuple(names)
-        self.delimiter = delimiter
-        self.decimals = decimals
-        self.count = 0
-
-    def write(self, table, block: int = BLOCK_ROWS) -> None:
-        for a in range(0, len(table), block):
-            part = table.take(slice(a, a + block)) if len(table) > block else table
-            self.fh.write(memoryview(format_block(part, self.names, self.delimiter, self.decimals)))
-        self.count += len(table)
-
-
-@contextlib.contextmanager
-def open_text_writer(ctx, path: Path, names: tuple[str, ...], *, like=None,
-                     decimals: dict | None = None) -> Iterator:
-    """An atomic point writer: the fast formatter for text outputs, the foundation's for LAS/LAZ."""
-    path = Path(path)
-    if path.suffix.lower() in (".las", ".laz"):
-        with ctx.write_points(path, names, like=like, decimals=decimals) as writer:
-            yield writer
-        return
-    if decimals is None and like is not None:
-        decimals = getattr(like, "decimals", None)
-    comma = ctx.delimiter == "comma" or path.suffix.lower() == ".csv"
-    with atomic_output(path, overwrite=ctx.overwrite) as tmp, open(tmp, "wb") as fh:
-        yield FastTextWriter(fh, names, "," if comma else " ", decimals)
