@@ -43,6 +43,12 @@ WORK = BENCH / "_work"
 SITES = Path("/work/shared/data/isprs-sites")
 
 
+def rate(n: int, seconds: float) -> str:
+    """Points per second, readable from thousands to millions."""
+    r = n / seconds if seconds > 0 else float("inf")
+    return f"{r / 1e6:6.2f} M/s" if r >= 1e5 else f"{r / 1e3:6.1f} k/s"
+
+
 # ---------------------------------------------------------------------------- parameters
 
 
@@ -170,7 +176,7 @@ def print_isprs(table: dict, samples: list[Sample]) -> None:
             sc = row["scores"][name]
             print(f"{algo:12} {name:8} {sc.type1:9.2f} {sc.type2:9.2f} {sc.total:8.2f} {sc.kappa:7.4f}")
         mean = np.mean([row["scores"][k].total for k in names])
-        print(f"{algo:12} {'mean':8} {'':9} {'':9} {mean:8.2f}   ({n / row['seconds'] / 1e6:.2f} M pts/s; "
+        print(f"{algo:12} {'mean':8} {'':9} {'':9} {mean:8.2f}   (filter {rate(n, row['seconds']).strip()}; "
               f"params: {row['source']})")
     print()
     print("mean total error % (per-sample totals)   " + "  ".join(f"{k:>7}" for k in names))
@@ -288,7 +294,7 @@ def run_speed(algos, overrides, params_dir: Path, source: str, millions: float, 
             pf = str(params_dir / f"{algo}.toml")
         r = measure(speed_code(algo, las, pf))
         label = Path(pf).name if pf else "defaults"
-        print(f"{algo:12} {label:34} {r['seconds']:7.1f} s {n / r['seconds'] / 1e6:8.2f} M/s {mib(r['peak_bytes']):>10}",
+        print(f"{algo:12} {label:34} {r['seconds']:7.1f} s {rate(n, r['seconds']):>12} {mib(r['peak_bytes']):>10}",
               flush=True)
     if peers:
         for name in ("csf", "wbw-igpf"):
@@ -297,7 +303,7 @@ def run_speed(algos, overrides, params_dir: Path, source: str, millions: float, 
             except RuntimeError as exc:
                 print(f"{name:12} failed: {str(exc).strip().splitlines()[-1][:100]}")
                 continue
-            print(f"{name:12} {'peer':34} {r['seconds']:7.1f} s {n / r['seconds'] / 1e6:8.2f} M/s "
+            print(f"{name:12} {'peer':34} {r['seconds']:7.1f} s {rate(n, r['seconds']):>12} "
                   f"{mib(r['peak_bytes']):>10}", flush=True)
 
 
