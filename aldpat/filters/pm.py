@@ -28,7 +28,7 @@ import numpy as np
 
 from aldpat.core import morphology
 from aldpat.errors import ParamError
-from aldpat.filters.base import MARK_GROUND, GroundParams, register_filter
+from aldpat.filters.base import GroundParams, register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
@@ -121,13 +121,16 @@ def progressive_open(z: np.ndarray, windows, thresholds, passes) -> np.ndarray:
     opened = np.empty_like(surface)
     work = np.empty_like(surface)
     marks = np.zeros(surface.shape, np.int32)
+    kept = np.ones(surface.shape, bool)  # marks == MARK_GROUND, kept up to date
+    removed = np.empty(surface.shape, bool)
     for k, dh in zip(windows, thresholds):
         for window, axis in passes:
             morphology.opening(surface, k, window=window, axis=axis, out=opened, work=work)
             np.subtract(surface, opened, out=work)
-            removed = work > dh
-            removed &= marks == MARK_GROUND
+            np.greater(work, dh, out=removed)
+            removed &= kept
             marks[removed] = k
+            kept &= ~removed
             surface, opened = opened, surface
         log.debug("window %d (threshold %.3g): %d cells removed so far", k, dh, int((marks > 0).sum()))
     return marks

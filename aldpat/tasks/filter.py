@@ -37,7 +37,7 @@ _OUTPUT_FIELDS = [
     ("result", str, param("terrain", "what to write: terrain points, non-terrain points, both files, "
                           "or every point classified (LAS class 2/1, text column class)",
                           choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")),
-    ("marks", bool, param(False, "add each point's mark: 0 for ground, else the window size (cells) "
+    ("marks", bool, param(False, "add each point's mark: 0 for ground, else the half window (cells) "
                           "at which it was removed (column / LAS extra byte 'mark')")),
 ]
 
