@@ -52,6 +52,7 @@ class Spec:
     manual: str | None = None  # the ALDPAT manual's name for it, e.g. "Stop Gap"
     metavar: str | None = None
     path: bool = False  # a file path: worksheets resolve it against the worksheet's folder
+    required: bool = False  # no default: the user must give a value (a usage error otherwise)
 
     @property
     def option(self) -> str:
@@ -75,7 +76,9 @@ class Spec:
             extra.append(bounds)
         if self.choices:
             extra.append("one of: " + ", ".join(map(str, self.choices)))
-        if not (self.default is None and "default:" in self.help):  # the help already says it
+        if self.required:
+            extra.append("required")
+        elif not (self.default is None and "default:" in self.help):  # the help already says it
             extra.append(f"default: {format_value(self.default)}")
         return parts[0] + (" (" + "; ".join(extra) + ")" if extra else "")
 
@@ -93,6 +96,7 @@ def param(
     manual: str | None = None,
     metavar: str | None = None,
     path: bool = False,
+    required: bool = False,
 ) -> Any:
     """Declare a parameter as a dataclass field (see module docstring).
 
@@ -111,6 +115,7 @@ def param(
         manual=manual,
         metavar=metavar,
         path=path,
+        required=required,
     )
     return dataclasses.field(default=default, metadata={"aldpat": meta})
 
@@ -342,6 +347,9 @@ def resolve(params_cls: type, layers: list[tuple[str, Mapping[str, Any]]], where
                 raise unknown_key_error(raw_key, smap, where)
             values[key] = coerce(spec, raw, where)
             sources[key] = source
+    for name, spec in smap.items():
+        if spec.required and values[name] is None:
+            raise ParamError(f"{where}{name}: required ({spec.option} on the command line)")
     return Resolved(params_cls(**values), sources)
 
 

@@ -39,12 +39,16 @@ def test_cli_options_are_derived_from_the_declaration(key):
 def test_toml_keys_and_log_record_match_the_declaration(key):
     task = TASKS[key]
     defaults = {s.name: s.default for s in task.all_specs() if s.default is not None}
-    run = resolve_run(task, [("worksheet", defaults)])
+    given = {s.name: "some/file" for s in task.all_specs() if s.required}
+    run = resolve_run(task, [("worksheet", defaults), ("cli", given)])
     record = {name: (value, source) for name, value, source in run.record()}
     for spec in task.all_specs():
         if spec.name == "jobs":
             continue  # how jobs run is not a task parameter
         assert spec.name in record, f"{key}: {spec.name} missing from the log record"
+        if spec.required:
+            assert record[spec.name] == ("some/file", "cli")
+            continue
         assert record[spec.name][0] == format_value(spec.default)
         expected_source = "worksheet" if spec.default is not None else "default"
         assert record[spec.name][1] == expected_source
@@ -58,6 +62,9 @@ def test_help_lists_every_parameter_with_its_default(key, runner):
     flat = " ".join(result.output.split())
     for spec in TASKS[key].all_specs():
         assert spec.option in flat
+        if spec.required:
+            assert "required" in flat
+            continue
         if spec.default is None and "default:" in spec.help:
             continue  # the help text says what an unset value means
         assert f"default: {format_value(spec.default)}" in flat

@@ -11,7 +11,7 @@ import contextlib
 from pathlib import Path
 from typing import Iterator
 
-from aldpat.errors import InputMissingError, UsageError
+from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.las import LasReader, LasWriter
 from aldpat.io.text import TextReader, TextWriter
@@ -32,7 +32,7 @@ def detect_format(path: Path, override: str | None = None) -> str:
         raise UsageError(f"unknown format {override!r} (use text, las or laz)")
     fmt = EXTENSIONS.get(Path(path).suffix.lower())
     if fmt is None:
-        raise UsageError(
+        raise InputFormatError(
             f"unknown extension {Path(path).suffix!r} (point files are .txt .xyz .csv .pts .las .laz; "
             "use --format to say which)", path=path)
     return fmt
@@ -45,7 +45,7 @@ def open_points(path: str | Path, *, format: str | None = None, layout: str = "p
     if not path.exists():
         raise InputMissingError("no such file", path=path)
     if path.is_dir():
-        raise UsageError("is a folder, not a point file", path=path)
+        raise InputFormatError("is a folder, not a point file", path=path)
     fmt = detect_format(path, format)
     if fmt == "las" and layout == "altm9":
         raise UsageError("ALTM 9-column tapes are text files", path=path)

@@ -41,7 +41,8 @@ log = logging.getLogger(__name__)
 class OutputParams:
     """Options every file-writing task shares (SPEC §2)."""
 
-    odir: str | None = param(None, "output folder, created if missing (default: beside each input)")
+    odir: str | None = param(None, "output folder, created if missing (default: beside each input)", path=True,
+                             metavar="DIR")
     suffix: str | None = param(None, "output name suffix, replacing the task's default")
     delimiter: str = param("space", "delimiter of text outputs", choices=("space", "comma"), manual="Preference")
     out_format: str = param("same", "output format", choices=("same", "text", "csv", "las", "laz"))
@@ -201,6 +202,7 @@ class JobResult:
     warnings: list[str] = field(default_factory=list)
     records: list[dict] = field(default_factory=list)  # machine-readable results (info, evaluate)
     error: str | None = None
+    usage: bool = False  # the error was a usage error (exit status 2)
     detail: str | None = None  # traceback of an unexpected failure (shown with -v)
     seconds: float = 0.0
     log_path: str | None = None
@@ -316,6 +318,8 @@ class RunReport:
 
     @property
     def exit_code(self) -> int:
+        if any(r.usage for r in self.results):
+            return 2
         return 1 if self.failed else 0
 
     @property
@@ -338,6 +342,7 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
             task.run_all([Path(s) for s in sources], run.params.values, ctx)
     except AldpatError as exc:
         result.error = str(exc)
+        result.usage = isinstance(exc, UsageError)
     except MemoryError:
         result.error = f"{', '.join(sources)[:200]}: out of memory"
     except Exception as exc:  # an unexpected failure still may not end the other jobs

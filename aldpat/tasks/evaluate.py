@@ -25,31 +25,45 @@ from aldpat.tasks.base import JobContext, Task, register_task
 @dataclass(frozen=True)
 class EvaluateParams:
     reference: str | None = param(None, "reference points with labels (ISPRS text x y z label, or LAS class 2 = ground)",
-                                  path=True, metavar="REF")
+                                  path=True, metavar="REF", required=True)
     mode: str = param("auto", "how the result marks ground: terrain (every point is ground), classified "
-                      "(LAS class 2 or a class column), auto (LAS: classified, text: terrain)",
+                      "(LAS class 2, or a text class column: 2 or 0 ground), auto (LAS: classified; text: "
+                      "classified when a column after x y z holds only 1 and 2, else terrain)",
                       choices=("auto", "terrain", "classified"))
     class_column: int | None = param(None, "1-based column holding the class in a classified text result "
-                                     "(default: the last)", ge=1)
+                                     "(default: found as --mode says)", ge=1)
     tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0)
     json: bool = param(False, "print a JSON object instead of a table")
 
 
+def class_column_of(reader, table) -> int | None:
+    """The column of a classified text result: the last one after x y z whose values are all
+    1 or 2 with some 2 (what ``filter --result classified`` writes, ``mark`` may follow it)."""
+    for k in range(len(reader.names) - 1, 2, -1):
+        values = table[reader.names[k]]
+        if np.isin(values, (1, 2)).all() and (values == 2).any():
+            return k
+    return None
+
+
 def _result_ground(reader, table, params: EvaluateParams) -> np.ndarray:
-    mode = params.mode
-    if mode == "auto":
-        mode = "classified" if reader.format == "las" else "terrain"
-    if mode == "terrain":
-        return np.ones(len(table), dtype=bool)
     if reader.format == "las":
+        if params.mode == "terrain":
+            return np.ones(len(table), dtype=bool)
         return table["classification"] == 2
-    names = reader.names
-    if len(names) < 4:
-        raise UsageError("a classified text result needs a class column", path=reader.path)
-    k = (params.class_column or len(names)) - 1
-    if k >= len(names):
-        raise UsageError(f"--class-column {k + 1}: the file has {len(names)} columns", path=reader.path)
-    cls = table[names[k]]
+    if params.class_column is not None:
+        k = params.class_column - 1
+        if k >= len(reader.names):
+            raise UsageError(f"--class-column {k + 1}: the file has {len(reader.names)} columns", path=reader.path)
+    elif params.mode == "terrain":
+        return np.ones(len(table), dtype=bool)
+    else:
+        k = class_column_of(reader, table)
+        if k is None:
+            if params.mode == "classified":
+                raise UsageError("no class column (values 1 and 2) found; give --class-column", path=reader.path)
+            return np.ones(len(table), dtype=bool)  # auto: a terrain file
+    cls = table[reader.names[k]]
     return (cls == 2) | (cls == 0)
 
 

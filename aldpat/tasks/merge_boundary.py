@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.text import format_rows
 from aldpat.params import param
@@ -31,7 +31,7 @@ SEPARATOR = "-1111"
 
 @dataclass(frozen=True)
 class MergeBoundaryParams:
-    output: str | None = param(None, "merged boundary file to write (required)", path=True, metavar="FILE")
+    output: str | None = param(None, "merged boundary file to write", path=True, metavar="FILE", required=True)
 
 
 @dataclass
@@ -42,8 +42,6 @@ class Strip:
 
 
 def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:
-    if not params.output:
-        raise UsageError("merge-boundary needs the output file name: -o FILE")
     out = Path(params.output)
     if ctx.output is not None and ctx.output.odir and not out.is_absolute():
         out = Path(ctx.output.odir) / out

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.polygon import clean_ring, points_in_polygons
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
 from aldpat.tasks._prep_options import kept_names
@@ -32,8 +32,8 @@ _SPLIT = re.compile(r"[,\s;]+")
 
 @dataclass(frozen=True)
 class PolygonExtractParams:
-    polygon: str | None = param(None, "polygon: a text file of x,y vertices (one a line) or a polygon shapefile "
-                                "(required)", path=True, metavar="FILE")
+    polygon: str | None = param(None, "polygon: a text file of x,y vertices (one a line) or a polygon shapefile",
+                                path=True, metavar="FILE", required=True)
     outside: bool = param(False, "keep the points outside the polygon instead")
 
 
@@ -76,8 +76,6 @@ def read_polygon(path: str | Path) -> list[list[np.ndarray]]:
 
 
 def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobContext) -> None:
-    if not params.polygon:
-        raise UsageError("polygon-extract needs the polygon: --polygon FILE")
     polygons = read_polygon(params.polygon)
     reader = ctx.open_input(source)
     out = ctx.output_path(source, "_poly", reader=reader)

@@ -7,6 +7,7 @@ worksheet are relative to the worksheet's folder.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import tomllib
 from dataclasses import dataclass, field
@@ -46,6 +47,10 @@ class Job:
             places.append(Path(out.odir).resolve())
         elif not explicit:
             places += sorted({Path(p).resolve().parent for p in self.inputs if not p.startswith("@")})
+        for field_ in dataclasses.fields(self.run.params.values):  # e.g. separate-returns' last_odir
+            value = getattr(self.run.params.values, field_.name)
+            if field_.name.endswith("_odir") and value:
+                places.append(Path(value).resolve())
         return places
 
 
@@ -144,8 +149,8 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path)
     inputs = [_rebase(i, folder) for i in inputs]
 
     def rebased(mapping: dict, base: Path) -> dict:
-        return {k: (_rebase(v, base) if k.replace("-", "_") in specs and specs[k.replace("-", "_")].path
-                    or k.replace("-", "_") == "odir" else v) for k, v in mapping.items()}
+        return {k: (_rebase(v, base) if k.replace("-", "_") in specs and specs[k.replace("-", "_")].path else v)
+                for k, v in mapping.items()}
 
     layers = []
     applicable = {k: v for k, v in settings.items() if k.replace("-", "_") in specs}

@@ -109,3 +109,13 @@ def test_usage_errors_exit_2(tmp_path, samp24):
 def test_unknown_command_suggests(tmp_path):
     proc = run("inof")
     assert proc.returncode == 2 and "did you mean 'info'?" in proc.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (["evaluate", "{samp24}"], "reference: required (--reference on the command line)"),
+    (["merge-boundary", "{samp24}"], "output: required (--output on the command line)"),
+    (["polygon-extract", "{samp24}"], "polygon: required (--polygon on the command line)"),
+])
+def test_a_missing_required_option_is_a_usage_error(samp24, args, message):
+    proc = run(*[a.format(samp24=samp24) for a in args])
+    assert proc.returncode == 2 and message in proc.stderr

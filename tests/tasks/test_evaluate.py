@@ -66,3 +66,18 @@ def test_evaluate_a_classified_las_and_json_output(tmp_path, samp24, runner, cli
     rec = json.loads(out.output.strip())
     assert rec["total"] == 0.0 and rec["kappa"] == 1.0 and rec["points"] == len(labels)
     assert set(rec) >= {"type1", "type2", "total", "kappa"}
+
+
+def test_a_classified_text_result_is_recognised(tmp_path, samp24):
+    """What `filter --result classified --marks` writes: x y z i class mark."""
+    data = np.loadtxt(samp24)
+    ground = data[:, 3] == 0
+    cls = np.where(ground, 2, 1)
+    cls[:10] = np.where(ground[:10], 1, 2)  # ten mistakes
+    marks = np.where(cls == 2, 0, 5)
+    rows = np.column_stack([data[:, :3], np.full(len(data), 7), cls, marks])
+    result = write_xyz(tmp_path / "c.txt", rows, fmt="%.2f")
+    rec = get_task("evaluate")([result], reference=str(samp24)).results[0].records[0]
+    assert rec["ground_as_object"] + rec["object_as_ground"] == 10
+    terrain = get_task("evaluate")([result], reference=str(samp24), mode="terrain").results[0].records[0]
+    assert terrain["type2"] == 100.0

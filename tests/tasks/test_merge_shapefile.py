@@ -36,8 +36,7 @@ def test_merged_file_has_five_columns_and_separators(tmp_path, bounds, runner, c
 
 def test_merge_needs_an_output_name(bounds, runner, cli):
     out = runner.invoke(cli, ["merge-boundary", *map(str, bounds)])
-    # the foundation has no "required" parameter yet, so this surfaces as a failed job (exit 1)
-    assert out.exit_code == 1 and "-o FILE" in out.output
+    assert out.exit_code == 2 and "output: required (--output on the command line)" in out.output
 
 
 def test_comma_delimiter_and_names_with_spaces_read_back(tmp_path, bounds):

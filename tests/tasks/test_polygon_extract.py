@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from aldpat.errors import ParamError
 from aldpat.io.shapefile import Polygon, write_polygons
 from aldpat.tasks import get_task
 
@@ -57,7 +58,8 @@ def test_bad_polygon_files(tmp_path, points):
     two = tmp_path / "two.txt"
     two.write_text("0,0\n1,0\n0,0\n")
     assert "at least 3" in get_task("polygon-extract")([points], polygon=str(two)).results[0].error
-    assert "--polygon" in get_task("polygon-extract")([points]).results[0].error
+    with pytest.raises(ParamError, match=r"polygon: required \(--polygon"):
+        get_task("polygon-extract")([points])
 
 
 def test_streams_las_and_keeps_attributes(tmp_path):
