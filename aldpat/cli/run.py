@@ -36,10 +36,17 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
               help="override a key of job N (or settings.key=VALUE) for this run")
 @click.option("-j", "--jobs", type=click.IntRange(min=0), default=None,
               help="worker processes per job (0 = all cores), overriding the worksheet")
+@click.option("-v", "--verbose", count=True, help="more detail on stderr")
+@click.option("-q", "--quiet", count=True, help="only errors on stderr: no job statuses")
 @click.pass_context
-def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs):
+def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, verbose, quiet):
     """Run a worksheet: jobs in order, each Ready -> Running -> Done or Failed."""
-    quiet = ctx.find_root().params.get("quiet", 0)
+    from aldpat.cli.main import setup_logging
+
+    root = ctx.find_root().params
+    quiet += root.get("quiet", 0)
+    if verbose or quiet:
+        setup_logging(verbose + root.get("verbose", 0), quiet)
     try:
         ws = load_worksheet(worksheet, overrides)
         selected = _parse_only(only)
@@ -61,12 +68,11 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs):
         sys.exit(0)
 
     def on_status(st):
-        if quiet:
-            return
-        extra = f": {st.message}" if st.message else ""
-        timing = f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""
-        click.echo(f"job {st.job.number} {st.job.task.key}: {st.state}{extra}{timing}", err=True)
-        if st.state == DONE:
+        if not quiet or st.state in (FAILED, BLOCKED):
+            extra = f": {st.message}" if st.message else ""
+            timing = f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""
+            click.echo(f"job {st.job.number} {st.job.task.key}: {st.state}{extra}{timing}", err=True)
+        if st.state == DONE:  # results (info, evaluate) go to stdout even with -q
             show(RunReport(st.job.task.key, st.results, []),
                  as_json=bool(getattr(st.job.run.params.values, "json", False)))
 

@@ -358,7 +358,7 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
 
 
 def log_path_for(result: JobResult) -> Path:
-    """``<output-stem>.log`` beside the (first) output."""
+    """``<output-stem>.log`` beside the (first) output; records are appended to it."""
     first = Path(result.outputs[0].path)
     return first.with_name(first.stem + ".log")
 
@@ -389,10 +389,10 @@ def write_job_log(run: ResolvedRun, result: JobResult, command: str) -> Path:
         lines.append("warnings:")
         lines += [f"  {w}" for w in result.warnings]
     lines.append(f"wall time: {result.seconds:.3f} s")
-    from aldpat.io.atomic import atomic_output
-
-    with atomic_output(path, overwrite=True) as tmp:
-        tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    # Appended, never replaced: another task may have written outputs with the same stem (grid
+    # writes x.grd, grd2bin x.flt beside it), and a re-run's record belongs after the first.
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(("\n" if fh.tell() else "") + "\n".join(lines) + "\n")
     return path
 
 

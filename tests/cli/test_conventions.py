@@ -79,3 +79,11 @@ def test_job_log_records_parameters_sources_inputs_outputs(tmp_path, samp24):
     assert "suffix     = none    (default)" in log
     assert f"{samp24}  ({samp24.stat().st_size} bytes)" in log
     assert "samp24.csv  (7492 points)" in log and "wall time:" in log
+
+
+def test_logs_of_jobs_sharing_an_output_stem_accumulate(tmp_path, samp24):
+    get_task("convert")([samp24], out_format="laz", odir=str(tmp_path))
+    get_task("convert")([samp24], out_format="csv", odir=str(tmp_path))
+    log = (tmp_path / "samp24.log").read_text()
+    assert log.count("task: convert") == 2
+    assert "samp24.laz  (7492 points)" in log and "samp24.csv  (7492 points)" in log
