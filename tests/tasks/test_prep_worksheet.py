@@ -13,6 +13,7 @@ REPO = Path(__file__).resolve().parents[2]
 def test_demo_chain_from_another_folder(tmp_path, runner, cli, monkeypatch):
     work = tmp_path / "jobs"
     shutil.copytree(REPO / "jobs" / "data", work / "data")
+    shutil.copytree(REPO / "jobs" / "params", work / "params")
     shutil.copy(REPO / "jobs" / "demo.toml", work / "demo.toml")
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
@@ -31,6 +32,10 @@ def test_demo_chain_from_another_folder(tmp_path, runner, cli, monkeypatch):
     assert len(rows) == 6 and all(len(r.split()) == 8 for r in rows)
     assert len(list((demo / "thin").glob("*_thin.txt"))) == 6
     assert len(list((demo / "poly").glob("*_poly.txt"))) == 3
+    assert "total       6.15 %" in out.output  # GAPM set 01 on samp24, scored by evaluate
+    assert len(list((demo / "ground").glob("tile_*_gapm.txt"))) == 6
+    assert len(list((demo / "grids").glob("tile_*_gapm.grd"))) == 6
+    assert len(list((demo / "grids").glob("tile_*_gapm.flt"))) == 6
     assert list(elsewhere.iterdir()) == []  # nothing written to the current folder
     again = runner.invoke(cli, ["run", str(work / "demo.toml")])  # overwrite = true in [settings]
     assert again.exit_code == 0, again.output
