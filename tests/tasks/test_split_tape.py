@@ -74,4 +74,4 @@ def test_existing_strips_need_overwrite(tmp_path, runner, cli):
 def test_las_output_is_refused_for_tapes(tmp_path):
     tape = write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
     report = get_task("split-tape")([tape], out_format="las")
-    assert report.exit_code == 1 and "9-column text" in report.results[0].error
+    assert report.exit_code == 2 and "9-column text" in report.results[0].error  # a usage error

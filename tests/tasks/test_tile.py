@@ -108,4 +108,4 @@ def test_las_tiles_keep_attributes(tmp_path):
         assert las.header.parse_crs().to_epsg() == 32632
         assert np.all(np.asarray(las.return_number) == 1)
     assert total == laspy.read(src).header.point_count
-    assert get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path)).exit_code == 1
+    assert get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path)).exit_code == 2  # usage
