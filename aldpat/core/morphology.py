@@ -54,7 +54,9 @@ def disk_footprint(k: int) -> np.ndarray:
 
 
 def _check(z: np.ndarray, k: int, window: str, axis: int) -> np.ndarray:
-    z = np.asarray(z, dtype=np.float64)
+    z = np.asarray(z)
+    if z.dtype not in (np.float32, np.float64):
+        z = z.astype(np.float64)
     if z.ndim != 2:
         raise ValueError(f"expected a 2-D grid, got {z.ndim} dimensions")
     if int(k) != k or k < 0:
@@ -94,8 +96,8 @@ def _running(z: np.ndarray, k: int, window: str, axis: int, maximum: bool,
 
 
 def _out(z: np.ndarray, out: np.ndarray | None) -> np.ndarray | None:
-    if out is not None and (out.shape != z.shape or out.dtype != np.float64 or np.shares_memory(out, z)):
-        raise ValueError("out must be a separate float64 array of the grid's shape")
+    if out is not None and (out.shape != z.shape or out.dtype != z.dtype or np.shares_memory(out, z)):
+        raise ValueError("out must be a separate array of the grid's shape and dtype")
     return out
 
 
@@ -103,8 +105,9 @@ def erosion(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1,
             out: np.ndarray | None = None) -> np.ndarray:
     """Running minimum over the window of half size ``k`` (``k = 0``: a copy).
 
-    ``out``: a float64 array of the same shape to write into (saves an allocation per call on
-    large grids); it must not share memory with ``z``.
+    ``out``: an array of the same shape and dtype to write into (saves an allocation per call
+    on large grids); it must not share memory with ``z``. float32 and float64 grids keep their
+    dtype; other dtypes are computed as float64.
     """
     z = _check(z, k, window, axis)
     return _running(z, int(k), window, axis, False, _out(z, out))
@@ -122,8 +125,8 @@ def opening(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1,
     """Erosion then dilation: removes what is higher than its surroundings and narrower than
     the window (manual appendix, PM filter; dissertation §4.1.1 for high outliers).
 
-    ``out`` receives the result and ``work`` the intermediate erosion (both optional, float64,
-    separate from ``z`` and from each other).
+    ``out`` receives the result and ``work`` the intermediate erosion (both optional, of the
+    grid's dtype, separate from ``z`` and from each other).
     """
     z = _check(z, k, window, axis)
     ero = _running(z, int(k), window, axis, False, _out(z, work))

@@ -115,9 +115,11 @@ def progressive_open(z: np.ndarray, windows, thresholds, passes) -> np.ndarray:
 
     ``passes`` lists ``(window, axis)`` openings applied in turn at every step; each compares
     the surface before and after itself. A cell keeps the first window that removed it.
-    Three grid-sized float buffers in all, whatever the number of windows; ``z`` is not changed.
+    Three grid-sized float32 buffers in all, whatever the number of windows; ``z`` is not
+    changed. float32 keeps elevations to 0.1 mm below 1000 m, far finer than any threshold
+    (0.1 m and up), and halves the memory and time of every pass on large grids.
     """
-    surface = np.array(z, dtype=np.float64, copy=True)
+    surface = np.array(z, dtype=np.float32, copy=True)
     opened = np.empty_like(surface)
     work = np.empty_like(surface)
     marks = np.zeros(surface.shape, np.int32)
@@ -127,7 +129,7 @@ def progressive_open(z: np.ndarray, windows, thresholds, passes) -> np.ndarray:
         for window, axis in passes:
             morphology.opening(surface, k, window=window, axis=axis, out=opened, work=work)
             np.subtract(surface, opened, out=work)
-            np.greater(work, dh, out=removed)
+            np.greater(work, np.float32(dh), out=removed)
             removed &= kept
             marks[removed] = k
             kept &= ~removed

@@ -107,3 +107,8 @@ def test_out_and_work_buffers_give_the_same_answer(window):
         erosion(z, 1, window=window, out=z)
     with pytest.raises(ValueError, match="separate"):
         dilation(z, 1, window=window, out=np.empty((3, 3)))
+    with pytest.raises(ValueError, match="separate"):
+        erosion(z, 1, window=window, out=np.empty(z.shape, np.float32))
+    z32 = z.astype(np.float32)
+    assert erosion(z32, 2, window=window).dtype == np.float32
+    assert np.array_equal(erosion(z32, 2, window=window), erosion(z, 2, window=window).astype(np.float32))
