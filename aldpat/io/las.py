@@ -81,7 +81,8 @@ class LasReader:
                                    path=self.path)
 
     def read(self) -> PointTable:
-        return PointTable.concat(list(self.chunks()))
+        """The whole file as one table (one chunk: no concatenation, no second copy)."""
+        return next(iter(self.chunks(size=max(self.count, 1))))
 
 
 def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> laspy.LasHeader:
