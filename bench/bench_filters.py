@@ -7,7 +7,7 @@
     python bench/bench_filters.py speed --algos gapm --params gapm=jobs/params/gapm-isprs-set01.toml --peers
 
 ``isprs`` runs every registered filter on all points of the seven ISPRS samples
-(``/work/shared/data/isprs``; set ALDPAT_ISPRS to move it) with ``jobs/params/<algo>.toml`` when
+(``../shared/data/isprs`` beside the repository; set ALDPAT_ISPRS to move it) with ``jobs/params/<algo>.toml`` when
 that file exists (defaults otherwise, or the file given with ``--params algo=FILE``), prints
 Type I, Type II, total error and kappa per sample, the mean total, and the filter's points per
 second (gridding + filter + classification, in process).
@@ -40,7 +40,7 @@ from _measure import measure, mib  # noqa: E402
 from isprs import PUBLISHED_GAPM_SET01, SAMPLES, Sample, load_samples, score  # noqa: E402
 
 WORK = BENCH / "_work"
-SITES = Path("/work/shared/data/isprs-sites")
+SITES = REPO.parent / "shared" / "data" / "isprs-sites"  # the project's shared data, beside the clone
 
 
 def rate(n: int, seconds: float) -> str:

@@ -5,7 +5,7 @@
     python bench/bench_gapm.py speed --points 2 --algos outlier cluster-pm gapm multipass
     python bench/bench_gapm.py tiles               # tiles with buffers against the whole area
 
-``accuracy`` (reads ``/work/shared/data/isprs``) prints, per sample, Type I / Type II / total
+``accuracy`` (reads ``../shared/data/isprs`` beside the repository) prints, per sample, Type I / Type II / total
 error of:
 
 * ``gapm`` with the dissertation's parameter sets 01, 02, 03 (``jobs/params/gapm-isprs-set0N``)
@@ -18,7 +18,7 @@ error of:
 * ``outlier`` with its defaults.
 
 ``speed`` builds (once, under ``bench/_work/``) a LAS file of tiled copies of the ISPRS site
-FSite5 (``/work/shared/data/isprs-sites``) and runs ``aldpat filter ALGO`` on it in a fresh
+FSite5 (``../shared/data/isprs-sites``) and runs ``aldpat filter ALGO`` on it in a fresh
 process per algorithm (read, grid, filter, classify, write), printing points/second and peak
 resident memory.
 """

@@ -3,7 +3,7 @@
     python bench/bench_heights.py                 # 10 M points in memory, 2 M-line file
     python bench/bench_heights.py --points 20 --file-points 5
 
-Uses the real EGM96 15' grid (/work/shared/data/geoid/egm96_15.gtx). "core" converts arrays in
+Uses the real EGM96 15' grid (../shared/data/geoid/egm96_15.gtx beside the repository). "core" converts arrays in
 chunks of 1 M points (UTM 15N -> H = h - N; then also re-projecting to State Plane feet); "task"
 runs ``aldpat ortho-height`` on a text file, whose peak memory must not grow with the file.
 Each measurement runs in a fresh process.
@@ -22,7 +22,7 @@ from _measure import measure, mib  # noqa: E402
 
 WORK = Path(__file__).resolve().parent / "_work"
 REPO = Path(__file__).resolve().parents[1]
-GEOID = "/work/shared/data/geoid/egm96_15.gtx"
+GEOID = str(REPO.parent / "shared" / "data" / "geoid" / "egm96_15.gtx")
 
 CORE = """
 import sys

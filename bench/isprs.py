@@ -1,6 +1,6 @@
 """Load the ISPRS filter-test samples and score a ground classification.
 
-The seven reference samples of ``/work/shared/data/isprs/`` (Sithole & Vosselman 2004):
+The seven reference samples of ``../shared/data/isprs/`` (beside the repository) (Sithole & Vosselman 2004):
 ``x y z label`` per line, label 0 = bare earth, 1 = object. The files are stored ground-first,
 so nothing here relies on their order. Measures as the dissertation reports them (ch. 6,
 Tables 6-9 ff.): Type I = bare earth rejected / all bare earth, Type II = objects accepted as
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-DATA = Path(os.environ.get("ALDPAT_ISPRS", "/work/shared/data/isprs"))
+DATA = Path(os.environ.get("ALDPAT_ISPRS", Path(__file__).resolve().parents[2] / "shared" / "data" / "isprs"))
 SAMPLES = ("samp12", "samp21", "samp24", "samp42", "samp51", "samp53", "samp61")
 
 #: GAPM with parameter set 01, dissertation Table 6-9 (%): total, type I, type II.
