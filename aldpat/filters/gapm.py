@@ -143,20 +143,25 @@ def _adaptive_block(z, windows, cts, init_bin, divisor, use_cluster_diff) -> np.
     return mark
 
 
-def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1):
+def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1,
+                  out: np.ndarray | None = None):
     """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``).
 
-    Returns (cells removed, opened surface).
+    Returns (cells removed, opened surface); ``out`` (float64, shaped like ``zc``, separate
+    from it) receives the opened surface instead of a new array.
     """
-    zo = morphology.opening(zc, k, window="line", axis=axis)
-    diff = zc - zo
+    zo = morphology.opening(zc, k, window="line", axis=axis, out=out)
+    diff = np.subtract(zc, zo)
     if k >= init_bin:
         # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines
         # 16-20): beyond that band the answer is known without the analysis, so clusters and
         # minima are evaluated only for the cells inside it.
         cap = ct * k / divisor
-        removed = unfiltered & (diff > cap)
-        band = unfiltered & (diff > min(ct, cap)) & (diff <= cap)
+        removed = diff > cap
+        removed &= unfiltered
+        band = diff > min(ct, cap)
+        band &= unfiltered
+        band &= ~removed
         r, c = np.nonzero(band)
         if r.size:
             if axis == 1:
@@ -168,44 +173,58 @@ def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, ax
             hit = diff[r, c] > thresh
             removed[r[hit], c[hit]] = True
     else:
-        removed = unfiltered & (diff > ct)
+        removed = diff > ct
+        removed &= unfiltered
     return removed, zo
 
 
-def adaptive_sequential(z: np.ndarray, p: "GapmParams") -> np.ndarray:
+#: Columns of a column pass processed together: the block's transposed copy stays in cache.
+BLOCK_COLUMNS = 32
+
+
+def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> np.ndarray:
     """``AdaptiveMorphFilter`` as printed (§6.2.4 lines 2-21): at every window of the series the
     rows (if the window is a row window) and then the columns (if a column window) are opened,
     each on the surface the previous pass left, marking into one mark matrix.
 
-    Within a pass the rows (columns) are independent: blocks of them run on two threads. A
-    column pass works on transposed copies of the surface and the marks, so that every pass
-    reads whole contiguous lines.
+    Within a pass the rows (columns) are independent: blocks of them run on ``workers``
+    threads. Two grids hold the surface before and after a pass and swap roles, so no pass
+    allocates a grid (fresh pages cost more than the filtering itself on large grids). A
+    column pass copies one narrow block of columns at a time into a transposed, contiguous
+    array, so that every line is read whole and the grid itself is never transposed.
     """
     lookup = dict(zip(p.window_series, p.cluster_thresholds))
     rows = set(p.row_windows or ())
     cols = set(p.column_windows or ())
     zc = np.array(z, dtype=np.float64, copy=True)
+    zo = np.empty_like(zc)
     mark = np.zeros(zc.shape, np.int32)
     opts = (p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)
-    with ThreadPoolExecutor(max_workers=2) as pool:
+    nr, nc = zc.shape
+
+    def row_block(a, k, ct):
+        b = min(a + BLOCK_ROWS, nr)
+        m = mark[a:b]
+        removed, _ = adaptive_step(zc[a:b], m == 0, k, ct, *opts, out=zo[a:b])
+        np.copyto(m, k, where=removed)
+
+    def column_block(a, k, ct):
+        b = min(a + BLOCK_COLUMNS, nc)
+        m = mark[:, a:b]
+        zt = np.ascontiguousarray(zc[:, a:b].T)
+        removed, zot = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, *opts)
+        zo[:, a:b] = zot.T
+        np.copyto(m, k, where=removed.T)
+
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         for k in p.window_series:
             ct = lookup[k]
-            for axis, use in ((1, rows), (0, cols)):
+            for block, use, lines, step in ((row_block, rows, nr, BLOCK_ROWS),
+                                            (column_block, cols, nc, BLOCK_COLUMNS)):
                 if k not in use:
                     continue
-                if axis == 0:
-                    zc, mark = _transposed(zc), _transposed(mark)
-                zo = np.empty_like(zc)
-
-                def one(a, zc=zc, zo=zo, mark=mark, k=k, ct=ct):
-                    b = min(a + BLOCK_ROWS, zc.shape[0])
-                    removed, zo[a:b] = adaptive_step(zc[a:b], mark[a:b] == 0, k, ct, *opts)
-                    mark[a:b][removed] = k
-
-                list(pool.map(one, range(0, zc.shape[0], BLOCK_ROWS)))
-                zc = zo
-                if axis == 0:
-                    zc, mark = _transposed(zc), _transposed(mark)
+                list(pool.map(lambda a: block(a, k, ct), range(0, lines, step)))
+                zc, zo = zo, zc
     return mark
 
 
