@@ -188,16 +188,16 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> 
     each on the surface the previous pass left, marking into one mark matrix.
 
     Within a pass the rows (columns) are independent: blocks of them run on ``workers``
-    threads. Two grids hold the surface before and after a pass and swap roles, so no pass
-    allocates a grid (fresh pages cost more than the filtering itself on large grids). A
-    column pass copies one narrow block of columns at a time into a transposed, contiguous
-    array, so that every line is read whole and the grid itself is never transposed.
+    threads, and each block writes its opened surface back over its own cells, which no other
+    block reads. One surface grid therefore serves all passes and no pass allocates a grid
+    (fresh pages cost more than the filtering itself on large grids). A column pass copies a
+    narrow block of columns at a time into a transposed, contiguous array, so that every line
+    is read whole and the grid itself is never transposed.
     """
     lookup = dict(zip(p.window_series, p.cluster_thresholds))
     rows = set(p.row_windows or ())
     cols = set(p.column_windows or ())
     zc = np.array(z, dtype=np.float64, copy=True)
-    zo = np.empty_like(zc)
     mark = np.zeros(zc.shape, np.int32)
     opts = (p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)
     nr, nc = zc.shape
@@ -205,15 +205,16 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> 
     def row_block(a, k, ct):
         b = min(a + BLOCK_ROWS, nr)
         m = mark[a:b]
-        removed, _ = adaptive_step(zc[a:b], m == 0, k, ct, *opts, out=zo[a:b])
+        removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, *opts)
+        zc[a:b] = zo
         np.copyto(m, k, where=removed)
 
     def column_block(a, k, ct):
         b = min(a + BLOCK_COLUMNS, nc)
         m = mark[:, a:b]
         zt = np.ascontiguousarray(zc[:, a:b].T)
-        removed, zot = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, *opts)
-        zo[:, a:b] = zot.T
+        removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, *opts)
+        zc[:, a:b] = zo.T
         np.copyto(m, k, where=removed.T)
 
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -221,10 +222,8 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> 
             ct = lookup[k]
             for block, use, lines, step in ((row_block, rows, nr, BLOCK_ROWS),
                                             (column_block, cols, nc, BLOCK_COLUMNS)):
-                if k not in use:
-                    continue
-                list(pool.map(lambda a: block(a, k, ct), range(0, lines, step)))
-                zc, zo = zo, zc
+                if k in use:
+                    list(pool.map(lambda a: block(a, k, ct), range(0, lines, step)))
     return mark
 
 
