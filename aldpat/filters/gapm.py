@@ -34,6 +34,8 @@ log = logging.getLogger(__name__)
 
 #: Rows of a direction pass processed together: bounds temporaries, keeps them in cache.
 BLOCK_ROWS = 128
+#: Columns of a column pass processed together: the block's transposed copy stays in cache.
+BLOCK_COLUMNS = 32
 
 
 @dataclass(frozen=True)
@@ -143,14 +145,12 @@ def _adaptive_block(z, windows, cts, init_bin, divisor, use_cluster_diff) -> np.
     return mark
 
 
-def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1,
-                  out: np.ndarray | None = None):
+def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1):
     """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``).
 
-    Returns (cells removed, opened surface); ``out`` (float64, shaped like ``zc``, separate
-    from it) receives the opened surface instead of a new array.
+    Returns (cells removed, opened surface).
     """
-    zo = morphology.opening(zc, k, window="line", axis=axis, out=out)
+    zo = morphology.opening(zc, k, window="line", axis=axis)
     diff = np.subtract(zc, zo)
     if k >= init_bin:
         # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines
@@ -176,10 +176,6 @@ def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, ax
         removed = diff > ct
         removed &= unfiltered
     return removed, zo
-
-
-#: Columns of a column pass processed together: the block's transposed copy stays in cache.
-BLOCK_COLUMNS = 32
 
 
 def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> np.ndarray:
