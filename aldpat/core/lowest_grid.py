@@ -100,6 +100,14 @@ def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     return GridSpec(ox + c0 * cell, oy + r0 * cell, float(cell), rows, cols)
 
 
+def _floor_index(v: np.ndarray, origin: float, cell: float) -> np.ndarray:
+    """floor((v - origin) / cell) as int64, in one scratch array (fresh pages are slow here)."""
+    t = np.subtract(np.asarray(v, dtype=np.float64), origin)
+    t /= cell
+    np.floor(t, out=t)
+    return t.astype(np.int64)
+
+
 def cell_indices(x: np.ndarray, y: np.ndarray, spec: GridSpec, *, origin: tuple[float, float] | None = None
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Row and column of every point.
@@ -110,10 +118,8 @@ def cell_indices(x: np.ndarray, y: np.ndarray, spec: GridSpec, *, origin: tuple[
     ox, oy = origin if origin is not None else (0.0, 0.0)
     c0 = round((spec.x0 - ox) / spec.cell)
     r0 = round((spec.y0 - oy) / spec.cell)
-    col = np.floor((np.asarray(x, dtype=np.float64) - ox) / spec.cell).astype(np.int64)
-    col -= c0
-    row = np.floor((np.asarray(y, dtype=np.float64) - oy) / spec.cell).astype(np.int64)
-    row -= r0
+    col = _floor_index(x, ox, spec.cell) - c0
+    row = _floor_index(y, oy, spec.cell) - r0
     # floor((x - ox) / cell) can land one cell outside at the extreme after rounding
     np.clip(col, 0, spec.cols - 1, out=col)
     np.clip(row, 0, spec.rows - 1, out=row)

@@ -191,34 +191,48 @@ def ground_surface(z: np.ndarray, ground: np.ndarray) -> np.ndarray:
     return fill_nearest(np.where(ground, z, np.nan), ~ground)
 
 
-def _ground_height(flat_z: np.ndarray, ground: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray
+def _ground_height(ground_z: np.ndarray, ground: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray
                    ) -> np.ndarray:
     """Ground surface at points x, y: bilinear between the centres of the four cells around
     each point, over those that are ground, weights renormalised.
 
-    ``flat_z`` holds the cells' lowest elevations, ``ground`` flags ground cells (both flat).
+    ``ground_z`` holds the ground cells' lowest elevations (0 elsewhere: their weight is 0),
+    ``ground`` flags ground cells (both flat).
     NaN where none of the four is ground: such a point sits in a cell whose lowest point was
     removed, amid removed or empty cells, so it cannot be ground either. Local by design -- a
     nearest-ground search over the whole grid would cost a distance transform per run.
     """
-    fc = (x - spec.x0) / spec.cell - 0.5
-    fr = (y - spec.y0) / spec.cell - 0.5
+    # in place wherever possible: on large inputs fresh scratch arrays cost more than arithmetic
+    fc = np.subtract(x, spec.x0)
+    fc /= spec.cell
+    fc -= 0.5
+    fr = np.subtract(y, spec.y0)
+    fr /= spec.cell
+    fr -= 0.5
     np.clip(fc, 0.0, max(spec.cols - 1.0, 0.0), out=fc)
     np.clip(fr, 0.0, max(spec.rows - 1.0, 0.0), out=fr)
-    c0 = np.minimum(fc.astype(np.int64), max(spec.cols - 2, 0))
-    r0 = np.minimum(fr.astype(np.int64), max(spec.rows - 2, 0))
-    tc = fc - c0
-    tr = fr - r0
-    dc = (c0 + 1 < spec.cols).astype(np.int64)  # 0 on a one-column grid
-    dr = np.where(r0 + 1 < spec.rows, spec.cols, 0)
-    i00 = r0 * spec.cols + c0
+    c0 = fc.astype(np.int64)
+    np.minimum(c0, max(spec.cols - 2, 0), out=c0)
+    r0 = fr.astype(np.int64)
+    np.minimum(r0, max(spec.rows - 2, 0), out=r0)
+    fc -= c0  # now the fraction across the cell pair (tc)
+    fr -= r0  # (tr)
+    dc = 1 if spec.cols > 1 else 0
+    dr = spec.cols if spec.rows > 1 else 0
+    i00 = r0
+    i00 *= spec.cols
+    i00 += c0
+    del c0
     num = np.zeros(len(x))
     den = np.zeros(len(x))
-    for idx, w in ((i00, (1 - tr) * (1 - tc)), (i00 + dc, (1 - tr) * tc),
-                   (i00 + dr, tr * (1 - tc)), (i00 + dr + dc, tr * tc)):
-        w = np.where(ground[idx], w, 0.0)
+    one_c = 1.0 - fc
+    one_r = 1.0 - fr
+    for offset, wr, wc in ((0, one_r, one_c), (dc, one_r, fc), (dr, fr, one_c), (dr + dc, fr, fc)):
+        idx = i00 + offset if offset else i00
+        w = wr * wc
+        w *= ground[idx]  # 0 unless the corner cell is ground
         den += w
-        w *= np.nan_to_num(flat_z[idx])  # empty cells are NaN but never ground (weight 0)
+        w *= ground_z[idx]
         num += w
     with np.errstate(invalid="ignore", divide="ignore"):
         return num / den
@@ -237,6 +251,7 @@ def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
     flat_marks = marks.ravel()
     flat_z = grid.z.ravel()
     ground = flat_marks == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
+    ground_z = np.where(ground, flat_z, 0.0)  # once per grid, not per chunk and corner
     point_marks = np.empty(n, np.int32)
     is_ground = np.empty(n, bool)
     for a in range(0, n, _CHUNK):
@@ -246,7 +261,7 @@ def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
         pm = cm.copy()
         other = np.flatnonzero(z[a:b] != flat_z[ci])
         if len(other):
-            h = z[a:b][other] - _ground_height(flat_z, ground, grid.spec, x[a:b][other], y[a:b][other])
+            h = z[a:b][other] - _ground_height(ground_z, ground, grid.spec, x[a:b][other], y[a:b][other])
             ok = h <= tolerance  # NaN (no ground around) compares False
             pm[other] = np.where(ok, MARK_GROUND, np.maximum(cm[other], MARK_ABOVE_SURFACE))
         point_marks[a:b] = pm
