@@ -223,16 +223,6 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> 
     return mark
 
 
-def _transposed(a: np.ndarray, tile: int = 128) -> np.ndarray:
-    """A C-ordered transposed copy, made tile by tile so that reads and writes stay in cache
-    (several times faster than ``np.ascontiguousarray(a.T)`` on large grids)."""
-    out = np.empty((a.shape[1], a.shape[0]), a.dtype)
-    for i in range(0, a.shape[0], tile):
-        for j in range(0, a.shape[1], tile):
-            out[j:j + tile, i:i + tile] = a[i:i + tile, j:j + tile].T
-    return out
-
-
 def combine_directions(row_marks: np.ndarray | None, column_marks: np.ndarray | None) -> np.ndarray:
     """Non-ground when either direction removed the cell (§6.2.5); the row's window wins."""
     if row_marks is None:

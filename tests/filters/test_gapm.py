@@ -122,15 +122,6 @@ def test_printed_order_and_separate_directions():
     assert (separate[roof] > 0).sum() == roof.sum() - 144
 
 
-def test_tiled_transpose():
-    from aldpat.filters.gapm import _transposed
-
-    a = np.arange(300 * 257, dtype=np.float64).reshape(300, 257)
-    t = _transposed(a)
-    assert t.flags.c_contiguous and np.array_equal(t, a.T)
-    assert np.array_equal(_transposed(a.astype(np.int32), tile=7), a.T.astype(np.int32))
-
-
 def _printed_sequential(z, p):
     """The printed loop of AdaptiveMorphFilter (§6.2.4) on whole grids, one thread, no blocks:
     the reference the blocked, threaded :func:`adaptive_sequential` must reproduce exactly."""
