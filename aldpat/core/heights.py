@@ -22,10 +22,11 @@ import re
 from pathlib import Path
 
 import numpy as np
-import pyproj
-from pyproj.exceptions import CRSError, ProjError
 
+from aldpat._lazy import lazy_import
 from aldpat.errors import DataError, InputMissingError, UsageError
+
+pyproj = lazy_import("pyproj")
 
 log = logging.getLogger(__name__)
 
@@ -53,7 +54,7 @@ def parse_crs(text) -> pyproj.CRS:
             south = (match.group(2) or "n").lower().startswith("s")
             return pyproj.CRS.from_epsg((32700 if south else 32600) + zone)
         return pyproj.CRS.from_user_input(value)
-    except CRSError:
+    except pyproj.exceptions.CRSError:
         raise UsageError(f"unknown CRS {value!r} (give an EPSG code such as EPSG:26917 or a UTM zone such as 17N)") \
             from None
 
@@ -78,11 +79,11 @@ def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
     if path.is_file():
         try:
             return _vgridshift('"' + str(path.resolve()) + '"'), str(path)
-        except ProjError:
+        except pyproj.exceptions.ProjError:
             raise UsageError(f"cannot open geoid grid {str(path)!r}: not a GTX or GeoTIFF grid") from None
     try:
         return _vgridshift(path.name), path.name
-    except ProjError:
+    except pyproj.exceptions.ProjError:
         if path.name != text:
             raise InputMissingError("no such geoid grid file (nor a grid PROJ knows by this name)",
                                     path=path) from None

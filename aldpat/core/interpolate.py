@@ -23,10 +23,12 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError, cKDTree
 
+from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
 from aldpat.errors import DataError, UsageError
+
+spatial = lazy_import("scipy.spatial")
 
 log = logging.getLogger(__name__)
 
@@ -76,10 +78,10 @@ def _nodes(spec: GridSpec, r0: int, r1: int, origin: tuple[float, float]) -> np.
     return out
 
 
-def _tree(x: np.ndarray, y: np.ndarray) -> tuple[cKDTree, tuple[float, float]]:
+def _tree(x: np.ndarray, y: np.ndarray) -> tuple["spatial.cKDTree", tuple[float, float]]:
     """A KD-tree on coordinates relative to the data's corner (keeps full precision)."""
     origin = (float(x.min()), float(y.min()))
-    return cKDTree(np.column_stack([x - origin[0], y - origin[1]]), balanced_tree=False), origin
+    return spatial.cKDTree(np.column_stack([x - origin[0], y - origin[1]]), balanced_tree=False), origin
 
 
 # ---------------------------------------------------------------------------- nearest
@@ -245,8 +247,8 @@ def _tin_block(px, py, pz, spec, cols, rows, max_distance, out) -> None:
     origin = (float(px.mean()), float(py.mean()))
     pts = np.column_stack([px - origin[0], py - origin[1]])
     try:
-        tri = Delaunay(pts).simplices
-    except QhullError:  # fewer than 3 distinct or all collinear points: nothing to interpolate
+        tri = spatial.Delaunay(pts).simplices
+    except spatial.QhullError:  # fewer than 3 distinct or all collinear points: nothing to interpolate
         log.debug("block rows %s cols %s: degenerate points, left blank", rows, cols)
         return
     tri_xy = pts[tri]

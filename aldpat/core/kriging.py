@@ -27,12 +27,14 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import curve_fit
-from scipy.spatial import cKDTree
 
+from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import _as_points, _nodes, _row_blocks, _workers
 from aldpat.errors import UsageError
+
+optimize = lazy_import("scipy.optimize")
+spatial = lazy_import("scipy.spatial")
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +79,7 @@ def experimental_variogram(x, y, z, *, neighbours: int = 32, sample: int = _SAMP
     """Lag centres, mean semivariances and pair counts from local neighbourhoods."""
     x, y, z = _as_points(x, y, z)
     ox, oy = float(x.min()), float(y.min())
-    tree = cKDTree(np.column_stack([x - ox, y - oy]))
+    tree = spatial.cKDTree(np.column_stack([x - ox, y - oy]))
     rng = np.random.default_rng(seed)
     pick = rng.choice(len(x), size=min(sample, len(x)), replace=False)
     k = min(neighbours + 1, len(x))
@@ -114,7 +116,7 @@ def fit_variogram(x, y, z, *, model: str = "linear", nugget: float = 0.0, neighb
         span = float(h.max())
         guess = (max(float(target.max()), 1e-12), span)
         try:
-            (sill, rng_), _ = curve_fit(lambda hh, s, a: _model(model, hh, 0.0, s, a), h, target, p0=guess,
+            (sill, rng_), _ = optimize.curve_fit(lambda hh, s, a: _model(model, hh, 0.0, s, a), h, target, p0=guess,
                                         sigma=1.0 / np.sqrt(n), bounds=([1e-12, span * 1e-3], [np.inf, span * 100]))
         except (RuntimeError, ValueError):
             sill, rng_ = guess
@@ -146,7 +148,7 @@ def krige(x, y, z, spec: GridSpec, *, model: str = "linear", nugget: float = 0.0
     vg = variogram or fit_variogram(x, y, z, model=model, nugget=nugget, neighbours=2 * max_points)
     origin = (float(x.min()), float(y.min()))
     pts = np.column_stack([x - origin[0], y - origin[1]])
-    tree = cKDTree(pts, balanced_tree=False)
+    tree = spatial.cKDTree(pts, balanced_tree=False)
     k = min(max_points, len(x))
     nd = 1 if drift == "none" else 3
     bound = np.inf if radius is None else radius

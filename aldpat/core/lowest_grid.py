@@ -18,9 +18,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
+from aldpat._lazy import lazy_import
 from aldpat.errors import DataError
+
+ndimage = lazy_import("scipy.ndimage")
 
 log = logging.getLogger(__name__)
 

@@ -25,7 +25,10 @@ import functools
 import math
 
 import numpy as np
-from scipy import ndimage
+
+from aldpat._lazy import lazy_import
+
+ndimage = lazy_import("scipy.ndimage")
 
 WINDOWS = ("line", "square", "disk")
 

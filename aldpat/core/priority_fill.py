@@ -31,11 +31,14 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from scipy import ndimage
+
+from aldpat._lazy import lazy_import
+
+ndimage = lazy_import("scipy.ndimage")
 
 log = logging.getLogger(__name__)
 
-_STRUCTURE = {4: ndimage.generate_binary_structure(2, 1), 8: np.ones((3, 3), dtype=bool)}
+_STRUCTURE = {4: np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool), 8: np.ones((3, 3), dtype=bool)}
 
 
 def _offsets(connectivity: int) -> list[tuple[int, int]]:

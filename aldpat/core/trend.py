@@ -16,9 +16,11 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from scipy import ndimage
 
+from aldpat._lazy import lazy_import
 from aldpat.core.clusters import Clusters, next_index, prev_index, take_rows
+
+ndimage = lazy_import("scipy.ndimage")
 
 log = logging.getLogger(__name__)
 
