@@ -14,7 +14,6 @@ registration, so adding a task is one module plus its tests.
 
 from __future__ import annotations
 
-import dataclasses
 import glob
 import logging
 import os
@@ -29,7 +28,7 @@ from typing import Any, Callable, Iterable, Mapping
 import aldpat
 from aldpat.errors import AldpatError, InputMissingError, UsageError
 from aldpat.io.registry import EXTENSIONS, output_extension, write_points
-from aldpat.params import Resolved, format_value, param, resolve, specs
+from aldpat.params import Resolved, param, resolve, specs
 
 log = logging.getLogger(__name__)
 
@@ -451,17 +450,7 @@ def _report(result: JobResult, progress) -> None:
         progress(result)
 
 
-def describe_params(task: Task) -> str:
-    """A plain-text parameter table (used by docs and tests)."""
-    return "\n".join(f"{s.option:24} {s.describe()}" for s in task.all_specs())
-
-
-def default_values(cls: type) -> dict[str, Any]:
-    return {s.name: s.default for s in specs(cls)}
-
-
 __all__ = [
     "Task", "TASKS", "register_task", "get_task", "JobContext", "JobResult", "RunReport",
     "OutputParams", "InputParams", "RunParams", "run_task", "resolve_run", "expand_inputs",
-    "describe_params", "format_value", "dataclasses",
 ]
