@@ -31,3 +31,29 @@ def measure(code: str, *, cwd: str | None = None) -> dict:
 
 def mib(n: float) -> str:
     return f"{n / 2**20:,.0f} MiB"
+
+
+def write_synthetic_points(path, n: int, x_range: tuple[float, float], y_range: tuple[float, float],
+                           z_range: tuple[float, float] = (200.0, 400.0), seed: int = 0) -> None:
+    """``n`` uniform random ``x y z i`` lines (2 decimals), made once: an existing file is kept.
+
+    Written under a temporary name and renamed, so an interrupted run never leaves a short file
+    that a later run would take for a complete one.
+    """
+    from pathlib import Path
+
+    import numpy as np
+
+    path = Path(path)
+    if path.exists():
+        return
+    rng = np.random.default_rng(seed)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".part")
+    with open(tmp, "w") as fh:
+        for start in range(0, n, 1_000_000):
+            m = min(1_000_000, n - start)
+            block = np.column_stack([rng.uniform(*x_range, m), rng.uniform(*y_range, m),
+                                     rng.uniform(*z_range, m), rng.integers(0, 255, m)])
+            fh.write(("%.2f %.2f %.2f %d\n" * m) % tuple(block.ravel().tolist()))
+    tmp.rename(path)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib  # noqa: E402
+from _measure import measure, mib, write_synthetic_points  # noqa: E402
 
 WORK = Path(__file__).resolve().parent / "_work"
 REPO = Path(__file__).resolve().parents[1]
@@ -52,8 +52,8 @@ result = dict(n=report.outputs[0].count)
 
 def make_text(n: int) -> Path:
     path = WORK / f"heights_{n}.txt"
-    if path.exists():
-        return path
+    write_synthetic_points(path, n, (700000, 720000), (4270000, 4290000), (100, 200))
+    return path
     WORK.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(0)
     with open(path, "w") as fh:

@@ -14,26 +14,12 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib  # noqa: E402
+from _measure import measure, mib, write_synthetic_points  # noqa: E402
 
 WORK = Path(__file__).resolve().parent / "_work"
 REPO = Path(__file__).resolve().parents[1]
-
-
-def make_text(path: Path, n: int) -> None:
-    if path.exists():
-        return
-    rng = np.random.default_rng(0)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w") as fh:
-        for start in range(0, n, 1_000_000):
-            m = min(1_000_000, n - start)
-            block = np.column_stack([rng.uniform(500000, 502000, m), rng.uniform(5400000, 5402000, m),
-                                     rng.uniform(200, 400, m), rng.integers(0, 255, m)])
-            fh.write(("%.2f %.2f %.2f %d\n" * m) % tuple(block.ravel().tolist()))
 
 
 def row(name: str, n: int, r: dict) -> str:
@@ -49,7 +35,7 @@ def main() -> None:
     for size in args.sizes:
         n = size * 1_000_000
         txt = WORK / f"points_{size}m.txt"
-        make_text(txt, n)
+        write_synthetic_points(txt, n, (500000, 502000), (5400000, 5402000))
         code = (f"import sys; sys.path.insert(0, {str(REPO)!r})\n"
                 "from aldpat.io.registry import open_points\n"
                 f"n = sum(len(c) for c in open_points({str(txt)!r}).chunks())\nresult = dict(n=n)")

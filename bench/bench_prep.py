@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib  # noqa: E402
+from _measure import measure, mib, write_synthetic_points  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 WORK = Path(__file__).resolve().parent / "_work" / "prep"
@@ -57,19 +57,8 @@ def side(n: int) -> float:
 
 
 def make_points(path: Path, n: int) -> None:
-    if path.exists():
-        return
-    rng = np.random.default_rng(0)
     s = side(n)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".part")
-    with open(tmp, "w") as fh:
-        for start in range(0, n, 1_000_000):
-            m = min(1_000_000, n - start)
-            block = np.column_stack([X0 + rng.uniform(0, s, m), Y0 + rng.uniform(0, s, m),
-                                     rng.uniform(200, 400, m), rng.integers(0, 255, m)])
-            fh.write(("%.2f %.2f %.2f %d\n" * m) % tuple(block.ravel().tolist()))
-    tmp.rename(path)
+    write_synthetic_points(path, n, (X0, X0 + s), (Y0, Y0 + s))
 
 
 def make_tape(path: Path, n: int) -> None:
