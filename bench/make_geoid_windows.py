@@ -1,6 +1,6 @@
 """Cut small windows of the EGM96 GTX grid around the NGA test points into tests/data/.
 
-    python bench/make_geoid_windows.py [/work/shared/data/geoid/egm96_15.gtx]
+    python bench/make_geoid_windows.py [../shared/data/geoid/egm96_15.gtx]
 
 Tests may only read files inside the repository, so each NGA EGM96 test point of issue 4 gets a
 4 x 4 node window (0.75 degree a side) of the real 15-minute grid: a few hundred bytes each.
@@ -17,16 +17,9 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-SOURCE = Path("/work/shared/data/geoid/egm96_15.gtx")
-#: (latitude, longitude 0..360, N in metres) from the NGA's EGM96 test values
-NGA_POINTS = [
-    (38.6281550, 269.7791550, -31.628),
-    (-14.6212170, 305.0211140, -2.969),
-    (46.8743190, 102.4487290, -43.575),
-    (-23.6174460, 133.8747120, 15.871),
-    (38.6254730, 359.9995000, 50.066),
-    (-0.4667440, 0.0023000, 17.329),
-]
+SOURCE = REPO.parent / "shared" / "data" / "geoid" / "egm96_15.gtx"  # the shared data beside the clone
+#: (latitude, longitude 0..360, N in metres): the NGA's EGM96 test values, shared with the tests
+NGA_POINTS = [tuple(row) for row in np.loadtxt(REPO / "tests" / "data" / "egm96_nga_values.txt")]
 
 
 def read_gtx(path: Path) -> tuple[tuple[float, float, float, float], np.ndarray]:

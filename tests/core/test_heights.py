@@ -16,14 +16,7 @@ from aldpat.errors import DataError, InputMissingError, UsageError
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 #: (latitude, longitude 0..360, N) published by the NGA for EGM96
-NGA = [
-    (38.6281550, 269.7791550, -31.628),
-    (-14.6212170, 305.0211140, -2.969),
-    (46.8743190, 102.4487290, -43.575),
-    (-23.6174460, 133.8747120, 15.871),
-    (38.6254730, 359.9995000, 50.066),
-    (-0.4667440, 0.0023000, 17.329),
-]
+NGA = [tuple(row) for row in np.loadtxt(DATA / "egm96_nga_values.txt")]
 
 
 def window(k: int) -> Path:
