@@ -10,13 +10,15 @@ to ``tolerance``; duplicates count as many times as they occur (see
 
 from __future__ import annotations
 
+import functools
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from aldpat.core.accuracy import coordinate_keys, match_accuracy
-from aldpat.errors import InputFormatError, UsageError
+from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.registry import open_points
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -67,26 +69,38 @@ def _result_ground(reader, table, params: EvaluateParams) -> np.ndarray:
     return (cls == 2) | (cls == 0)
 
 
-def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
-    if not params.reference:
-        raise UsageError("evaluate needs --reference REF")
-    tol = params.tolerance
-    ref_path = Path(params.reference)
-    ref = open_points(ref_path).read()
+def reference_labels(path: Path, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinate keys and ground flags of a reference file, read once for all results scored
+    against it (the cache is keyed by the file's size and modification time too)."""
+    st = os.stat(path)
+    return _reference_labels(str(path), tolerance, st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=2)
+def _reference_labels(path: str, tolerance: float, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndarray]:
+    ref = open_points(path).read()
     if "classification" in ref:
-        ref_ground = ref["classification"] == 2
+        ground = ref["classification"] == 2
     elif "intensity" in ref:
         labels = ref["intensity"]
         if not np.isin(labels, (0, 1)).all():
-            raise InputFormatError("reference labels must be 0 (bare earth) or 1 (object) in column 4", path=ref_path)
-        ref_ground = labels == 0
+            raise InputFormatError("reference labels must be 0 (bare earth) or 1 (object) in column 4", path=path)
+        ground = labels == 0
     else:
-        raise InputFormatError("reference has no label column (x y z label) or LAS classification", path=ref_path)
+        raise InputFormatError("reference has no label column (x y z label) or LAS classification", path=path)
+    return coordinate_keys(ref.x, ref.y, ref.z, tolerance), ground
+
+
+def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
+    tol = params.tolerance
+    ref_path = Path(params.reference)
+    if not ref_path.exists():
+        raise InputMissingError("no such file", path=ref_path)
+    ref_keys, ref_ground = reference_labels(ref_path, tol)
     reader = ctx.open_input(source)
     table = reader.read()
     res_ground = _result_ground(reader, table, params)
-    acc, unmatched = match_accuracy(coordinate_keys(ref.x, ref.y, ref.z, tol), ref_ground,
-                                    coordinate_keys(table.x, table.y, table.z, tol), res_ground)
+    acc, unmatched = match_accuracy(ref_keys, ref_ground, coordinate_keys(table.x, table.y, table.z, tol), res_ground)
     if unmatched:
         ctx.warn(f"{source}: {unmatched} result points match no reference point (not counted)")
     record = {"path": str(source), "reference": str(ref_path)}

@@ -81,3 +81,16 @@ def test_a_classified_text_result_is_recognised(tmp_path, samp24):
     assert rec["ground_as_object"] + rec["object_as_ground"] == 10
     terrain = get_task("evaluate")([result], reference=str(samp24), mode="terrain").results[0].records[0]
     assert terrain["type2"] == 100.0
+
+
+def test_the_reference_is_read_once_for_many_results(tmp_path, samp24):
+    from aldpat.tasks.evaluate import _reference_labels
+
+    data = np.loadtxt(samp24)
+    results = [write_xyz(tmp_path / f"r{k}.txt", data[data[:, 3] == 0][k::3, :3]) for k in range(3)]
+    _reference_labels.cache_clear()
+    report = get_task("evaluate")(results, reference=str(samp24))
+    assert [r.records[0]["ground_as_ground"] for r in report.results] == [
+        len(data[data[:, 3] == 0][k::3]) for k in range(3)]
+    info = _reference_labels.cache_info()
+    assert (info.misses, info.hits) == (1, 2)
