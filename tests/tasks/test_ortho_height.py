@@ -43,13 +43,19 @@ def test_text_strip_to_orthometric(tmp_path):
     np.testing.assert_allclose(np.loadtxt(tmp_path / "strip_Ortho_h.txt"), np.loadtxt(src), atol=0.01)  # two roundings to 2 decimals
 
 
-def test_las_uses_its_own_crs_and_keeps_attributes(tmp_path):
+def utm15_las() -> tuple[laspy.LasData, float, float]:
+    """An empty UTM 15N (EPSG:32615) LAS of point format 1 (scale 1 cm) near the test
+    point, and the test point's easting and northing."""
     e, n = TO_UTM.transform(LON, LAT)
     header = laspy.LasHeader(point_format=1, version="1.2")
     header.scales = np.array([0.01, 0.01, 0.01])
     header.offsets = np.array([700000.0, 4200000.0, 0.0])
     header.add_crs(pyproj.CRS.from_epsg(32615))
-    las = laspy.LasData(header)
+    return laspy.LasData(header), e, n
+
+
+def test_las_uses_its_own_crs_and_keeps_attributes(tmp_path):
+    las, e, n = utm15_las()
     las.x = np.array([e, e + 5.0, e + 9.0])
     las.y = np.array([n, n - 3.0, n + 1.0])
     las.z = np.array([150.0, 151.0, 152.0])
@@ -97,12 +103,7 @@ def test_missing_crs_or_geoid_is_reported(tmp_path, runner, cli):
 
 
 def test_las_reprojected_keeps_its_point_format_and_gets_the_new_crs(tmp_path):
-    e, n = TO_UTM.transform(LON, LAT)
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales = np.array([0.01, 0.01, 0.01])
-    header.offsets = np.array([700000.0, 4200000.0, 0.0])
-    header.add_crs(pyproj.CRS.from_epsg(32615))
-    las = laspy.LasData(header)
+    las, e, n = utm15_las()
     las.x = np.array([e, e + 5.0])
     las.y = np.array([n, n - 3.0])
     las.z = np.array([150.0, 151.0])
