@@ -27,7 +27,6 @@ from typing import Callable
 
 import aldpat
 from aldpat.io.atomic import TMP_MARK, atomic_output
-from aldpat.params import format_value
 from aldpat.tasks.base import JobResult, ResolvedRun, expand_inputs, resolve_run, run_task
 from aldpat.worksheet.model import Job, Worksheet
 
@@ -241,5 +240,5 @@ def write_worksheet_log(ws: Worksheet, statuses: list[JobStatus], command: str) 
     return path
 
 
-__all__ = ["run_worksheet", "JobStatus", "format_value", "write_worksheet_log", "READY", "RUNNING", "DONE",
+__all__ = ["run_worksheet", "JobStatus", "write_worksheet_log", "READY", "RUNNING", "DONE",
            "FAILED", "SKIPPED", "BLOCKED"]
