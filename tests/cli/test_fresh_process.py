@@ -1,0 +1,214 @@
+"""Every command, every filter algorithm, every grid method and every output format, each in a
+fresh ``aldpat`` process on small real data, and each output opened by its real client:
+laspy for LAS/LAZ, GDAL (through rasterio) for grids, pyshp and GDAL/OGR (pyogrio) for
+shapefiles.
+
+The loops run over the registries, so a new task, algorithm, method or format is run here the
+moment it is registered.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pyproj
+import pytest
+import rasterio
+import shapefile as pyshp
+
+from aldpat.core.interpolate import METHODS
+from aldpat.filters.base import FILTERS
+from aldpat.io.registry import OUT_EXTENSIONS
+from aldpat.io.surfer import FORMATS as GRID_FORMATS
+from aldpat.tasks import TASKS
+from tests.cli.fresh import DATA, TEST_DATA, aldpat, leftovers
+
+GDAL_DRIVERS = {"surfer7": "GS7BG", "surfer6": "GSBG", "surfer6-ascii": "GSAG"}
+NGA_LAT, NGA_LON, NGA_N = 38.6281550, 269.7791550 - 360.0, -31.628  # EGM96 test point in egm96_15_nga1.gtx
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory) -> Path:
+    """A copy of the small real samples: a tile of ISPRS sample 24, the FSite5 tape, a LAZ strip."""
+    root = tmp_path_factory.mktemp("fresh")
+    # a 120 m x 120 m corner of sample 24 keeps every filter and grid method fast
+    rows = np.loadtxt(DATA / "samp24.txt")
+    x0, y0 = rows[:, 0].min(), rows[:, 1].min()
+    part = rows[(rows[:, 0] < x0 + 120) & (rows[:, 1] < y0 + 120)]
+    np.savetxt(root / "samp.txt", part, fmt=["%.2f", "%.2f", "%.2f", "%d"], delimiter="\t")
+    shutil.copy(DATA / "fsite5_tape.txt", root / "tape.txt")
+    shutil.copy(DATA / "demo_polygon.txt", root / "polygon.txt")
+    shutil.copy(TEST_DATA / "fsite5_strip.laz", root / "strip.laz")
+    shutil.copy(TEST_DATA / "egm96_15_nga1.gtx", root / "geoid.gtx")
+    to_utm = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32615", always_xy=True)
+    e, n = to_utm.transform(NGA_LON, NGA_LAT)
+    np.savetxt(root / "ellipsoidal.txt", [[e, n, 180.25, 12], [e + 20, n + 10, 181.5, 40]],
+               fmt=["%.2f", "%.2f", "%.2f", "%d"])
+    return root
+
+
+def text_rows(path: Path) -> np.ndarray:
+    return np.atleast_2d(np.loadtxt(path, delimiter="," if path.suffix == ".csv" else None))
+
+
+def count_points(path: Path) -> int:
+    if path.suffix in (".las", ".laz"):
+        with laspy.open(path) as fh:
+            return int(fh.header.point_count)
+    return len(text_rows(path))
+
+
+def test_every_task_is_run_by_this_file():
+    covered = {"convert", "evaluate", "grd2bin", "grid", "info", "merge-boundary", "ortho-height",
+               "polygon-extract", "separate-returns", "shapefile", "split-tape", "strip-boundary", "thin", "tile"}
+    covered |= {f"filter {name}" for name in FILTERS}
+    assert set(TASKS) <= covered, sorted(set(TASKS) - covered)
+
+
+def test_help_of_every_command():
+    assert "Usage" in aldpat("--help").ok().stdout
+    for key in TASKS:
+        assert "Usage" in aldpat(*key.split(), "--help").ok().stdout
+
+
+def test_info_text_and_laz(work):
+    done = aldpat("info", work / "samp.txt", work / "strip.laz", "--json").ok()
+    records = [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
+    assert [r["count"] for r in records] == [count_points(work / "samp.txt"), count_points(work / "strip.laz")]
+    assert "points" in aldpat("info", work / "strip.laz").ok().stdout
+
+
+@pytest.mark.parametrize("out_format", sorted(OUT_EXTENSIONS))
+@pytest.mark.parametrize("source", ["samp.txt", "strip.laz"])
+def test_convert_to_every_output_format(work, tmp_path, source, out_format):
+    src = work / source
+    aldpat("convert", src, "--out-format", out_format, "--odir", tmp_path).ok()
+    out = tmp_path / (src.stem + OUT_EXTENSIONS[out_format])
+    assert count_points(out) == count_points(src)
+    if out_format in ("las", "laz"):
+        las = laspy.read(out)
+        if source == "samp.txt":
+            np.testing.assert_allclose(np.c_[las.x, las.y, las.z], text_rows(src)[:, :3], atol=0.005)
+        else:
+            assert las.header.parse_crs() is not None  # the CRS went along
+    assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("algorithm", sorted(FILTERS))
+def test_every_filter_writes_terrain_and_classified_las(work, tmp_path, algorithm):
+    src = work / "samp.txt"
+    n = count_points(src)
+    aldpat("filter", algorithm, src, "--result", "both", "--odir", tmp_path / "t").ok()
+    ground = count_points(tmp_path / "t" / f"samp_{algorithm}.txt")
+    objects = count_points(tmp_path / "t" / f"samp_{algorithm}_nt.txt")
+    assert ground + objects == n and 0 < ground  # nothing dropped, nothing invented
+    aldpat("filter", algorithm, src, "--result", "classified", "--out-format", "laz", "--marks",
+           "--odir", tmp_path / "c").ok()
+    las = laspy.read(tmp_path / "c" / f"samp_{algorithm}.laz")
+    assert len(las.points) == n
+    assert set(np.unique(las.classification)) <= {1, 2} and int((las.classification == 2).sum()) == ground
+    assert "mark" in las.point_format.extra_dimension_names
+    done = aldpat("evaluate", tmp_path / "t" / f"samp_{algorithm}.txt", "--reference", src, "--json").ok()
+    scores = json.loads(done.stdout)
+    assert 0 <= scores["total"] < 50  # a ground filter, not a coin
+    assert leftovers(tmp_path) == []
+
+
+def test_filter_keeps_las_attributes(work, tmp_path):
+    src = work / "strip.laz"
+    aldpat("filter", "pm", src, "--result", "classified", "--odir", tmp_path).ok()
+    before, after = laspy.read(src), laspy.read(tmp_path / "strip_pm.laz")
+    assert len(after.points) == len(before.points)
+    for dim in before.point_format.dimension_names:
+        if dim == "classification":
+            continue
+        np.testing.assert_array_equal(after[dim], before[dim])
+    assert after.header.parse_crs() == before.header.parse_crs()
+
+
+@pytest.mark.parametrize("grid_format", sorted(GRID_FORMATS))
+@pytest.mark.parametrize("method", sorted(METHODS))
+def test_every_grid_method_and_format_opens_in_gdal(work, tmp_path, method, grid_format):
+    src = work / "samp.txt"
+    aldpat("grid", src, "--cell", "4", "--method", method, "--grid-format", grid_format, "--odir", tmp_path).ok()
+    rows = text_rows(src)
+    with rasterio.open(tmp_path / "samp.grd") as ds:
+        assert ds.driver == GDAL_DRIVERS[grid_format]
+        band = ds.read(1, masked=True)
+        assert band.count() > 0.5 * band.size
+        # nodes at whole multiples of the cell (grid alignment), inside the data's range
+        x0, y0 = ds.xy(ds.height - 1, 0)
+        assert x0 % 4 == pytest.approx(0, abs=1e-6) and y0 % 4 == pytest.approx(0, abs=1e-6)
+        assert rows[:, 0].min() - 4 < x0 <= rows[:, 0].min() + 4
+        assert float(band.min()) >= rows[:, 2].min() - 1 and float(band.max()) <= rows[:, 2].max() + 1
+    assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("to", ["flt", "asc"])
+def test_grd2bin_opens_in_gdal_at_the_same_place(work, tmp_path, to):
+    aldpat("grid", work / "samp.txt", "--cell", "4", "--odir", tmp_path).ok()
+    aldpat("grd2bin", tmp_path / "samp.grd", "--to", to, "--crs", "EPSG:32632").ok()
+    with rasterio.open(tmp_path / "samp.grd") as surfer, rasterio.open(tmp_path / f"samp.{to}") as esri:
+        assert esri.crs.to_epsg() == 32632
+        assert (esri.width, esri.height) == (surfer.width, surfer.height)
+        assert esri.xy(0, 0) == pytest.approx(surfer.xy(0, 0))
+        np.testing.assert_allclose(esri.read(1, masked=True).filled(np.nan), surfer.read(1, masked=True).filled(np.nan),
+                                   atol=1e-3)
+
+
+def test_preparation_chain_to_a_shapefile_and_tiles(work, tmp_path):
+    aldpat("split-tape", work / "tape.txt", "--odir", tmp_path / "strips").ok()
+    strips = sorted((tmp_path / "strips").glob("tape_strip*.txt"))
+    assert sum(count_points(p) for p in strips) == count_points(work / "tape.txt") == 7444
+    aldpat("separate-returns", *strips, "--odir", tmp_path / "returns").ok()
+    firsts = sorted((tmp_path / "returns").glob("*_1.txt"))
+    lasts = sorted((tmp_path / "returns").glob("*_2.txt"))
+    assert [count_points(p) for p in firsts] == [count_points(p) for p in strips] == [count_points(p) for p in lasts]
+    aldpat("strip-boundary", *firsts, "--cell-width", "2", "--cell-height", "2", "--odir", tmp_path / "bounds").ok()
+    bounds = sorted((tmp_path / "bounds").glob("*_Bound.txt"))
+    assert len(bounds) == 3
+    aldpat("merge-boundary", *bounds, "--output", tmp_path / "merged.txt").ok()
+    aldpat("shapefile", tmp_path / "merged.txt", "--output", tmp_path / "strips.shp", "--crs", "EPSG:32632").ok()
+    with pyshp.Reader(str(tmp_path / "strips.shp")) as shp:
+        assert len(shp) == 3 and shp.shapeType == pyshp.POLYGON
+    pyogrio = pytest.importorskip("pyogrio")
+    info = pyogrio.read_info(tmp_path / "strips.shp")
+    assert info["features"] == 3 and pyproj.CRS.from_user_input(info["crs"]).to_epsg() == 32632
+    aldpat("tile", *lasts, "--width", "100", "--height", "100", "--buffer", "10", "--odir", tmp_path / "tiles").ok()
+    tiles = sorted((tmp_path / "tiles").glob("tile_*_*.txt"))
+    assert tiles and (tmp_path / "tiles" / "tile_parameter.txt").exists()
+    aldpat("thin", *tiles, "--cell-width", "5", "--cell-height", "5", "--odir", tmp_path / "thin").ok()
+    assert len(list((tmp_path / "thin").glob("*_thin.txt"))) == len(tiles)
+    aldpat("polygon-extract", *lasts, "--polygon", work / "polygon.txt", "--odir", tmp_path / "in").ok()
+    aldpat("polygon-extract", *lasts, "--polygon", work / "polygon.txt", "--outside", "--suffix", "_out",
+           "--odir", tmp_path / "out").ok()
+    for last in lasts:  # inside + outside = all: nothing dropped, nothing invented
+        inside = count_points(tmp_path / "in" / f"{last.stem}_poly.txt")
+        outside = count_points(tmp_path / "out" / f"{last.stem}_out.txt")
+        assert inside + outside == count_points(last)
+    aldpat("grid", *sorted(tiles)[:2], "--cell", "2", "--tile-params", tmp_path / "tiles" / "tile_parameter.txt",
+           "--odir", tmp_path / "grids").ok()
+    assert len(list((tmp_path / "grids").glob("*.grd"))) == 2
+    assert leftovers(tmp_path) == []
+
+
+def test_ortho_height(work, tmp_path):
+    aldpat("ortho-height", work / "ellipsoidal.txt", "--crs", "15N", "--geoid", work / "geoid.gtx",
+           "--odir", tmp_path).ok()
+    rows = text_rows(tmp_path / "ellipsoidal_Ortho.txt")
+    assert rows[0, 2] == pytest.approx(180.25 - NGA_N, abs=0.1)
+
+
+def test_demo_worksheet(tmp_path):
+    work = tmp_path / "jobs"
+    shutil.copytree(DATA, work / "data")
+    shutil.copytree(DATA.parent / "params", work / "params")
+    shutil.copy(DATA.parent / "demo.toml", work / "demo.toml")
+    done = aldpat("run", work / "demo.toml", cwd=tmp_path).ok()
+    assert "Failed" not in done.stderr and "Blocked" not in done.stderr
+    assert len(list((work / "demo-out" / "grids").glob("*.flt"))) == 6
+    assert leftovers(work) == []
