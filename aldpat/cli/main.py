@@ -14,6 +14,7 @@ import sys
 import click
 
 import aldpat
+from aldpat import interrupt
 from aldpat.cli.options import option_for, params_file_opt
 from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show
@@ -154,17 +155,19 @@ cli.add_command(run_command)
 
 
 def main() -> None:
+    interrupt.install()
     try:
         cli.main(standalone_mode=False)
-    except click.exceptions.Abort:
-        click.echo("aldpat: interrupted", err=True)
-        sys.exit(130)
+    except click.exceptions.Abort as exc:  # click's wrapper of a KeyboardInterrupt
+        cause = exc.__context__ if isinstance(exc.__context__, KeyboardInterrupt) else KeyboardInterrupt()
+        click.echo(f"aldpat: {interrupt.describe(cause)}", err=True)
+        sys.exit(128 + cause.signum if isinstance(cause, interrupt.Interrupted) else 130)
     except click.ClickException as exc:
         exc.show()
         sys.exit(2)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
-        click.echo("aldpat: interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as exc:
+        click.echo(f"aldpat: {interrupt.describe(exc)}", err=True)
+        sys.exit(128 + exc.signum if isinstance(exc, interrupt.Interrupted) else 130)
     sys.exit(0)

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from aldpat.core.precision import below
+
 X_PREFIX = 1_000_000.0
 Y_PREFIX = 10_000_000.0
 
@@ -33,6 +35,11 @@ def strip_zone(x: np.ndarray, y: np.ndarray, zone: int) -> tuple[np.ndarray, np.
     return np.asarray(x, np.float64) - zone * X_PREFIX, np.asarray(y, np.float64) - zone * Y_PREFIX
 
 
-def stop_gap_mask(z_first: np.ndarray, z_last: np.ndarray, stop_gap: float) -> np.ndarray:
-    """True where the last return is not trusted: first z minus last z below ``stop_gap``."""
-    return (np.asarray(z_first, np.float64) - np.asarray(z_last, np.float64)) < stop_gap
+def stop_gap_mask(z_first: np.ndarray, z_last: np.ndarray, stop_gap: float,
+                  decimals: int | None = None) -> np.ndarray:
+    """True where the last return is not trusted: first z minus last z below ``stop_gap``.
+
+    With ``decimals`` (the elevations' decimals in the file) the difference is decided at that
+    precision, so a difference of exactly the stop gap is never "below" it by rounding noise.
+    """
+    return below(z_first, z_last, stop_gap, decimals)

@@ -3,18 +3,37 @@
 Every writer writes to a temporary name beside the target and renames it into place only when
 the content is complete (``os.replace`` is atomic on one file system). A crash, a bad input or
 Ctrl-C leaves the old output (or nothing) -- never half a file.
+
+Without ``--overwrite`` the finished file is put in place with ``os.link``, which fails if the
+name exists at that instant, so of two processes writing the same output one wins whole and the
+other fails cleanly instead of silently replacing the first one's file.
+
+A write that fails for a reason of the file system (disk full, quota, read-only) is reported
+as an :class:`OutputError` naming the output and the reason, not as an internal error.
+Temporary files left by a process that was killed outright (SIGKILL, power loss) are removed
+the next time the same output is written.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
+import itertools
 import os
+import re
+import shutil
 from pathlib import Path
 from typing import Iterator
 
-from aldpat.errors import OutputError, OutputExistsError
+from aldpat.errors import AldpatError, OutputError, OutputExistsError
 
 TMP_MARK = ".aldpat-tmp"
+
+#: errno values that mean "the file system would not take the output"
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EACCES, errno.EPERM}
+_serial = itertools.count(1)
+#: below this many free bytes, a writer that fails without saying why is taken to have hit a full disk
+_NEARLY_FULL = 1 << 20
 
 
 def check_writable(path: Path, *, overwrite: bool) -> None:
@@ -32,29 +51,110 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
 
 
 def temp_name(path: Path) -> Path:
-    """The temporary name used while ``path`` is being written (same folder, same suffix)."""
+    """A new temporary name for writing ``path``: same folder and suffix, the writing process's
+    id (so a killed writer's leftovers can be recognised) and a serial number (so two writers in
+    one process never share a name)."""
     path = Path(path)
-    return path.with_name(f"{path.stem}{TMP_MARK}{os.getpid()}{path.suffix}")
+    return path.with_name(f"{path.stem}{TMP_MARK}{os.getpid()}-{next(_serial)}{path.suffix}")
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: Path) -> None:
+    """Remove temporaries of ``path`` whose writing process no longer exists (it was killed)."""
+    path = Path(path)
+    pattern = re.compile(re.escape(path.stem + TMP_MARK) + r"(\d+)(?:-\d+)?" + re.escape(path.suffix) + "$")
+    try:
+        siblings = list(path.parent.glob(f"{glob_escape(path.stem)}{TMP_MARK}*"))
+    except OSError:
+        return
+    for p in siblings:
+        m = pattern.match(p.name)
+        if m and int(m.group(1)) != os.getpid() and not _pid_alive(int(m.group(1))):
+            with contextlib.suppress(OSError):
+                p.unlink()
+
+
+def glob_escape(text: str) -> str:
+    return re.sub(r"([*?[])", r"[\1]", text)
+
+
+def publish(tmp: Path, path: Path, *, overwrite: bool) -> None:
+    """Put the finished ``tmp`` in place as ``path``; without ``overwrite`` never replace a file."""
+    if overwrite:
+        os.replace(tmp, path)
+        return
+    try:
+        os.link(tmp, path)  # fails if ``path`` exists at this instant: no check-then-replace race
+    except FileExistsError:
+        raise OutputExistsError("output exists (use --overwrite to replace it; another process may "
+                                "have written it meanwhile)", path=path) from None
+    except OSError as exc:
+        if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EXDEV, errno.EMLINK):
+            raise
+        # a file system without hard links: the best it allows
+        if path.exists():
+            raise OutputExistsError("output exists (use --overwrite to replace it)", path=path) from None
+        os.replace(tmp, path)
+        return
+    os.unlink(tmp)
+
+
+def as_output_error(exc: BaseException, path: Path) -> OutputError | None:
+    """The one-line error for a write of ``path`` that failed with ``exc``, if the file system
+    (not the data, not a bug) is why; ``None`` otherwise."""
+    if isinstance(exc, AldpatError) or not isinstance(exc, Exception):
+        return None
+    reason = None
+    if isinstance(exc, OSError) and exc.errno in _WRITE_ERRNOS:
+        reason = os.strerror(exc.errno).lower()
+    elif isinstance(exc, OSError) or type(exc).__name__ in ("LazrsError", "LaspyException"):
+        # numpy ("Not enough free space to write ...") and the LAZ compressor ("Failed to call
+        # write") do not always carry an errno
+        if _free_bytes(path.parent) < _NEARLY_FULL or "free space" in str(exc).lower():
+            reason = "no space left on device"
+        elif isinstance(exc, OSError) and exc.filename is not None and Path(exc.filename).parent == path.parent:
+            reason = (exc.strerror or str(exc)).lower()
+    if reason is None:
+        return None
+    return OutputError(f"cannot write this output: {reason} (nothing was left behind)", path=path)
+
+
+def _free_bytes(folder: Path) -> int:
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return 1 << 62
 
 
 @contextlib.contextmanager
 def atomic_output(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary path to write; rename it to ``path`` when the block succeeds.
+    """Yield a temporary path to write; put it in place as ``path`` when the block succeeds.
 
-    The existence check is repeated at rename time so that a file created meanwhile by another
-    process is not clobbered without ``overwrite``.
+    The existence check is made again when the file is put in place, atomically, so that a file
+    created meanwhile by another process is not clobbered without ``overwrite``.
     """
     path = Path(path)
     check_writable(path, overwrite=overwrite)
+    remove_stale_temporaries(path)
     tmp = temp_name(path)
     try:
         yield tmp
-        if path.exists() and not overwrite:
-            raise OutputExistsError("output exists (use --overwrite to replace it)", path=path)
-        os.replace(tmp, path)
-    except BaseException:
+        publish(tmp, path, overwrite=overwrite)
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        error = as_output_error(exc, path)
+        if error is not None:
+            raise error from None
         raise
 
 
@@ -62,19 +162,30 @@ def atomic_output(path: str | Path, *, overwrite: bool = False) -> Iterator[Path
 def atomic_outputs(paths: list[Path], *, overwrite: bool = False) -> Iterator[list[Path]]:
     """Like :func:`atomic_output` for a set of files that belong together (.shp/.shx/.dbf).
 
-    All are renamed only after the block succeeds.
+    All are put in place only after the block succeeds; if one of them cannot be (another
+    process wrote it meanwhile), those already placed are taken back, so the set stays whole.
     """
     paths = [Path(p) for p in paths]
     for p in paths:
         check_writable(p, overwrite=overwrite)
+        remove_stale_temporaries(p)
     tmps = [temp_name(p) for p in paths]
+    placed: list[Path] = []
     try:
         yield tmps
         for t, p in zip(tmps, paths):
             if t.exists():
-                os.replace(t, p)
-    except BaseException:
+                publish(t, p, overwrite=overwrite)
+                placed.append(p)
+    except BaseException as exc:
+        if not overwrite:
+            for p in placed:  # ours: created by the link above an instant ago
+                with contextlib.suppress(OSError):
+                    p.unlink()
         for t in tmps:
             with contextlib.suppress(OSError):
                 t.unlink()
+        error = as_output_error(exc, paths[0])
+        if error is not None:
+            raise error from None
         raise

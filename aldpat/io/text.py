@@ -28,9 +28,20 @@ POINT_NAMES = ("x", "y", "z", "intensity")
 INTEGER_COLUMNS = {"intensity", "i1", "i2", "class", "mark", "label", "strip_index", "classification"}
 
 DEFAULT_CHUNK = 2_000_000
+#: Largest magnitude accepted for a coordinate (x, y, z of any return). Real coordinates in any
+#: projected or geographic CRS are below 1e8; a value like 1e300 is a corrupt line, and taken
+#: for a coordinate it would ask for grids of more cells than any machine holds.
+MAX_COORDINATE = 1e12
+COORDINATE_COLUMNS = frozenset({"x", "y", "z", "x1", "y1", "z1", "x2", "y2", "z2"})
 _SNIFF_BYTES = 1 << 16
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.I)
 _DELIMS = {"comma": ",", "tab": "\t", "space": " "}
+#: A UTF-8 byte-order mark, which some Windows editors put at the start of a text file.
+UTF8_BOM = b"\xef\xbb\xbf"
+#: How point text is decoded: a BOM is dropped, and a byte that is not UTF-8 (a Latin-1 degree
+#: sign in a header line) stays one character, so line and column counts are kept.
+TEXT_ENCODING = "utf-8-sig"
+TEXT_ERRORS = "replace"
 
 
 def altm_names(order: str) -> tuple[str, ...]:
@@ -94,8 +105,12 @@ class TextReader:
             from aldpat.errors import InputMissingError
 
             raise InputMissingError(f"cannot read: {exc.strerror or exc}", path=self.path) from None
+        head = head.removeprefix(UTF8_BOM)  # not part of the first line: it would read as a header
         if not head.strip():
             raise InputFormatError("file is empty", path=self.path)
+        if b"\x00" in head:
+            raise InputFormatError("not a text file (binary bytes); use --format las if it is LAS",
+                                   path=self.path)
         text = head.decode("latin-1")
         lines = text.splitlines()
         if len(head) == _SNIFF_BYTES and len(lines) > 1:
@@ -144,8 +159,9 @@ class TextReader:
                     # column by column: no interleaved copy of the whole frame
                     cols = {name: frame[k].to_numpy(dtype=np.float64) for k, name in enumerate(self.names)}
                     finite = np.ones(len(frame), dtype=bool)
-                    for col in cols.values():
-                        finite &= np.isfinite(col)
+                    for name, col in cols.items():
+                        finite &= (np.abs(col) <= MAX_COORDINATE) if name in COORDINATE_COLUMNS \
+                            else np.isfinite(col)
                     if not finite.all():
                         self._raise_at(rows_done + int(np.flatnonzero(~finite)[0]))
                     rows_done += len(frame)
@@ -172,12 +188,13 @@ class TextReader:
             self.path, sep=sep, header=None, names=list(range(self.ncols)), dtype=np.float64,
             skiprows=skip, chunksize=size, engine="c", skip_blank_lines=True,
             na_filter=True, keep_default_na=False, na_values=["nan", "NaN", "NAN"], index_col=False,
+            encoding=TEXT_ENCODING, encoding_errors=TEXT_ERRORS,
         )
 
     def _raw_lines_before(self, data_row: int) -> int:
         """How many raw lines precede data row ``data_row`` (header and blank lines included)."""
         seen = 0
-        with open(self.path, "r", encoding="latin-1", newline=None) as fh:
+        with open(self.path, "r", encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
             for number, line in enumerate(fh):
                 if number < self.header_lines or not line.strip():
                     continue
@@ -196,7 +213,7 @@ class TextReader:
         Runs only on the error path, so a plain line-by-line scan is fine here.
         """
         seen = 0
-        with open(self.path, "r", encoding="latin-1", newline=None) as fh:
+        with open(self.path, "r", encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
             lines = itertools.islice(fh, self.header_lines, None)
             for number, line in enumerate(lines, start=self.header_lines + 1):
                 if not line.strip():
@@ -206,7 +223,7 @@ class TextReader:
                     if len(tokens) != self.ncols:
                         raise InputFormatError(
                             f"expected {self.ncols} columns, found {len(tokens)}", path=self.path, line=number)
-                    for tok in tokens:
+                    for name, tok in zip(self.names, tokens):
                         try:
                             value = float(tok)
                         except ValueError:
@@ -214,6 +231,10 @@ class TextReader:
                                                    line=number) from None
                         if not np.isfinite(value):
                             raise InputFormatError(f"non-finite value {tok!r}", path=self.path, line=number)
+                        if name in COORDINATE_COLUMNS and abs(value) > MAX_COORDINATE:
+                            raise InputFormatError(f"{name} = {tok[:40]} is not a plausible coordinate "
+                                                   f"(larger than {MAX_COORDINATE:g} in magnitude)",
+                                                   path=self.path, line=number)
                 seen += 1
         raise InputFormatError(fallback or "unreadable line", path=self.path)
 

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from aldpat.io.text import UTF8_BOM
+
 BLOCK = 1 << 26  # bytes read at a time
 _GATHER_LINES = 262_144  # lines gathered at a time (a matrix of about 40 bytes a line)
 _NEWLINE = np.array([10], dtype=np.uint8)
@@ -177,6 +179,8 @@ class RawLines:
 
     def __init__(self, path: str | Path, header_lines: int):
         self._fh = open(path, "rb")
+        if self._fh.read(len(UTF8_BOM)) != UTF8_BOM:  # a byte-order mark is not part of line 1
+            self._fh.seek(0)
         for _ in range(header_lines):
             self._fh.readline()
         self._segments: deque = deque()

@@ -14,6 +14,7 @@ registration, so adding a task is one module plus its tests.
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import logging
 import os
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
 import aldpat
+from aldpat import interrupt
 from aldpat.errors import AldpatError, InputMissingError, UsageError
 from aldpat.io.registry import EXTENSIONS, output_extension, write_points
 from aldpat.params import Resolved, param, resolve, specs
@@ -98,8 +100,19 @@ class Task:
         """Run from Python with the same parameter names as the CLI and worksheets."""
         return run_task(self, list(inputs), [("python", kwargs)])
 
+    def __reduce__(self):
+        # A task travels to worker processes by its registry key: its functions may be closures
+        # (one per filter algorithm) that pickle cannot carry.
+        return (_registered_task, (self.key,))
+
 
 TASKS: dict[str, Task] = {}
+
+
+def _registered_task(key: str) -> Task:
+    import aldpat.tasks  # noqa: F401  (a spawned worker registers the tasks again)
+
+    return TASKS[key]
 
 
 def register_task(task: Task) -> Task:
@@ -335,15 +348,20 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
     ctx = JobContext(task, run.output.values if run.output else None, run.input.values, result)
     start = time.perf_counter()
     try:
-        if task.run_one is not None:
-            task.run_one(Path(sources[0]), run.params.values, ctx)
-        else:
-            task.run_all([Path(s) for s in sources], run.params.values, ctx)
+        with interrupt.doing(f"running: {_names(sources)}"):
+            if task.run_one is not None:
+                task.run_one(Path(sources[0]), run.params.values, ctx)
+            else:
+                task.run_all([Path(s) for s in sources], run.params.values, ctx)
     except AldpatError as exc:
         result.error = str(exc)
         result.usage = isinstance(exc, UsageError)
     except MemoryError:
         result.error = f"{', '.join(sources)[:200]}: out of memory"
+    except OSError as exc:  # the system refused a read or write: say which file and why
+        where = exc.filename if exc.filename is not None else ", ".join(sources)[:200]
+        result.error = f"{where}: {(exc.strerror or str(exc)).lower()}"
+        result.detail = traceback.format_exc()
     except Exception as exc:  # an unexpected failure still may not end the other jobs
         result.error = f"{', '.join(sources)[:200]}: internal error: {type(exc).__name__}: {exc}"
         result.detail = traceback.format_exc()
@@ -354,6 +372,17 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
         except OSError as exc:
             result.warnings.append(f"could not write the log: {exc}")
     return result
+
+
+def _execute_in_worker(task_key: str, sources: list[str], run: ResolvedRun, command: str) -> JobResult:
+    """:func:`_execute` in a pool worker. Interrupted (SIGTERM from the parent, or from the kernel
+    when the parent died), the worker exits as soon as the job's writers have removed their
+    temporary files, without sending anything back: the queues it shares with the other workers
+    may be held by a worker that was ended the same way."""
+    try:
+        return _execute(task_key, sources, run, command)
+    except interrupt.Interrupted as exc:
+        os._exit(128 + exc.signum)
 
 
 def log_path_for(result: JobResult) -> Path:
@@ -421,22 +450,55 @@ def run_task(task: Task, inputs: list[str | Path], layers: list[tuple[str, Mappi
     results: list[JobResult] = []
     if workers == 1:
         for job in jobs:
-            results.append(_execute(task.key, job, run, command))
+            with interrupt.doing(f"{task.key} ({len(results)} of {len(jobs)} inputs done)"):
+                results.append(_execute(task.key, job, run, command))
             _report(results[-1], progress)
     else:
-        import multiprocessing
+        _run_in_pool(task, jobs, run, command, workers, results, progress)
+    return RunReport(task.key, results, input_errors)
 
-        ctx = multiprocessing.get_context("spawn" if sys.platform == "darwin" else "fork")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = [pool.submit(_execute, task.key, job, run, command) for job in jobs]
-            for job, fut in zip(jobs, futures):  # in input order, so output and logs do not depend on -j
+
+def _names(job: list[str]) -> str:
+    text = ", ".join(job)
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _run_in_pool(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, workers: int,
+                 results: list[JobResult], progress) -> None:
+    """Run ``jobs`` in ``workers`` processes, collecting results in input order.
+
+    On an interruption the queued jobs are cancelled and the running ones are ended with
+    SIGTERM, which each worker turns into a clean exit that removes its temporary files.
+    """
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn" if sys.platform == "darwin" else "fork")
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=interrupt.install_in_worker)
+    try:
+        futures = [pool.submit(_execute_in_worker, task.key, job, run, command) for job in jobs]
+        for job, fut in zip(jobs, futures):  # in input order, so output and logs do not depend on -j
+            def state(done: int = len(results)) -> str:
+                running = [_names(j) for j, f in zip(jobs, futures) if f.running()]
+                return f"{task.key} ({done} of {len(jobs)} inputs done; running: {'; '.join(running)})"
+
+            with interrupt.doing(state):
                 try:
                     results.append(fut.result())
                 except Exception as exc:  # a worker died (killed, out of memory): that job failed
-                    results.append(JobResult(inputs=job, error=f"{', '.join(job)[:200]}: worker process "
+                    results.append(JobResult(inputs=job, error=f"{_names(job)}: worker process "
                                                                f"failed: {type(exc).__name__}: {exc}"))
-                _report(results[-1], progress)
-    return RunReport(task.key, results, input_errors)
+            _report(results[-1], progress)
+    except BaseException:
+        processes = list(getattr(pool, "_processes", {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for p in processes:
+            with contextlib.suppress(Exception):
+                p.terminate()  # SIGTERM: the worker removes its temporary files and exits
+        for p in processes:
+            with contextlib.suppress(Exception):
+                p.join(timeout=30)
+        raise
+    pool.shutdown(wait=True)
 
 
 def _report(result: JobResult, progress) -> None:

@@ -98,6 +98,7 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
     names = ("x", "y", "z") + (("intensity",) if params.fields == "xyzi" else ())
     dec = reader.decimals
     decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": dec.get("z1"), "intensity": 0}
+    z_decimals = max(dec.get("z1", -1), dec.get("z2", -1)) if "z1" in dec and "z2" in dec else None
     # a stripped zone leaves as many decimals as before
     strip = ZoneStripper(parse_zone(params.utm_zone), source, reader.first_data_line)
     replaced = total = 0
@@ -109,7 +110,7 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
             x2, y2 = strip(chunk["x2"], chunk["y2"], total)
             z1, z2 = chunk["z1"], chunk["z2"]
             i1, i2 = chunk["i1"], chunk["i2"]
-            swap = stop_gap_mask(z1, z2, params.stop_gap)
+            swap = stop_gap_mask(z1, z2, params.stop_gap, z_decimals)
             first = {"x": x1, "y": y1, "z": z1, "intensity": i1}
             last = {"x": np.where(swap, x1, x2), "y": np.where(swap, y1, y2), "z": np.where(swap, z1, z2),
                     "intensity": np.where(swap, i1, i2)}

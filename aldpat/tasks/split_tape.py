@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.precision import above
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.params import param
@@ -42,11 +43,16 @@ class _SplitTapeParams:
 SplitTapeParams = with_shared(_SplitTapeParams, OrderOption)
 
 
-def strip_starts(t: np.ndarray, previous: float | None, interval: float) -> np.ndarray:
-    """Row indices of ``t`` where a new strip starts (0 when the jump from ``previous`` does)."""
+def strip_starts(t: np.ndarray, previous: float | None, interval: float,
+                 decimals: int | None = None) -> np.ndarray:
+    """Row indices of ``t`` where a new strip starts (0 when the jump from ``previous`` does).
+
+    With ``decimals`` (those of t in the file) a jump of exactly ``interval`` is decided at the
+    data's precision, not by floating-point noise.
+    """
     t = np.asarray(t, dtype=np.float64)
-    starts = np.flatnonzero(np.diff(t) > interval) + 1
-    if len(t) and previous is not None and t[0] - previous > interval:
+    starts = np.flatnonzero(above(t[1:], t[:-1], interval, decimals)) + 1
+    if len(t) and previous is not None and above(t[:1], np.array([previous]), interval, decimals)[0]:
         starts = np.concatenate([[0], starts])
     return starts
 
@@ -104,7 +110,7 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
                 lines = lines_of.take(len(chunk))
                 if not lines.in_step_with(t):
                     raise RuntimeError(f"{source}: raw line copy out of step with the parser")
-            cuts = strip_starts(t, previous, params.interval)
+            cuts = strip_starts(t, previous, params.interval, reader.decimals.get("t"))
             if writer is None:
                 writer = open_strip()
             pos = 0

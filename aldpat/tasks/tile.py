@@ -22,7 +22,6 @@ for their extent; LAS/LAZ headers hold it).
 from __future__ import annotations
 
 import logging
-import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,12 +29,18 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.tiles import DIRECTIONS, TileLayout
-from aldpat.errors import DataError, OutputExistsError, UsageError
-from aldpat.io.atomic import atomic_output, check_writable, temp_name
+from aldpat.errors import DataError, UsageError
+from aldpat.io.atomic import (
+    atomic_output,
+    check_writable,
+    publish,
+    remove_stale_temporaries,
+    temp_name,
+)
 from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
-from aldpat.params import param
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
+from aldpat.params import param
 from aldpat.tasks._prep_options import FieldsOption, point_names, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -122,6 +127,7 @@ class TileSink:
     def _open(self, layout: TileLayout, key: tuple[int, int]) -> dict:
         path = self.path(layout, *key)
         check_writable(path, overwrite=self.overwrite or self.append)
+        remove_stale_temporaries(path)
         tmp = temp_name(path)
         entry = {"path": path, "tmp": tmp, "count": 0, "writer": None}
         if self.append and path.exists():
@@ -159,9 +165,7 @@ class TileSink:
                 entry["writer"].close()
         done = []
         for entry in self.tiles.values():
-            if entry["path"].exists() and not (self.overwrite or self.append):
-                raise OutputExistsError("output exists (use --overwrite to replace it)", path=entry["path"])
-            os.replace(entry["tmp"], entry["path"])
+            publish(entry["tmp"], entry["path"], overwrite=self.overwrite or self.append)
             done.append((entry["path"], entry["count"]))
         return done
 

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Callable
 
 import aldpat
+from aldpat import interrupt
 from aldpat.io.atomic import TMP_MARK, atomic_output
 from aldpat.tasks.base import JobResult, ResolvedRun, expand_inputs, resolve_run, run_task
 from aldpat.worksheet.model import Job, Worksheet
@@ -143,8 +144,9 @@ def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool =
         _save_state(ws, state)
         start = time.perf_counter()
         try:
-            report = run_task(job.task, job.inputs, [], resolved=run,
-                              command=f"{command}  # job {job.number}")
+            with interrupt.doing(f"worksheet job {job.number} ({job.task.key})"):
+                report = run_task(job.task, job.inputs, [], resolved=run,
+                                  command=f"{command}  # job {job.number}")
         except aldpat.errors.AldpatError as exc:
             status.state, status.message = FAILED, str(exc)
             report = None

@@ -42,3 +42,56 @@ def test_output_folder_that_cannot_be_created(tmp_path):
     with pytest.raises(OutputError, match="cannot create output folder"):
         with atomic_output(blocker / "sub" / "x.txt"):
             pass
+
+
+def test_two_writers_of_one_output_one_wins_whole(tmp_path):
+    from aldpat.io.atomic import atomic_output as out
+
+    target = tmp_path / "out.txt"
+    first, second = out(target), out(target)
+    a, b = first.__enter__(), second.__enter__()  # both started before either finished
+    a.write_text("first writer")
+    b.write_text("second writer")
+    first.__exit__(None, None, None)
+    with pytest.raises(OutputExistsError, match="another process may have written it"):
+        second.__exit__(None, None, None)
+    assert target.read_text() == "first writer"
+    assert sorted(os.listdir(tmp_path)) == ["out.txt"]
+
+
+def test_a_set_of_files_is_taken_back_when_one_cannot_be_placed(tmp_path):
+    from aldpat.io.atomic import atomic_outputs
+
+    files = [tmp_path / "a.shp", tmp_path / "a.dbf"]
+    with pytest.raises(OutputExistsError), atomic_outputs(files) as tmps:
+        for t in tmps:
+            t.write_text("x")
+        files[1].write_text("written meanwhile by someone else")
+    assert sorted(os.listdir(tmp_path)) == ["a.dbf"] and files[1].read_text().startswith("written")
+
+
+def test_temporaries_of_a_killed_process_are_removed_on_the_next_write(tmp_path):
+    import subprocess
+    import sys
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True, check=True).stdout.strip()
+    stale = tmp_path / f"out{TMP_MARK}{dead}.txt"
+    stale.write_text("left by SIGKILL")
+    other = tmp_path / f"other{TMP_MARK}{dead}.txt"
+    other.write_text("another output's: not ours to remove")
+    with atomic_output(tmp_path / "out.txt") as tmp:
+        tmp.write_text("done")
+    assert sorted(os.listdir(tmp_path)) == ["other" + TMP_MARK + dead + ".txt", "out.txt"]
+
+
+def test_a_full_disk_names_the_output_and_leaves_nothing(tmp_path):
+    from aldpat.io.atomic import as_output_error
+
+    target = tmp_path / "out.txt"
+    with pytest.raises(OutputError, match=r"out.txt: cannot write this output: no space left on device"), \
+            atomic_output(target) as tmp:
+        tmp.write_text("partial")
+        raise OSError(28, "No space left on device", str(tmp))
+    assert os.listdir(tmp_path) == []
+    assert as_output_error(ValueError("a bug"), target) is None  # not every failure is the disk's

@@ -3,7 +3,7 @@ import pytest
 
 from aldpat.errors import InputFormatError
 from aldpat.io.registry import open_points, write_points
-from aldpat.io.text import ALTM_FIRST_LAST, ALTM_LAST_FIRST
+from aldpat.io.text import ALTM_FIRST_LAST, ALTM_LAST_FIRST, TextReader
 from tests.conftest import write_xyz
 
 XYZI = np.array([[512203.97, 5403685.49, 336.41, 1], [512204.13, 5403685.25, 333.12, 0],
@@ -101,3 +101,31 @@ def test_irregular_spacing_after_the_sniffed_lines_is_still_read(tmp_path):
     z = np.concatenate([c.z for c in chunks])
     assert len(z) == 5003 and list(z[-3:]) == [9.0, 12.0, 15.0]
     np.testing.assert_array_equal(z[:5000], np.arange(5000) + 2)
+
+
+def test_a_byte_order_mark_is_not_a_header(tmp_path):
+    path = tmp_path / "bom.txt"
+    path.write_bytes(b"\xef\xbb\xbf1.5 2 3\n4 5 6\n7 8 10\n")
+    table = TextReader(path).read()
+    assert len(table) == 3 and table["x"][0] == 1.5
+
+
+def test_latin1_header_and_tabs_mixed_with_spaces(tmp_path):
+    path = tmp_path / "lat.txt"
+    path.write_bytes(b"X Y Z (\xb0C)\n1 2\t3\n4\t 5  6\n")
+    table = TextReader(path).read()
+    assert table["z"].tolist() == [3.0, 6.0]
+
+
+def test_an_implausible_coordinate_is_a_bad_line(tmp_path):
+    path = tmp_path / "huge.txt"
+    path.write_text("1 2 3\n4 5 1e300\n")
+    with pytest.raises(InputFormatError, match=r"huge.txt:2: z = 1e300 is not a plausible coordinate"):
+        TextReader(path).read()
+
+
+def test_a_binary_file_named_txt(tmp_path):
+    path = tmp_path / "points.txt"
+    path.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(InputFormatError, match="not a text file"):
+        TextReader(path).read()

@@ -93,3 +93,16 @@ def test_last_returns_in_their_own_folder(tmp_path):
     assert report.exit_code == 0, report.results[0].error
     assert (tmp_path / "first" / "s_1.txt").exists() and (tmp_path / "last" / "s_2.txt").exists()
     assert not (tmp_path / "first" / "s_2.txt").exists()
+
+
+def test_a_gap_of_exactly_the_stop_gap_is_decided_at_the_tapes_precision(tmp_path):
+    # first minus last is exactly 5.00 m as written in every row; 8.04 - 3.04 is 4.999999999999999
+    # in binary, 10.00 - 5.00 is 5.0: both must keep their own last return
+    rows = np.array([
+        [1.0, 500001.00, 2800001.00, 3.04, 11, 500001.10, 2800001.10, 8.04, 21],
+        [2.0, 500002.00, 2800002.00, 5.00, 12, 500002.10, 2800002.10, 10.00, 22],
+        [3.0, 500003.00, 2800003.00, 3.29, 13, 500003.10, 2800003.10, 8.29, 23],
+    ])
+    tape = write_tape(tmp_path / "s.txt", rows)
+    assert get_task("separate-returns")([tape], stop_gap=5.0).exit_code == 0
+    np.testing.assert_array_equal(np.loadtxt(tmp_path / "s_2.txt"), rows[:, 1:5])
