@@ -46,6 +46,7 @@ class LasReader:
         except Exception as exc:  # laspy raises several unrelated types for bad files
             raise _corrupt(self.path, exc) from None
         self.count = int(self.header.point_count)
+        self._check_record_count()
         self.scales = tuple(float(s) for s in self.header.scales)
         try:
             self.crs = self.header.parse_crs()
@@ -54,6 +55,19 @@ class LasReader:
         dims = set(self.header.point_format.dimension_names)
         self.names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
         self.decimals = {n: max(0, int(round(-np.log10(s)))) for n, s in zip("xyz", self.scales)}
+
+    def _check_record_count(self) -> None:
+        """An uncompressed LAS whose header counts fewer records than it holds would lose the
+        rest without a word (readers stop at the header's count): refuse it."""
+        if self.path.suffix.lower() == ".laz" or self.header.point_format.id >= 128:
+            return
+        size = self.path.stat().st_size
+        end = int(getattr(self.header, "start_of_first_evlr", 0) or 0) or size
+        record = int(self.header.point_format.size)
+        held = max(0, end - int(self.header.offset_to_point_data)) // record if record else 0
+        if held > self.count:
+            raise InputFormatError(f"header says {self.count} points, the file holds {held} point records",
+                                   path=self.path)
 
     def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
         if self.count == 0:

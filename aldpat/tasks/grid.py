@@ -76,6 +76,24 @@ def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = Non
     return from_bounds(minx, miny, maxx, maxy, params.cell)
 
 
+#: Methods that fit a surface through the points: they need three points not on one line.
+SURFACE_METHODS = ("linear", "kriging")
+
+
+def _check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> None:
+    """Refuse, with a message saying why, points a TIN or a variogram cannot be built on."""
+    if np.ptp(x) == 0 and np.ptp(y) == 0:
+        distinct = x[:1]
+    elif len(x) > 4096:
+        return  # the usual case; qhull reports large collinear data itself, as blank nodes
+    else:
+        distinct = np.unique(np.c_[x, y], axis=0)
+        if len(distinct) >= 3 and np.linalg.matrix_rank(distinct - distinct.mean(axis=0), tol=1e-9) == 2:
+            return
+    raise DataError(f"--method {method} needs at least 3 distinct points not all on one line; this file has "
+                    f"{len(distinct)} distinct (use --method nearest, idw or mean)", path=source)
+
+
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if params.nodata is not None and params.grid_format != "surfer7":
         raise UsageError("--nodata applies to surfer7 grids; Surfer 6 grids always use 1.70141e38")
@@ -105,6 +123,8 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
             raise DataError("no points to grid", path=source)
         if spec is None:
             spec = grid_spec_for(source, params, ctx, xy=(x, y))
+        if params.method in SURFACE_METHODS:
+            _check_spread(x, y, params.method, source)
         values = interpolate(x, y, z, spec, method=params.method, power=params.power, radius=params.radius,
                              max_points=params.max_points, max_distance=params.max_distance,
                              variogram=params.variogram, nugget=params.nugget, drift=params.drift)
