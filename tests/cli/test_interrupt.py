@@ -1,0 +1,102 @@
+"""Interruptions: SIGINT and SIGTERM mid-write, SIGKILL and resume, two writers of one output.
+
+Each runs the real console script and signals it as a shell, a batch scheduler or a second
+user would.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import laspy
+import numpy as np
+import psutil
+import pytest
+
+from tests.cli.fresh import REPO, aldpat_command, leftovers
+
+sys.path.insert(0, str(REPO / "bench"))
+from kill_resume import kill_and_resume, make_project, outputs, run  # noqa: E402
+
+
+def big_text(path: Path, n: int, seed: int = 0) -> Path:
+    rng = np.random.default_rng(seed)
+    rows = np.c_[rng.uniform(0, 500, n), rng.uniform(0, 500, n), rng.uniform(0, 30, n)]
+    with open(path, "w") as fh:
+        fh.write(("%.2f %.2f %.2f\n" * n) % tuple(rows.ravel()))
+    return path
+
+
+@pytest.fixture(scope="module")
+def two_big(tmp_path_factory) -> list[Path]:
+    folder = tmp_path_factory.mktemp("big")
+    return [big_text(folder / "a.txt", 1_000_000, 1), big_text(folder / "b.txt", 1_000_000, 2)]
+
+
+def start_and_signal(args: list, folder: Path, sig: int) -> tuple[int, str, list[int]]:
+    """Start ``aldpat ARGS``, wait until an output is being written, send ``sig``; return the exit
+    status, stderr and the processes of the run still alive afterwards."""
+    proc = subprocess.Popen(aldpat_command() + [str(a) for a in args], stderr=subprocess.PIPE, text=True,
+                            stdin=subprocess.DEVNULL)
+    family = []
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if leftovers(folder):
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the command ended before it could be interrupted"
+    family = [p.pid for p in psutil.Process(proc.pid).children(recursive=True)]
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    time.sleep(0.3)
+    alive = [pid for pid in family if psutil.pid_exists(pid) and psutil.Process(pid).status() != psutil.STATUS_ZOMBIE]
+    return proc.returncode, err, alive
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_mid_write_leaves_no_temporary_and_says_what_stopped(two_big, tmp_path, sig, jobs):
+    out = tmp_path / "out"
+    code, err, alive = start_and_signal(["convert", *two_big, "--out-format", "laz", "--odir", out, "-j", jobs],
+                                        out, sig)
+    name = signal.Signals(sig).name
+    assert code == 128 + sig, err
+    assert "Traceback" not in err
+    line = [ln for ln in err.splitlines() if "interrupted" in ln]
+    assert len(line) == 1 and f"interrupted by {name} during convert" in line[0] and "a.txt" in line[0], err
+    assert leftovers(out) == [] and alive == []
+    for p in out.glob("*.laz"):  # an output finished before the signal is whole
+        with laspy.open(p) as fh:
+            assert fh.header.point_count == 1_000_000
+
+
+def test_two_processes_writing_one_output(two_big, tmp_path):
+    args = aldpat_command() + ["convert", str(two_big[0]), "--out-format", "laz", "--odir", str(tmp_path)]
+    procs = [subprocess.Popen(args, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    results = [(p.wait(timeout=300), p.stderr.read()) for p in procs]
+    codes = sorted(code for code, _ in results)
+    assert codes == [0, 1], results
+    loser = next(err for code, err in results if code == 1)
+    assert "a.laz: output exists" in loser and "Traceback" not in loser
+    with laspy.open(tmp_path / "a.laz") as fh:  # the winner's file, whole
+        assert fh.header.point_count == 1_000_000
+    assert leftovers(tmp_path) == []
+
+
+def test_killed_at_random_instants_and_resumed_ends_identical(tmp_path):
+    """A small version of ``bench/kill_resume.py`` (which runs 20 instants on 3 M points)."""
+    clean = tmp_path / "clean"
+    ws = make_project(clean, 200_000, jobs=2)
+    start = time.perf_counter()
+    assert run(ws).returncode == 0
+    wall = time.perf_counter() - start
+    reference = outputs(clean)
+    assert len(reference) > 50
+    rng = np.random.default_rng(3)
+    for share in rng.uniform(0.2, 0.9, 4):
+        instant = kill_and_resume(clean, reference, tmp_path / "killed", float(share * wall))
+        assert instant.ok, instant
