@@ -114,6 +114,8 @@ def run(ws: Path, *extra: str) -> subprocess.CompletedProcess:
 @dataclass
 class Instant:
     delay: float
+    mid_run: bool  # the run was still going when it was killed
+    running_at_kill: int | None  # the worksheet job the state file recorded as running
     done_before_kill: list[int]
     skipped_on_resume: list[int]
     identical: bool
@@ -146,12 +148,14 @@ def kill_and_resume(template: Path, reference: dict[str, Path], workdir: Path, d
     proc = subprocess.Popen(aldpat_command() + ["run", str(ws)], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
     time.sleep(delay)
+    mid_run = proc.poll() is None
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     time.sleep(0.2)  # workers notice their parent's death (SIGTERM from the kernel) and clean up
     state_file = workdir / "project.state.json"
     state = json.loads(state_file.read_text()) if state_file.exists() else {}
     done = sorted(int(k) for k, v in state.items() if v.get("status") == "Done")
+    running = next((int(k) for k, v in state.items() if v.get("status") == "Running"), None)
     resumed = run(ws, "--resume")
     problem = "" if resumed.returncode == 0 else f"resume exited {resumed.returncode}: {resumed.stderr[-300:]}"
     skipped = sorted(int(line.split()[1]) for line in resumed.stderr.splitlines()
@@ -160,7 +164,7 @@ def kill_and_resume(template: Path, reference: dict[str, Path], workdir: Path, d
     identical = set(got) == set(reference) and all(
         same_bytes(got[name], workdir, reference[name], template) for name in reference)
     left = sorted(str(p) for p in workdir.rglob("*.aldpat-tmp*"))
-    return Instant(delay, done, skipped, identical, left, problem)
+    return Instant(delay, mid_run, running, done, skipped, identical, left, problem)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -188,15 +192,17 @@ def main(argv: list[str] | None = None) -> int:
     rng = random.Random(args.seed)
     results = []
     for k in range(args.instants):
-        delay = rng.uniform(0.3, 0.95) * wall
+        delay = rng.uniform(0.05, 0.9) * wall
         r = kill_and_resume(clean, reference, base / "killed", delay)
         results.append(r)
-        print(f"instant {k + 1:2d}: killed at {delay:6.2f} s, finished before the kill {r.done_before_kill}, "
+        print(f"instant {k + 1:2d}: killed at {delay:6.2f} s{'' if r.mid_run else ' (after the run ended)'}, "
+              f"job running {r.running_at_kill}, finished before the kill {r.done_before_kill}, "
               f"skipped on resume {r.skipped_on_resume}, identical {r.identical}, leftovers {len(r.leftovers)}"
               + (f", {r.problem}" if r.problem else ""))
     good = sum(r.ok for r in results)
-    print(f"{good} of {len(results)} instants ended byte-identical to the clean run, without leftovers and "
-          "without redoing finished jobs")
+    landed = sum(r.mid_run for r in results)
+    print(f"{landed} of {len(results)} kills landed while the run was going; {good} of {len(results)} instants "
+          "ended byte-identical to the clean run, without leftovers and without redoing finished jobs")
     return 0 if good == len(results) else 1
 
 
