@@ -120,6 +120,15 @@ def param(
     return dataclasses.field(default=default, metadata={"aldpat": meta})
 
 
+def default_of(base: type, name: str, default: Any) -> Any:
+    """Redeclare the parameter ``name`` of ``base`` in a subclass with another default only:
+    help, unit and bounds stay declared once, in ``base``."""
+    field = base.__dataclass_fields__[name]
+    if isinstance(default, list):
+        default = tuple(default)
+    return dataclasses.field(default=default, metadata=field.metadata)
+
+
 def _kind_of(annotation: Any) -> tuple[str, bool, int | None]:
     """Map a type annotation to (kind, optional, fixed length)."""
     optional = False

@@ -43,6 +43,9 @@ MARK_INTERPOLATED = -7777
 #: removed it, so it gets the smallest window a filter can use.
 MARK_ABOVE_SURFACE = 1
 
+#: Mark of a cell removed by the raised-segment test (an object larger than any window).
+MARK_RAISED_SEGMENT = 9000
+
 #: Points classified per block when comparing with the ground surface (bounds temporaries).
 _CHUNK = 1 << 21
 
@@ -67,6 +70,27 @@ class GroundParams:
     origin: tuple[float, float] | None = param(
         None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
         metavar="X Y",
+    )
+    object_step: float = param(
+        0.0,
+        "raised-segment test: cells whose heights differ by more than this split the grid into "
+        "segments, and a segment standing above its surroundings is an object whatever its size "
+        "(large buildings beyond the largest window); 0: off",
+        unit="m", ge=0,
+    )
+    object_share: float = param(
+        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
+        ge=0, le=1,
+    )
+    surface_threshold: float | None = param(
+        None,
+        "final test (SMRF): every point within this height of the interpolated ground surface, plus "
+        "surface_slope x its local slope, is ground and every other point is not; none: off (the "
+        "lowest point of a cell takes the cell's class, the others ground_tolerance)",
+        unit="m", ge=0,
+    )
+    surface_slope: float = param(
+        1.0, "slope scalar of the final test: metres of tolerance per unit of terrain slope", ge=0,
     )
 
 
@@ -278,9 +302,32 @@ def _run_grid(spec: FilterSpec, grid: LowestGrid, params) -> np.ndarray:
         raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {grid.z.shape}")
     if marks.dtype != np.int32 or not marks.flags.writeable or marks is filled:
         marks = marks.astype(np.int32)
+    if params.object_step > 0:
+        from aldpat.core.segments import raised_segments
+
+        raised = raised_segments(filled, params.object_step, params.object_share)
+        marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
     marks[empty] = MARK_INTERPOLATED
     del filled
     return marks
+
+
+def _surface_classes(grid: LowestGrid, marks: np.ndarray, x, y, z, params, point_marks: np.ndarray
+                     ) -> np.ndarray:
+    """SMRF's final test (:mod:`aldpat.core.surface_test`) over every point; updates
+    ``point_marks`` to agree and returns the classes."""
+    from aldpat.core.surface_test import provisional_surface, within_surface
+
+    ground_cells = (marks == MARK_GROUND) & ~grid.empty
+    surface = provisional_surface(grid.z, ground_cells, grid.spec)
+    if np.isnan(surface).all():
+        is_ground = np.zeros(len(z), bool)
+    else:
+        is_ground = within_surface(x, y, z, surface, grid.spec, threshold=params.surface_threshold,
+                                   slope_scalar=params.surface_slope)
+    point_marks[is_ground] = MARK_GROUND
+    point_marks[~is_ground & (point_marks == MARK_GROUND)] = MARK_ABOVE_SURFACE
+    return is_ground
 
 
 def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
@@ -336,6 +383,8 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
             grid = lowest_grid(xr, yr, z, params.cell, origin=None)
         marks = _run_grid(spec, grid, params)
         pm, ig = _classify(grid, marks, xr, yr, z, params.ground_tolerance)
+        if params.surface_threshold is not None:
+            ig = _surface_classes(grid, marks, xr, yr, z, params, pm)
         if point_marks is None:
             point_marks, is_ground = pm, ig
         else:

@@ -212,6 +212,7 @@ class JobResult:
     inputs: list[str]
     outputs: list[Written] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # values the job derived (written to its log)
     records: list[dict] = field(default_factory=list)  # machine-readable results (info, evaluate)
     error: str | None = None
     usage: bool = False  # the error was a usage error (exit status 2)
@@ -277,6 +278,11 @@ class JobContext:
     def warn(self, message: str) -> None:
         """A warning for the log file and stderr (reported once the job ends, in input order)."""
         self.result.warnings.append(message)
+
+    def note(self, message: str) -> None:
+        """A value the job derived from its data (``--auto``), recorded in the job log."""
+        self.result.notes.append(message)
+        log.info(message)
 
     def emit(self, record: dict) -> None:
         self.result.records.append(record)
@@ -413,6 +419,9 @@ def write_job_log(run: ResolvedRun, result: JobResult, command: str) -> Path:
     lines.append("outputs:")
     for w in result.outputs:
         lines.append(f"  {w.path}" + (f"  ({w.count} points)" if w.count is not None else ""))
+    if result.notes:
+        lines.append("derived from the data:")
+        lines += [f"  {n}" for n in result.notes]
     if result.warnings:
         lines.append("warnings:")
         lines += [f"  {w}" for w in result.warnings]

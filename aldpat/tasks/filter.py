@@ -65,6 +65,13 @@ def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarra
 def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
     reader = ctx.open_input(source)
     table = reader.read()
+    if getattr(params, "auto", False):
+        from aldpat.filters.gapm import with_auto
+
+        params = with_auto(params, table.x, table.y)
+        ctx.note(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
+                 f"row_windows = {list(params.row_windows or ())}, column_windows = "
+                 f"{list(params.column_windows or ())}")
     res = ground_filter(table.x, table.y, table.z, algorithm, params)
     rows, ground, marks = _output_table(table, res, params)
     names = tuple(reader.names)

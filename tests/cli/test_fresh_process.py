@@ -212,3 +212,10 @@ def test_demo_worksheet(tmp_path):
     assert "Failed" not in done.stderr and "Blocked" not in done.stderr
     assert len(list((work / "demo-out" / "grids").glob("*.flt"))) == 6
     assert leftovers(work) == []
+
+
+def test_gapm_auto_records_what_it_derived(work, tmp_path):
+    aldpat("filter", "gapm", work / "samp.txt", "--auto", "--odir", tmp_path).ok()
+    log = (tmp_path / "samp_gapm.log").read_text()
+    assert "derived from the data:" in log and "--auto: cell = 0.75 m" in log
+    assert "auto" in log and count_points(tmp_path / "samp_gapm.txt") > 0

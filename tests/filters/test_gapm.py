@@ -159,3 +159,54 @@ def test_blocked_passes_equal_the_printed_loop_on_samp24(samp24, monkeypatch, bl
     assert got.dtype == np.int32
     assert np.array_equal(got, expected)
     assert np.array_equal(z, z_before)  # the input grid is left alone
+
+
+def _shed_scene(seed: int = 3):
+    """Points on a rolling slope with a 60 m x 45 m shed (wider than gapm's largest window of
+    41 cells x 0.75 m) and scattered trees; ground known exactly."""
+    rng = np.random.default_rng(seed)
+    n = 60_000
+    x = rng.uniform(0, 200, n)
+    y = rng.uniform(0, 150, n)
+    z = 100 + 0.08 * x + 2.0 * np.sin(y / 25.0) + rng.normal(0, 0.03, n)
+    shed = (x > 70) & (x < 130) & (y > 50) & (y < 95)
+    trees = np.zeros(n, bool)
+    for cx, cy in rng.uniform([10, 10], [190, 140], size=(25, 2)):
+        inside = np.hypot(x - cx, y - cy) < 3.0
+        inside &= rng.random(n) < 0.7  # some pulses reach the ground
+        trees |= inside & ~shed
+    z = np.where(shed, z + 7.5, z)
+    z = np.where(trees, z + rng.uniform(2, 12, n), z)
+    return x, y, z, ~(shed | trees)
+
+
+def test_defaults_remove_a_shed_larger_than_any_window_and_keep_the_slope():
+    x, y, z, truth = _shed_scene()
+    as_published = ground_filter(x, y, z, "gapm", GapmParams(object_step=0.0, surface_threshold=None))
+    assert as_published.is_ground[~truth].mean() > 0.3  # the windows alone leave much of the roof
+    res = ground_filter(x, y, z, "gapm", GapmParams())
+    type1 = 100 * (~res.is_ground[truth]).mean()
+    type2 = 100 * res.is_ground[~truth].mean()
+    assert type1 < 1.0 and type2 < 1.0, (type1, type2)
+
+
+def test_auto_derives_the_cell_from_density_and_keeps_window_extent():
+    from aldpat.filters.gapm import auto_params, point_spacing
+
+    x, y, z, truth = _shed_scene()  # 2 points per m2: spacing 0.71 m
+    assert point_spacing(x, y) == pytest.approx(np.sqrt(200 * 150 / 60_000), rel=0.05)
+    p = auto_params(x, y, z)
+    assert p.cell == pytest.approx(0.7)
+    assert max(p.window_series) * p.cell == pytest.approx(20 * 0.75, abs=0.5)  # same reach on the ground
+    dense = auto_params(x[:15_000] / 2, y[:15_000] / 2, z[:15_000])  # 2 points per m2 on a quarter area
+    assert dense.cell == pytest.approx(0.7)
+    tiny = auto_params(x[(x < 20) & (y < 20)], y[(x < 20) & (y < 20)], z[(x < 20) & (y < 20)])
+    assert max(tiny.window_series) * tiny.cell <= 0.25 * 20 + 0.75  # bounded by the data's extent
+    res = ground_filter(x, y, z, "gapm", p)
+    assert 100 * (~res.is_ground[truth]).mean() < 1.0 and 100 * res.is_ground[~truth].mean() < 1.0
+
+
+def test_the_shipped_gapm_toml_spells_out_the_defaults():
+    values = tomllib.loads((PARAMS / "gapm.toml").read_text())
+    values = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
+    assert GapmParams(**values) == GapmParams()
