@@ -8,49 +8,68 @@ ground when its height above or below that surface is within an elevation thresh
 scalar times the local slope of the surface. The slope term keeps points on steep terrain whose
 cell-sized surface lags the ground, and the two-sided test drops points left below the surface.
 
-The surface is a Delaunay TIN of the ground cells' lowest points at their cell centres
-(:func:`aldpat.core.interpolate.linear`, blocked and threaded), evaluated at every cell centre;
-cells outside the ground cells' hull take the nearest ground value.
+The surface is a Delaunay TIN of the ground cells' lowest points at their cell centres: ground
+cells keep their heights, the cells between them are interpolated linearly, cells outside the
+ground cells' hull take the nearest ground value.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec as NodeSpec
 from aldpat.core.lowest_grid import GridSpec, fill_nearest
+
+ndimage = lazy_import("scipy.ndimage")
 
 #: Points tested at once (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
 
 
 def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: GridSpec) -> np.ndarray:
-    """Ground cells' heights interpolated (TIN) over every cell; NaN only when nothing is ground."""
-    from aldpat.core.interpolate import linear
+    """Ground cells' heights, and the cells between them interpolated; NaN only when nothing is
+    ground.
 
+    A ground cell keeps its own height (it is a node of the TIN). Only the other cells need
+    interpolating, and the triangles that cover them join ground cells on the rims of the holes
+    they form, so the TIN (:func:`aldpat.core.interpolate.linear`, blocked and threaded) is
+    built from those rim cells alone. Cells outside the rims' hull take the nearest ground
+    height.
+    """
     if not ground.any():
         return np.full(z.shape, np.nan)
-    rows, cols = np.nonzero(ground)
-    xc, yc = spec.centers()
-    if len(rows) < 3 or min(z.shape) < 2:
-        return fill_nearest(np.where(ground, z, np.nan), ~ground)
-    nodes = NodeSpec(xmin=xc[0], ymin=yc[0], dx=spec.cell, dy=spec.cell, nx=spec.cols, ny=spec.rows)
-    # collinear ground cells (one row of them) triangulate to nothing: every node blank, below
-    surface = linear(xc[cols], yc[rows], z[ground], nodes).reshape(z.shape)
+    holes = ~ground
+    surface = np.where(ground, z, np.nan)
+    if not holes.any():
+        return surface
+    rim = ground & ndimage.binary_dilation(holes, structure=np.ones((3, 3), bool))
+    rr, rc = np.nonzero(rim)
+    del rim
+    if len(rr) >= 3 and min(z.shape) >= 2:
+        from aldpat.core.interpolate import linear
+
+        xc, yc = spec.centers()
+        nodes = NodeSpec(xmin=xc[0], ymin=yc[0], dx=spec.cell, dy=spec.cell, nx=spec.cols, ny=spec.rows)
+        # blocked and threaded; rim cells on one line triangulate to nothing (all blank)
+        tin = linear(xc[rc], yc[rr], z[rr, rc], nodes).reshape(z.shape)
+        del rr, rc
+        np.copyto(surface, tin, where=holes)
+        del tin
     blank = np.isnan(surface)
-    if blank.all():
-        return fill_nearest(np.where(ground, z, np.nan), ~ground)
     if blank.any():
         surface = fill_nearest(surface, blank)
     return surface
 
 
 def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
-    """Gradient magnitude of a grid surface (m/m), central differences."""
+    """Gradient magnitude of a grid surface (m/m, float32: a tolerance needs no more), central
+    differences."""
     if min(surface.shape) < 2:
-        return np.zeros(surface.shape)
+        return np.zeros(surface.shape, np.float32)
     gy, gx = np.gradient(surface, cell)
-    return np.hypot(gx, gy)
+    out = np.hypot(gx, gy, out=gx).astype(np.float32)
+    return out
 
 
 def bilinear(grid: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
