@@ -2,6 +2,7 @@
 
     python bench/bench_auto.py sweep        # every candidate on every sample, in-sample and LOO
     python bench/bench_auto.py report       # the shipped defaults and --auto, per sample
+    python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
 
 Reads the seven ISPRS reference samples in ``../shared/data/isprs`` beside the repository
 (``ALDPAT_ISPRS`` to point elsewhere). ``sweep`` scores every combination of the candidate
@@ -82,12 +83,33 @@ def report(samples) -> None:
               f"**{np.mean([s.total for s in scores]):.2f}** | {np.mean([s.kappa for s in scores]):.3f} |")
 
 
+def others(samples) -> None:
+    """The raised-segment and surface tests, with gapm's constants unchanged, after the other
+    grid filters' shipped parameter files: does what was chosen for gapm carry over?"""
+    import tomllib
+
+    from aldpat.filters.base import get_filter
+
+    repo = Path(__file__).resolve().parents[1]
+    steps = {k: getattr(GapmParams(), k) for k in ("object_step", "object_share", "surface_threshold",
+                                                    "surface_slope")}
+    print("| filter | " + " | ".join(s.name for s in samples) + " | mean |\n|---" * 1 + "|---" * (len(samples) + 1) + "|")
+    for algo in ("pm", "pm2d", "pmcircle", "etew"):
+        spec = get_filter(algo)
+        values = tomllib.loads((repo / "jobs" / "params" / f"{algo}.toml").read_text())
+        values = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
+        for label, extra in ((f"{algo}.toml", {}), (f"{algo}.toml + both steps", steps)):
+            p = spec.params(**values, **extra)
+            totals = [score(s.ground, ground_filter(s.x, s.y, s.z, algo, p).is_ground).total for s in samples]
+            print(f"| {label} | " + " | ".join(f"{t:.2f}" for t in totals) + f" | {np.mean(totals):.2f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("sweep", "report"))
+    ap.add_argument("what", choices=("sweep", "report", "others"))
     args = ap.parse_args()
     samples = load_samples()
-    sweep(samples) if args.what == "sweep" else report(samples)
+    {"sweep": sweep, "report": report, "others": others}[args.what](samples)
 
 
 if __name__ == "__main__":
