@@ -8,58 +8,90 @@ ground when its height above or below that surface is within an elevation thresh
 scalar times the local slope of the surface. The slope term keeps points on steep terrain whose
 cell-sized surface lags the ground, and the two-sided test drops points left below the surface.
 
-The surface is a Delaunay TIN of the ground cells' lowest points at their cell centres: ground
-cells keep their heights, the cells between them are interpolated linearly, cells outside the
-ground cells' hull take the nearest ground value.
+The surface keeps the ground cells' lowest points and fills every other cell harmonically
+(:func:`provisional_surface`), as SMRF fills its provisional surface by inpainting.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from aldpat._lazy import lazy_import
-from aldpat.core.grid_extent import GridSpec as NodeSpec
-from aldpat.core.lowest_grid import GridSpec, fill_nearest
-
-ndimage = lazy_import("scipy.ndimage")
+from aldpat.core.lowest_grid import GridSpec
 
 #: Points tested at once (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
 
 
-def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: GridSpec) -> np.ndarray:
-    """Ground cells' heights, and the cells between them interpolated; NaN only when nothing is
-    ground.
+#: Jacobi sweeps at each level of the pyramid on the way back up (more change the result
+#: by under 0.01 points of ISPRS error: the coarse levels have already carried the far field).
+SWEEPS = 4
 
-    A ground cell keeps its own height (it is a node of the TIN). Only the other cells need
-    interpolating, and the triangles that cover them join ground cells on the rims of the holes
-    they form, so the TIN (:func:`aldpat.core.interpolate.linear`, blocked and threaded) is
-    built from those rim cells alone. Cells outside the rims' hull take the nearest ground
-    height.
+
+def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: GridSpec) -> np.ndarray:
+    """Ground cells' heights, every other cell filled smoothly from them; NaN only when nothing
+    is ground.
+
+    SMRF fills its provisional surface by inpainting (Pingel et al. 2013); here the fill is a
+    pull-push (Gortler et al. 1996, "The Lumigraph", §3.3) with Jacobi relaxation: the ground
+    cells are averaged down a pyramid of 2 x 2 blocks until every block holds ground (pull);
+    then, from the coarsest level up, each level starts from its parent's values and takes a
+    few Jacobi sweeps of Laplace's equation with its ground-holding cells fixed (push). The
+    result spans a building's footprint or a gap between sparse points with a smooth membrane
+    from the ground around it -- close to, not exactly, the harmonic fill (a 20 m hole in a
+    plane of slope 0.3 is filled within 0.25 m); ground cells keep their heights exactly.
+    Work and memory are linear in the number of cells. Against a Delaunay TIN of the ground
+    cells it scores the same on the ISPRS samples (2.81 % against 2.82 % mean total, 3.15 %
+    against 3.13 % leave-one-out) at a fraction of the cost (bench/README.md).
     """
     if not ground.any():
         return np.full(z.shape, np.nan)
-    holes = ~ground
-    surface = np.where(ground, z, np.nan)
-    if not holes.any():
-        return surface
-    rim = ground & ndimage.binary_dilation(holes, structure=np.ones((3, 3), bool))
-    rr, rc = np.nonzero(rim)
-    del rim
-    if len(rr) >= 3 and min(z.shape) >= 2:
-        from aldpat.core.interpolate import linear
-
-        xc, yc = spec.centers()
-        nodes = NodeSpec(xmin=xc[0], ymin=yc[0], dx=spec.cell, dy=spec.cell, nx=spec.cols, ny=spec.rows)
-        # blocked and threaded; rim cells on one line triangulate to nothing (all blank)
-        tin = linear(xc[rc], yc[rr], z[rr, rc], nodes).reshape(z.shape)
-        del rr, rc
-        np.copyto(surface, tin, where=holes)
-        del tin
-    blank = np.isnan(surface)
-    if blank.any():
-        surface = fill_nearest(surface, blank)
+    # float32: a tolerance test needs no finer than 0.1 mm, and the pyramid is grid-sized
+    value = np.where(ground, z, 0.0).astype(np.float32)
+    weight = ground.astype(np.float32)
+    levels = []
+    while True:
+        levels.append((value, weight))
+        if min(value.shape) <= 2 or weight.min() >= 1.0:
+            break
+        value, weight = _pull(value, weight)
+    value = _relax(levels[-1][0], levels[-1][1] >= 1.0, 4 * SWEEPS)
+    for fine_value, fine_weight in reversed(levels[:-1]):
+        rows, cols = fine_value.shape
+        up = np.repeat(np.repeat(value, 2, axis=0), 2, axis=1)[:rows, :cols]
+        fixed = fine_weight >= 1.0
+        value = _relax(np.where(fixed, fine_value, up), fixed, SWEEPS)
+    surface = value.astype(np.float64)
+    surface[ground] = z[ground]  # the ground cells' own heights, to the last digit
     return surface
+
+
+def _pull(value: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One level down: weighted means of 2 x 2 blocks, weights summed and capped at 1 (a block
+    holding any ground is held at its ground cells' mean)."""
+    rows, cols = value.shape
+    pr, pc = rows + rows % 2, cols + cols % 2
+    v = np.zeros((pr, pc), np.float32)
+    w = np.zeros((pr, pc), np.float32)
+    v[:rows, :cols] = value * weight
+    w[:rows, :cols] = weight
+    ws = w.reshape(pr // 2, 2, pc // 2, 2).sum(axis=(1, 3))
+    vs = v.reshape(pr // 2, 2, pc // 2, 2).sum(axis=(1, 3))
+    return np.divide(vs, ws, out=np.zeros_like(vs), where=ws > 0), np.minimum(ws, np.float32(1.0))
+
+
+def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:
+    """Jacobi sweeps of Laplace's equation on the cells not ``fixed`` (edges mirror)."""
+    if value.shape[0] < 2 or value.shape[1] < 2:
+        return value
+    held = value[fixed]
+    for _ in range(sweeps):
+        padded = np.pad(value, 1, mode="edge")
+        value = padded[:-2, 1:-1] + padded[2:, 1:-1]
+        value += padded[1:-1, :-2]
+        value += padded[1:-1, 2:]
+        value *= np.float32(0.25)
+        value[fixed] = held
+    return value
 
 
 def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:

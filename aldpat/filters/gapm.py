@@ -49,8 +49,8 @@ class GapmParams(GroundParams):
     cell: float = default_of(GroundParams, "cell", SET01_CELL_DEFAULT)
     object_step: float = default_of(GroundParams, "object_step", 2.5)
     object_share: float = default_of(GroundParams, "object_share", 0.4)
-    surface_threshold: float | None = default_of(GroundParams, "surface_threshold", 0.45)
-    surface_slope: float = default_of(GroundParams, "surface_slope", 1.0)
+    surface_threshold: float | None = default_of(GroundParams, "surface_threshold", 0.3)
+    surface_slope: float = default_of(GroundParams, "surface_slope", 1.5)
     window_series: tuple[int, ...] = param(
         (1, 2, 4, 8, 12, 16, 20), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1,
     )
