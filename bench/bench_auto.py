@@ -3,6 +3,7 @@
     python bench/bench_auto.py sweep        # every candidate on every sample, in-sample and LOO
     python bench/bench_auto.py report       # the shipped defaults and --auto, per sample
     python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
+    python bench/bench_auto.py lowout       # the low-outlier test on top of the defaults
 
 Reads the seven ISPRS reference samples in ``../shared/data/isprs`` beside the repository
 (``ALDPAT_ISPRS`` to point elsewhere). ``sweep`` scores every combination of the candidate
@@ -104,12 +105,21 @@ def others(samples) -> None:
             print(f"| {label} | " + " | ".join(f"{t:.2f}" for t in totals) + f" | {np.mean(totals):.2f} |")
 
 
+def lowout(samples) -> None:
+    """gapm's defaults with the low-outlier test at a few thresholds and windows."""
+    for thr, window in ((None, 0), (1.0, 1), (2.0, 1), (1.0, 4), (2.0, 4), (2.0, 6)):
+        settings = {} if thr is None else {"low_outliers": thr, "low_outlier_window": window}
+        totals = [sc.total for sc in evaluate(samples, settings)]
+        label = "off" if thr is None else f"{thr} m, half window {window}"
+        print(f"| {label} | " + " | ".join(f"{t:.2f}" for t in totals) + f" | {np.mean(totals):.2f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("sweep", "report", "others"))
+    ap.add_argument("what", choices=("sweep", "report", "others", "lowout"))
     args = ap.parse_args()
     samples = load_samples()
-    {"sweep": sweep, "report": report, "others": others}[args.what](samples)
+    {"sweep": sweep, "report": report, "others": others, "lowout": lowout}[args.what](samples)
 
 
 if __name__ == "__main__":

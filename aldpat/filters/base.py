@@ -45,6 +45,14 @@ MARK_ABOVE_SURFACE = 1
 
 #: Mark of a cell removed by the raised-segment test (an object larger than any window).
 MARK_RAISED_SEGMENT = 9000
+#: Mark of a point set aside as a low outlier before filtering.
+MARK_LOW_OUTLIER = -9000
+#: Rounds of low-outlier removal: a clump of low points gives up one point per cell a round.
+LOW_OUTLIER_ROUNDS = 8
+#: A low outlier lies below the height this percentage of its window's cells reach: the floor
+#: of the neighbourhood, not its lowest cell, so a clump smaller than this share of the window
+#: is caught while a street between roofs (most of its window) is not.
+LOW_OUTLIER_RANK = 20
 
 #: Points classified per block when comparing with the ground surface (bounds temporaries).
 _CHUNK = 1 << 21
@@ -70,6 +78,19 @@ class GroundParams:
     origin: tuple[float, float] | None = param(
         None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
         metavar="X Y",
+    )
+    low_outliers: float | None = param(
+        None,
+        "before filtering, set aside low outliers (multipath, a pulse through a window): the lowest "
+        "point of a cell lying this far below the floor of its window (the height a fifth of the "
+        "window's cells reach) is non-ground and the cell's next point is taken, repeatedly "
+        "(after dissertation §4.1.1); none: off",
+        unit="m", gt=0,
+    )
+    low_outlier_window: int = param(
+        4, "half window of the low-outlier test: a clump of low points must cover less than a fifth "
+        "of the (2k+1)^2 window to be caught",
+        unit="cells", ge=1,
     )
     object_step: float = param(
         0.0,
@@ -330,6 +351,51 @@ def _surface_classes(grid: LowestGrid, marks: np.ndarray, x, y, z, params, point
     return is_ground
 
 
+def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin) -> LowestGrid:
+    """The lowest-point grid with the points ``set_aside`` left out (a cell holding nothing
+    else is empty); same cells as with them."""
+    if set_aside is None or not set_aside.any():
+        return lowest_grid(x, y, z, cell, origin=origin)
+    grid = lowest_grid(x, y, np.where(set_aside, np.inf, z), cell, origin=origin)
+    only = np.isinf(grid.z)
+    if only.any():
+        grid.z[only] = np.nan
+        grid.lowest[only] = -1
+        grid.__dict__.pop("empty", None)  # recomputed from ``lowest``
+    return grid
+
+
+def low_outliers(x, y, z, params) -> np.ndarray | None:
+    """Points set aside as low outliers; ``None`` when the test is off.
+
+    The dissertation (§4.1.1) finds low outliers as cells sinking below a small *closing* of the
+    grid. A closing also fills every street narrower than its window between roofs, so here a
+    cell is compared with the floor of its window instead -- the height ``LOW_OUTLIER_RANK`` % of
+    the window's cells reach (a rank filter) -- which a clump of low points covering less than
+    that share of the window stays below while a street covering more of it does not. Each
+    round sets aside the lowest point of every such cell and looks again at the next one, so a
+    clump of multipath points drains within ``LOW_OUTLIER_ROUNDS`` rounds.
+    """
+    if params.low_outliers is None or len(z) == 0:
+        return None
+    from scipy import ndimage
+
+    out = np.zeros(len(z), bool)
+    for _ in range(LOW_OUTLIER_ROUNDS):
+        grid = _lowest_without(x, y, z, out, params.cell, params.origin)
+        if grid.empty.all():
+            break
+        filled = fill_nearest(grid.z, grid.empty)
+        size = 2 * params.low_outlier_window + 1
+        floor = ndimage.rank_filter(filled, LOW_OUTLIER_RANK * size * size // 100, size=size, mode="nearest")
+        deep = floor - filled > params.low_outliers
+        deep &= ~grid.empty
+        if not deep.any():
+            break
+        out[grid.lowest[deep]] = True
+    return out
+
+
 def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
     """Rotate points counter-clockwise about the origin (0, 0), so tiles rotate alike."""
     t = math.radians(degrees)
@@ -369,7 +435,8 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
         angles = (0.0,)
     origin = params.origin
 
-    base = lowest_grid(x, y, z, params.cell, origin=origin)
+    set_aside = low_outliers(x, y, z, params)
+    base = _lowest_without(x, y, z, set_aside, params.cell, origin)
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
                             np.full(base.z.shape, MARK_INTERPOLATED, np.int32), angles, algorithm, params)
@@ -380,7 +447,7 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
             grid, xr, yr = base, x, y
         else:
             xr, yr = _rotate(x, y, angle)
-            grid = lowest_grid(xr, yr, z, params.cell, origin=None)
+            grid = _lowest_without(xr, yr, z, set_aside, params.cell, None)
         marks = _run_grid(spec, grid, params)
         pm, ig = _classify(grid, marks, xr, yr, z, params.ground_tolerance)
         if params.surface_threshold is not None:
@@ -393,6 +460,9 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
         log.debug("%s at %g deg: %d of %d points ground", algorithm, angle, int(ig.sum()), len(ig))
         del marks, pm, ig
 
+    if set_aside is not None:
+        is_ground[set_aside] = False
+        point_marks[set_aside] = MARK_LOW_OUTLIER
     # the mark matrix reported is that of the axis-aligned grid
     real = ~base.empty
     base_marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)

@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from aldpat.core.lowest_grid import GridSpec
-from aldpat.core.surface_test import bilinear, provisional_surface, slope_of, within_surface
+from aldpat.core.surface_test import (
+    bilinear,
+    provisional_surface,
+    slope_of,
+    within_surface,
+)
 
 
 def plane(spec: GridSpec, a=0.3, b=-0.1, c=50.0):
