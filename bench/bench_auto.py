@@ -1,6 +1,7 @@
 """Choose the constants of gapm's default and ``--auto`` settings by leave-one-out on ISPRS samples.
 
     python bench/bench_auto.py sweep        # every candidate on every sample, in-sample and LOO
+    python bench/bench_auto.py sweep --auto # the same with --auto
     python bench/bench_auto.py report       # the shipped defaults and --auto, per sample
     python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
     python bench/bench_auto.py lowout       # the low-outlier test on top of the defaults
@@ -54,9 +55,10 @@ def evaluate(samples, settings: dict) -> list[Score]:
     return out
 
 
-def sweep(samples) -> None:
+def sweep(samples, auto: bool = False) -> None:
     names = list(CANDIDATES)
-    combos = [dict(zip(names, values)) for values in itertools.product(*CANDIDATES.values())]
+    combos = [dict(zip(names, values), **({"auto": True} if auto else {}))
+              for values in itertools.product(*CANDIDATES.values())]
     start = time.perf_counter()
     totals = np.array([[sc.total for sc in evaluate(samples, c)] for c in combos])
     print(f"{len(combos)} combinations x {len(samples)} samples in {time.perf_counter() - start:.0f} s")
@@ -117,9 +119,13 @@ def lowout(samples) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("what", choices=("sweep", "report", "others", "lowout"))
+    ap.add_argument("--auto", action="store_true", help="sweep: every combination with --auto")
     args = ap.parse_args()
     samples = load_samples()
-    {"sweep": sweep, "report": report, "others": others, "lowout": lowout}[args.what](samples)
+    if args.what == "sweep":
+        sweep(samples, auto=args.auto)
+    else:
+        {"report": report, "others": others, "lowout": lowout}[args.what](samples)
 
 
 if __name__ == "__main__":

@@ -80,8 +80,9 @@ class GapmParams(GroundParams):
         "(§6.2.3 steps 1 and 5; the printed CalThreshArray leaves it out)",
     )
     auto: bool = param(
-        False, "derive the cell from the point density and the windows' extent from the data "
-        "(cell, window_series, cluster_thresholds, row_windows and column_windows are replaced)",
+        False, "derive the cell from the point density and the largest window from the largest "
+        "object in the data (cell, window_series, cluster_thresholds, row_windows and "
+        "column_windows are replaced; the job log says what was chosen)",
     )
     directions: str = param(
         "sequential",
@@ -306,41 +307,67 @@ def point_spacing(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.sqrt(occupied * DENSITY_CELL ** 2 / len(x)))
 
 
-def with_auto(params: GapmParams, x: np.ndarray, y: np.ndarray) -> GapmParams:
+#: The windows ``--auto`` chooses from, in cells of set 01's 0.75 m: set 01's series (Table 6-8)
+#: extended by the 30 and 40 of sets 02 and 03 (Tables 6-10, 6-13), with their cluster
+#: thresholds; columns stop at 16 as in all three sets.
+AUTO_WINDOWS = (1, 2, 4, 8, 12, 16, 20, 30, 40)
+AUTO_THRESHOLDS = (0.3, 0.5, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0)
+AUTO_MAX_COLUMN_WINDOW = 16
+#: Bounds of the largest half window ``--auto`` derives (m): at least a tree crown's, at most
+#: set 03's.
+AUTO_REACH = (6.0, 30.0)
+
+
+def largest_object(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: GapmParams) -> float:
+    """Half-width (m) of the largest object the data hold: the widest inscribed half-width of a
+    raised segment (:mod:`aldpat.core.segments`) of the lowest-point grid on set 01's cells."""
+    from scipy import ndimage
+
+    from aldpat.core.lowest_grid import fill_nearest, lowest_grid
+    from aldpat.core.segments import raised_segments
+
+    grid = lowest_grid(x, y, z, SET01_CELL, origin=params.origin)
+    raised = raised_segments(fill_nearest(grid.z, grid.empty), params.object_step or 2.5, params.object_share)
+    if not raised.any():
+        return 0.0
+    return float(ndimage.distance_transform_edt(raised).max()) * SET01_CELL
+
+
+def with_auto(params: GapmParams, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> GapmParams:
     """``params`` with cell and windows derived from the data (``aldpat filter gapm --auto``).
 
     The cell follows the point density (the mean spacing in steps of 5 cm, at most
-    ``AUTO_MAX_CELL``), and the windows of parameter set 01 keep their extent in metres, so
-    denser data are filtered on finer cells with the same windows on the ground. The largest
-    window is bounded by the data: no half window wider than a quarter of the data's shorter
-    side (a window as wide as the tile would take its whole slope for an object). Every other
-    parameter is kept as given.
+    ``AUTO_MAX_CELL``). The largest window is the largest object the data hold
+    (:func:`largest_object`, within ``AUTO_REACH`` and no wider than a quarter of the data's
+    shorter side, where a window would take the whole slope for an object); the windows are
+    those of ``AUTO_WINDOWS`` up to it, kept at their extent in metres whatever the cell. Every
+    other parameter is kept as given.
     """
     import dataclasses
 
-    set01 = GapmParams()
     x = np.asarray(x, np.float64)
     y = np.asarray(y, np.float64)
+    z = np.asarray(z, np.float64)
     cell = min(AUTO_MAX_CELL, max(0.05, round(point_spacing(x, y) / 0.05) * 0.05))
-    reach = 0.25 * min(np.ptp(x), np.ptp(y)) if len(x) else 0.0
-    lookup = dict(zip(set01.window_series, set01.cluster_thresholds))
-    metres = {k: k * SET01_CELL for k in set01.window_series}
+    reach = min(max(largest_object(x, y, z, params), AUTO_REACH[0]), AUTO_REACH[1])
+    if len(x):
+        reach = min(reach, 0.25 * min(np.ptp(x), np.ptp(y)))
 
     def scaled(windows) -> dict[int, float]:
         out: dict[int, float] = {}
-        for k in windows:
-            if out and metres[k] > reach:
-                break
-            out.setdefault(max(1, round(metres[k] / cell)), lookup[k])
+        for k, threshold in zip(AUTO_WINDOWS, AUTO_THRESHOLDS):
+            if k not in windows or (out and k * SET01_CELL > reach + 1e-9):
+                continue
+            out.setdefault(max(1, round(k * SET01_CELL / cell)), threshold)
         return out
 
-    both = scaled(set01.window_series)
+    rows = scaled(AUTO_WINDOWS)
+    columns = scaled(tuple(k for k in AUTO_WINDOWS if k <= AUTO_MAX_COLUMN_WINDOW))
     return dataclasses.replace(
-        params, cell=cell, window_series=tuple(both), cluster_thresholds=tuple(both.values()),
-        row_windows=tuple(scaled(set01.row_windows or ())), column_windows=tuple(scaled(set01.column_windows or ())),
-        auto=False)
+        params, cell=cell, window_series=tuple(rows), cluster_thresholds=tuple(rows.values()),
+        row_windows=tuple(rows), column_windows=tuple(columns), auto=False)
 
 
 def auto_params(x: np.ndarray, y: np.ndarray, z: np.ndarray, **values) -> GapmParams:
-    """``GapmParams(**values)`` with ``--auto`` applied to the points x, y."""
-    return with_auto(GapmParams(**values), x, y)
+    """``GapmParams(**values)`` with ``--auto`` applied to the points."""
+    return with_auto(GapmParams(**values), x, y, z)

@@ -68,7 +68,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     if getattr(params, "auto", False):
         from aldpat.filters.gapm import with_auto
 
-        params = with_auto(params, table.x, table.y)
+        params = with_auto(params, table.x, table.y, table.z)
         ctx.note(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
                  f"row_windows = {list(params.row_windows or ())}, column_windows = "
                  f"{list(params.column_windows or ())}")

@@ -190,23 +190,22 @@ def test_defaults_remove_a_shed_larger_than_any_window_and_keep_the_slope():
     assert type1 < 1.0 and type2 < 1.0, (type1, type2)
 
 
-def test_auto_derives_the_cell_from_density_and_keeps_window_extent():
-    from aldpat.filters.gapm import auto_params, point_spacing
+def test_auto_derives_the_cell_from_density_and_the_largest_window_from_the_largest_object():
+    from aldpat.filters.gapm import AUTO_REACH, auto_params, largest_object, point_spacing
 
-    x, y, z, truth = _shed_scene()  # 2 points per m2: spacing 0.71 m
+    x, y, z, truth = _shed_scene()  # 2 points per m2: spacing 0.71 m; a 60 m x 45 m shed
     assert point_spacing(x, y) == pytest.approx(np.sqrt(200 * 150 / 60_000), rel=0.05)
+    assert largest_object(x, y, z, GapmParams()) == pytest.approx(45 / 2, abs=1.0)  # the shed's half-width
     p = auto_params(x, y, z)
     assert p.cell == pytest.approx(0.7)
-    assert max(p.window_series) * p.cell == pytest.approx(20 * 0.75, abs=0.5)  # same reach on the ground
-    dense = auto_params(x[:15_000] / 2, y[:15_000] / 2, z[:15_000])  # 2 points per m2 on a quarter area
-    assert dense.cell == pytest.approx(0.7)
-    tiny = auto_params(x[(x < 20) & (y < 20)], y[(x < 20) & (y < 20)], z[(x < 20) & (y < 20)])
-    assert max(tiny.window_series) * tiny.cell <= 0.25 * 20 + 0.75  # bounded by the data's extent
+    reach = max(p.window_series) * p.cell
+    assert 45 / 2 - 2.0 <= reach <= 45 / 2 + 1.0  # windows up to the shed, at their extent in metres
+    assert max(p.column_windows) * p.cell == pytest.approx(16 * 0.75, abs=0.5)
     res = ground_filter(x, y, z, "gapm", p)
     assert 100 * (~res.is_ground[truth]).mean() < 1.0 and 100 * res.is_ground[~truth].mean() < 1.0
-
-
-def test_the_shipped_gapm_toml_spells_out_the_defaults():
-    values = tomllib.loads((PARAMS / "gapm.toml").read_text())
-    values = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
-    assert GapmParams(**values) == GapmParams()
+    # a bare slope holds no object: the smallest reach; a small patch bounds the windows itself
+    bare = auto_params(x[truth], y[truth], z[truth])
+    assert max(bare.window_series) * bare.cell <= AUTO_REACH[0] + 0.5
+    small = (x < 20) & (y < 20)
+    tiny = auto_params(x[small], y[small], z[small])
+    assert max(tiny.window_series) * tiny.cell <= 0.25 * 20 + 0.75
