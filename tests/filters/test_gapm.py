@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from terrain_scenes import errors, scene
 
 from aldpat.errors import ParamError
 from aldpat.filters import ground_filter
 from aldpat.filters.gapm import GapmParams, adaptive_rows, combine_directions, gapm
 from aldpat.params import resolve
-from terrain_scenes import errors, scene
 
 REPO = Path(__file__).resolve().parents[2]
 PARAMS = REPO / "jobs" / "params"
@@ -191,7 +191,12 @@ def test_defaults_remove_a_shed_larger_than_any_window_and_keep_the_slope():
 
 
 def test_auto_derives_the_cell_from_density_and_the_largest_window_from_the_largest_object():
-    from aldpat.filters.gapm import AUTO_REACH, auto_params, largest_object, point_spacing
+    from aldpat.filters.gapm import (
+        AUTO_REACH,
+        auto_params,
+        largest_object,
+        point_spacing,
+    )
 
     x, y, z, truth = _shed_scene()  # 2 points per m2: spacing 0.71 m; a 60 m x 45 m shed
     assert point_spacing(x, y) == pytest.approx(np.sqrt(200 * 150 / 60_000), rel=0.05)
