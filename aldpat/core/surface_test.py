@@ -20,8 +20,6 @@ from aldpat.core.lowest_grid import GridSpec
 
 #: Points tested at once (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
-
-
 #: Jacobi sweeps at each level of the pyramid on the way back up (more change the result
 #: by under 0.01 points of ISPRS error: the coarse levels have already carried the far field).
 SWEEPS = 4
@@ -100,21 +98,26 @@ def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
     if min(surface.shape) < 2:
         return np.zeros(surface.shape, np.float32)
     gy, gx = np.gradient(surface, cell)
-    out = np.hypot(gx, gy, out=gx).astype(np.float32)
-    return out
+    return np.hypot(gx, gy, out=gx).astype(np.float32)
 
 
 def bilinear(grid: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``grid`` (values at cell centres) at points x, y, bilinearly; edges held constant."""
-    rows, cols = grid.shape
+    return _blend(grid, _corners(grid.shape, spec, x, y))
+
+
+def _corners(shape: tuple[int, int], spec: GridSpec, x: np.ndarray, y: np.ndarray) -> tuple:
+    """The four cell centres around each point and its place between them (row, column)."""
+    rows, cols = shape
     fc = np.clip((np.asarray(x) - spec.x0) / spec.cell - 0.5, 0.0, cols - 1.0)
     fr = np.clip((np.asarray(y) - spec.y0) / spec.cell - 0.5, 0.0, rows - 1.0)
     c0 = np.minimum(fc.astype(np.int64), max(cols - 2, 0))
     r0 = np.minimum(fr.astype(np.int64), max(rows - 2, 0))
-    tc = fc - c0
-    tr = fr - r0
-    c1 = np.minimum(c0 + 1, cols - 1)
-    r1 = np.minimum(r0 + 1, rows - 1)
+    return r0, np.minimum(r0 + 1, rows - 1), c0, np.minimum(c0 + 1, cols - 1), fr - r0, fc - c0
+
+
+def _blend(grid: np.ndarray, corners: tuple) -> np.ndarray:
+    r0, r1, c0, c1, tr, tc = corners
     return ((grid[r0, c0] * (1 - tc) + grid[r0, c1] * tc) * (1 - tr)
             + (grid[r1, c0] * (1 - tc) + grid[r1, c1] * tc) * tr)
 
@@ -126,6 +129,7 @@ def within_surface(x: np.ndarray, y: np.ndarray, z: np.ndarray, surface: np.ndar
     out = np.empty(len(z), bool)
     for a in range(0, len(z), _CHUNK):
         b = min(len(z), a + _CHUNK)
-        h = np.abs(z[a:b] - bilinear(surface, spec, x[a:b], y[a:b]))
-        out[a:b] = h <= threshold + slope_scalar * bilinear(slope, spec, x[a:b], y[a:b])
+        corners = _corners(surface.shape, spec, x[a:b], y[a:b])  # once for both grids
+        h = np.abs(z[a:b] - _blend(surface, corners))
+        out[a:b] = h <= threshold + slope_scalar * _blend(slope, corners)
     return out

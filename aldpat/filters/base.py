@@ -340,12 +340,12 @@ def _surface_classes(grid: LowestGrid, marks: np.ndarray, x, y, z, params, point
     from aldpat.core.surface_test import provisional_surface, within_surface
 
     ground_cells = (marks == MARK_GROUND) & ~grid.empty
-    surface = provisional_surface(grid.z, ground_cells, grid.spec)
-    if np.isnan(surface).all():
-        is_ground = np.zeros(len(z), bool)
-    else:
+    if ground_cells.any():
+        surface = provisional_surface(grid.z, ground_cells, grid.spec)
         is_ground = within_surface(x, y, z, surface, grid.spec, threshold=params.surface_threshold,
                                    slope_scalar=params.surface_slope)
+    else:
+        is_ground = np.zeros(len(z), bool)
     point_marks[is_ground] = MARK_GROUND
     point_marks[~is_ground & (point_marks == MARK_GROUND)] = MARK_ABOVE_SURFACE
     return is_ground
@@ -365,8 +365,9 @@ def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin) 
     return grid
 
 
-def low_outliers(x, y, z, params) -> np.ndarray | None:
-    """Points set aside as low outliers; ``None`` when the test is off.
+def low_outliers(x, y, z, params) -> tuple[np.ndarray | None, LowestGrid]:
+    """Points set aside as low outliers (``None`` when the test is off) and the axis-aligned
+    lowest-point grid without them.
 
     The dissertation (§4.1.1) finds low outliers as cells sinking below a small *closing* of the
     grid. A closing also fills every street narrower than its window between roofs, so here a
@@ -377,23 +378,23 @@ def low_outliers(x, y, z, params) -> np.ndarray | None:
     clump of multipath points drains within ``LOW_OUTLIER_ROUNDS`` rounds.
     """
     if params.low_outliers is None or len(z) == 0:
-        return None
+        return None, lowest_grid(x, y, z, params.cell, origin=params.origin)
     from scipy import ndimage
 
     out = np.zeros(len(z), bool)
+    size = 2 * params.low_outlier_window + 1
     for _ in range(LOW_OUTLIER_ROUNDS):
         grid = _lowest_without(x, y, z, out, params.cell, params.origin)
         if grid.empty.all():
-            break
+            return out, grid
         filled = fill_nearest(grid.z, grid.empty)
-        size = 2 * params.low_outlier_window + 1
         floor = ndimage.rank_filter(filled, LOW_OUTLIER_RANK * size * size // 100, size=size, mode="nearest")
         deep = floor - filled > params.low_outliers
         deep &= ~grid.empty
         if not deep.any():
-            break
+            return out, grid
         out[grid.lowest[deep]] = True
-    return out
+    return out, _lowest_without(x, y, z, out, params.cell, params.origin)
 
 
 def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
@@ -433,10 +434,8 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
     angles = tuple(float(a) for a in spec.rotations(params)) if spec.rotations else (0.0,)
     if not angles:
         angles = (0.0,)
-    origin = params.origin
 
-    set_aside = low_outliers(x, y, z, params)
-    base = _lowest_without(x, y, z, set_aside, params.cell, origin)
+    set_aside, base = low_outliers(x, y, z, params)
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
                             np.full(base.z.shape, MARK_INTERPOLATED, np.int32), angles, algorithm, params)

@@ -32,8 +32,9 @@ from aldpat.params import default_of, param
 
 log = logging.getLogger(__name__)
 
-#: Cell size of parameter set 01 (dissertation Table 6-8), gapm's default.
-SET01_CELL_DEFAULT = 0.75
+#: Cell size of parameter set 01 (dissertation Table 6-8), gapm's default; ``--auto`` keeps the
+#: windows' extent in metres on these cells whatever cell it chooses.
+SET01_CELL = 0.75
 
 #: Rows of a direction pass processed together: bounds temporaries, keeps them in cache.
 BLOCK_ROWS = 128
@@ -46,7 +47,7 @@ class GapmParams(GroundParams):
     # The defaults are parameter set 01 (dissertation Table 6-8: windows, thresholds, 0.75 m
     # cells) followed by the raised-segment test and SMRF's final surface test, whose constants
     # were chosen by leave-one-out over the ISPRS samples (bench/bench_auto.py).
-    cell: float = default_of(GroundParams, "cell", SET01_CELL_DEFAULT)
+    cell: float = default_of(GroundParams, "cell", SET01_CELL)
     object_step: float = default_of(GroundParams, "object_step", 2.5)
     object_share: float = default_of(GroundParams, "object_share", 0.4)
     surface_threshold: float | None = default_of(GroundParams, "surface_threshold", 0.3)
@@ -286,9 +287,6 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
     return marks.astype(np.int32, copy=False)
 
 
-#: Cell size of parameter set 01 (dissertation Table 6-8) and the windows in metres it implies:
-#: ``--auto`` keeps the windows' extent on the ground and scales the cells to the data.
-SET01_CELL = SET01_CELL_DEFAULT
 #: ``--auto`` cell: the mean point spacing, never coarser than set 01's cell. On the ISPRS samples
 #: (0.16-0.97 points/m2) coarser cells for sparser data lost 0.7 points of mean total error
 #: (bench/bench_auto.py): a cell under the spacing keeps each point's place in its own cell.
@@ -327,7 +325,9 @@ def largest_object(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: GapmPara
     from aldpat.core.segments import raised_segments
 
     grid = lowest_grid(x, y, z, SET01_CELL, origin=params.origin)
-    raised = raised_segments(fill_nearest(grid.z, grid.empty), params.object_step or 2.5, params.object_share)
+    # the segment test's own step, or gapm's default one where the test is turned off
+    step = params.object_step or GapmParams().object_step
+    raised = raised_segments(fill_nearest(grid.z, grid.empty), step, params.object_share)
     if not raised.any():
         return 0.0
     return float(ndimage.distance_transform_edt(raised).max()) * SET01_CELL
