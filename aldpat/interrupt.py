@@ -97,6 +97,11 @@ def current() -> str:
     return _interrupted_during or "; ".join(a if isinstance(a, str) else a() for a in _activity)
 
 
+def exit_status(exc: BaseException) -> int:
+    """128 + the signal's number, as shells report a process a signal ended."""
+    return 128 + (exc.signum if isinstance(exc, Interrupted) else signal.SIGINT)
+
+
 def describe(exc: BaseException) -> str:
     """The one line shown for an interruption."""
     name = exc.signal_name if isinstance(exc, Interrupted) else "SIGINT"

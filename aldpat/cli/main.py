@@ -159,15 +159,17 @@ def main() -> None:
     try:
         cli.main(standalone_mode=False)
     except click.exceptions.Abort as exc:  # click's wrapper of a KeyboardInterrupt
-        cause = exc.__context__ if isinstance(exc.__context__, KeyboardInterrupt) else KeyboardInterrupt()
-        click.echo(f"aldpat: {interrupt.describe(cause)}", err=True)
-        sys.exit(128 + cause.signum if isinstance(cause, interrupt.Interrupted) else 130)
+        _interrupted(exc.__context__ if isinstance(exc.__context__, KeyboardInterrupt) else KeyboardInterrupt())
     except click.ClickException as exc:
         exc.show()
         sys.exit(2)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except KeyboardInterrupt as exc:
-        click.echo(f"aldpat: {interrupt.describe(exc)}", err=True)
-        sys.exit(128 + exc.signum if isinstance(exc, interrupt.Interrupted) else 130)
+        _interrupted(exc)
     sys.exit(0)
+
+
+def _interrupted(exc: BaseException) -> None:
+    click.echo(f"aldpat: {interrupt.describe(exc)}", err=True)
+    sys.exit(interrupt.exit_status(exc))

@@ -68,19 +68,37 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+_TMP_NAME = re.compile(re.escape(TMP_MARK) + r"(\d+)(?:-\d+)?(?:\.[^.]*)?$")
+
+
+def _writer_gone(temporary: Path) -> bool:
+    """A temporary output whose writing process no longer exists (it was killed)."""
+    m = _TMP_NAME.search(temporary.name)
+    if m is None:
+        return False
+    pid = int(m.group(1))
+    return pid != os.getpid() and not _pid_alive(pid)
+
+
+def _remove_if_gone(temporaries) -> None:
+    for p in temporaries:
+        if _writer_gone(p):
+            with contextlib.suppress(OSError):
+                p.unlink()
+
+
 def remove_stale_temporaries(path: Path) -> None:
     """Remove temporaries of ``path`` whose writing process no longer exists (it was killed)."""
     path = Path(path)
-    pattern = re.compile(re.escape(path.stem + TMP_MARK) + r"(\d+)(?:-\d+)?" + re.escape(path.suffix) + "$")
-    try:
-        siblings = list(path.parent.glob(f"{glob_escape(path.stem)}{TMP_MARK}*"))
-    except OSError:
-        return
-    for p in siblings:
-        m = pattern.match(p.name)
-        if m and int(m.group(1)) != os.getpid() and not _pid_alive(int(m.group(1))):
-            with contextlib.suppress(OSError):
-                p.unlink()
+    with contextlib.suppress(OSError):
+        _remove_if_gone(list(path.parent.glob(f"{glob_escape(path.stem)}{TMP_MARK}*{glob_escape(path.suffix)}")))
+
+
+def remove_stale_temporaries_in(folder: Path) -> None:
+    """Remove every temporary in ``folder`` whose writing process no longer exists; those of a
+    process still writing are left to it."""
+    with contextlib.suppress(OSError):
+        _remove_if_gone(list(Path(folder).glob(f"*{TMP_MARK}*")))
 
 
 def glob_escape(text: str) -> str:

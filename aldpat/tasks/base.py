@@ -363,13 +363,13 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
         result.error = str(exc)
         result.usage = isinstance(exc, UsageError)
     except MemoryError:
-        result.error = f"{', '.join(sources)[:200]}: out of memory"
+        result.error = f"{_names(sources)}: out of memory"
     except OSError as exc:  # the system refused a read or write: say which file and why
-        where = exc.filename if exc.filename is not None else ", ".join(sources)[:200]
+        where = exc.filename if exc.filename is not None else _names(sources)
         result.error = f"{where}: {(exc.strerror or str(exc)).lower()}"
         result.detail = traceback.format_exc()
     except Exception as exc:  # an unexpected failure still may not end the other jobs
-        result.error = f"{', '.join(sources)[:200]}: internal error: {type(exc).__name__}: {exc}"
+        result.error = f"{_names(sources)}: internal error: {type(exc).__name__}: {exc}"
         result.detail = traceback.format_exc()
     result.seconds = time.perf_counter() - start
     if result.ok and result.outputs and task.writes_outputs:

@@ -8,7 +8,8 @@ parameter, each input's path, size and modification time) and of what it wrote (
 size and modification time) in ``<worksheet-stem>.state.json``, written atomically. ``--resume``
 skips a job whose fingerprint and outputs are unchanged. A job that was started but never
 recorded as finished (the run was killed) runs again and may replace the outputs it had already
-renamed into place -- they are its own; its stray temporary files are removed first. Because
+renamed into place -- they are its own; temporary files of writers no longer running are
+removed first. Because
 every output is renamed into place only when complete, a run killed at any instant and resumed
 ends with the same outputs as an uninterrupted one.
 """
@@ -27,7 +28,7 @@ from typing import Callable
 
 import aldpat
 from aldpat import interrupt
-from aldpat.io.atomic import TMP_MARK, atomic_output
+from aldpat.io.atomic import atomic_output, remove_stale_temporaries_in
 from aldpat.tasks.base import JobResult, ResolvedRun, expand_inputs, resolve_run, run_task
 from aldpat.worksheet.model import Job, Worksheet
 
@@ -95,9 +96,7 @@ def _unchanged(entry: dict | None, job: Job) -> bool:
 def _remove_stray_temporaries(job: Job) -> None:
     for place in job.output_places():
         if place.is_dir():
-            for p in place.glob(f"*{TMP_MARK}*"):
-                with contextlib.suppress(OSError):
-                    p.unlink()
+            remove_stale_temporaries_in(place)
 
 
 def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool = False, jobs: int | None = None,

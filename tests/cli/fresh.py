@@ -53,6 +53,17 @@ def aldpat(*args, cwd: Path | None = None, env: dict | None = None, timeout: flo
     return Done(words, proc.returncode, proc.stdout, proc.stderr)
 
 
+def count_points(path: Path) -> int:
+    """Points in a LAS/LAZ file (its header, read by laspy) or data lines in a text file."""
+    path = Path(path)
+    if path.suffix.lower() in (".las", ".laz"):
+        import laspy
+
+        with laspy.open(path) as fh:
+            return int(fh.header.point_count)
+    return sum(1 for line in path.read_text(encoding="utf-8-sig").splitlines() if line.strip())
+
+
 def leftovers(folder: Path) -> list[str]:
     """Temporary files anywhere under ``folder`` (there must never be any after a command)."""
     return sorted(str(p) for p in Path(folder).rglob("*.aldpat-tmp*"))

@@ -17,16 +17,16 @@ import subprocess
 import sys
 from pathlib import Path
 
-import laspy
 import numpy as np
 import pytest
 import rasterio
 
 from aldpat.core.interpolate import METHODS
 from aldpat.filters.base import FILTERS
+from aldpat.io.atomic import glob_escape
 from aldpat.tasks.grid import SURFACE_METHODS
 from tests.cli.corpus import Case, degenerate_cases, las_cases, text_cases
-from tests.cli.fresh import aldpat, leftovers
+from tests.cli.fresh import aldpat, count_points, leftovers
 
 GEOID = "geoid.gtx"
 
@@ -85,10 +85,6 @@ def _outputs_of(folder: Path, case: Case) -> list[Path]:
     return [p for p in folder.glob(f"{glob_escape(case.path.stem)}*") if p.suffix != ".log"]
 
 
-def glob_escape(text: str) -> str:
-    return re.sub(r"([*?[])", r"[\1]", text)
-
-
 @pytest.mark.parametrize("command", sorted(COMMANDS))
 def test_refused_inputs_fail_alone_with_one_line(corpus, tmp_path, command):
     _, layout, _ = COMMANDS[command]
@@ -111,13 +107,6 @@ def test_refused_inputs_fail_alone_with_one_line(corpus, tmp_path, command):
     assert leftovers(tmp_path) == [] and leftovers(corpus["root"]) == []
 
 
-def _count(path: Path) -> int:
-    if path.suffix in (".las", ".laz"):
-        with laspy.open(path) as fh:
-            return int(fh.header.point_count)
-    return sum(1 for line in path.read_text(encoding="utf-8-sig").splitlines() if line.strip())
-
-
 @pytest.mark.parametrize("command", sorted(c for c in COMMANDS if COMMANDS[c][1] == "points"))
 def test_accepted_inputs_keep_every_point(corpus, tmp_path, command):
     accepted = [c for c in corpus["points"] if not c.refused]
@@ -130,20 +119,20 @@ def test_accepted_inputs_keep_every_point(corpus, tmp_path, command):
         assert counts == [c.count for c in accepted]
     elif command == "convert":
         for case in accepted:
-            assert _count(out / f"{case.path.stem}.laz") == case.count, case.name
+            assert count_points(out / f"{case.path.stem}.laz") == case.count, case.name
     elif command.startswith("filter"):
         algo = command.split()[1]
         for case in accepted:
             ext = case.path.suffix
-            ground = _count(out / f"{case.path.stem}_{algo}{ext}")
-            objects = _count(out / f"{case.path.stem}_{algo}_nt{ext}")
+            ground = count_points(out / f"{case.path.stem}_{algo}{ext}")
+            objects = count_points(out / f"{case.path.stem}_{algo}_nt{ext}")
             assert ground + objects == case.count, case.name
     elif command == "polygon-extract":
         for case in accepted:  # the polygon holds every corpus point
-            assert _count(out / f"{case.path.stem}_poly{case.path.suffix}") == case.count, case.name
+            assert count_points(out / f"{case.path.stem}_poly{case.path.suffix}") == case.count, case.name
     elif command == "ortho-height":
         for case in accepted:
-            assert _count(out / f"{case.path.stem}_Ortho{case.path.suffix}") == case.count, case.name
+            assert count_points(out / f"{case.path.stem}_Ortho{case.path.suffix}") == case.count, case.name
     assert leftovers(tmp_path) == []
 
 
@@ -151,11 +140,11 @@ def test_accepted_tapes_keep_every_shot(corpus, tmp_path):
     accepted = [c for c in corpus["tapes"] if not c.refused]
     aldpat("separate-returns", *[c.path for c in accepted], "--odir", tmp_path).ok()
     for case in accepted:
-        assert _count(tmp_path / f"{case.path.stem}_1.txt") == _count(tmp_path / f"{case.path.stem}_2.txt") == case.count
+        assert count_points(tmp_path / f"{case.path.stem}_1.txt") == count_points(tmp_path / f"{case.path.stem}_2.txt") == case.count
     aldpat("split-tape", *[c.path for c in accepted], "--odir", tmp_path / "strips").ok()
     for case in accepted:
         strips = (tmp_path / "strips").glob(f"{glob_escape(case.path.stem)}_strip*.txt")
-        assert sum(_count(p) for p in strips) == case.count
+        assert sum(count_points(p) for p in strips) == case.count
 
 
 # Tasks that need more than a point or two: they refuse such files with one line each.
@@ -179,8 +168,8 @@ def test_one_point_and_identical_points(corpus, tmp_path, command):
         if command.startswith("filter"):
             algo = command.split()[1]
             for case in cases:
-                total = _count(tmp_path / f"{case.path.stem}_{algo}.txt") + \
-                    _count(tmp_path / f"{case.path.stem}_{algo}_nt.txt")
+                total = count_points(tmp_path / f"{case.path.stem}_{algo}.txt") + \
+                    count_points(tmp_path / f"{case.path.stem}_{algo}_nt.txt")
                 assert total == case.count, case.name
     assert leftovers(tmp_path) == []
 

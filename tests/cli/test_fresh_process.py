@@ -25,7 +25,7 @@ from aldpat.filters.base import FILTERS
 from aldpat.io.registry import OUT_EXTENSIONS
 from aldpat.io.surfer import FORMATS as GRID_FORMATS
 from aldpat.tasks import TASKS
-from tests.cli.fresh import DATA, TEST_DATA, aldpat, leftovers
+from tests.cli.fresh import DATA, TEST_DATA, aldpat, count_points, leftovers
 
 GDAL_DRIVERS = {"surfer7": "GS7BG", "surfer6": "GSBG", "surfer6-ascii": "GSAG"}
 NGA_LAT, NGA_LON, NGA_N = 38.6281550, 269.7791550 - 360.0, -31.628  # EGM96 test point in egm96_15_nga1.gtx
@@ -53,13 +53,6 @@ def work(tmp_path_factory) -> Path:
 
 def text_rows(path: Path) -> np.ndarray:
     return np.atleast_2d(np.loadtxt(path, delimiter="," if path.suffix == ".csv" else None))
-
-
-def count_points(path: Path) -> int:
-    if path.suffix in (".las", ".laz"):
-        with laspy.open(path) as fh:
-            return int(fh.header.point_count)
-    return sum(1 for line in path.read_text(encoding="utf-8").splitlines() if line.strip())
 
 
 def test_every_task_is_run_by_this_file():

@@ -95,3 +95,19 @@ def test_a_full_disk_names_the_output_and_leaves_nothing(tmp_path):
         raise OSError(28, "No space left on device", str(tmp))
     assert os.listdir(tmp_path) == []
     assert as_output_error(ValueError("a bug"), target) is None  # not every failure is the disk's
+
+
+def test_a_folder_sweep_leaves_the_temporaries_of_running_writers(tmp_path):
+    import subprocess
+    import sys
+
+    from aldpat.io.atomic import remove_stale_temporaries_in
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True, check=True).stdout.strip()
+    (tmp_path / f"a{TMP_MARK}{dead}-1.txt").write_text("killed writer")
+    running = tmp_path / f"b{TMP_MARK}{os.getppid()}-1.laz"  # our parent: alive
+    running.write_text("still being written")
+    (tmp_path / "c.txt").write_text("an output")
+    remove_stale_temporaries_in(tmp_path)
+    assert sorted(os.listdir(tmp_path)) == sorted([running.name, "c.txt"])
