@@ -38,8 +38,7 @@ def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: GridSpec) -> np
     from the ground around it -- close to, not exactly, the harmonic fill (a 20 m hole in a
     plane of slope 0.3 is filled within 0.25 m); ground cells keep their heights exactly.
     Work and memory are linear in the number of cells. Against a Delaunay TIN of the ground
-    cells it scores the same on the ISPRS samples (2.81 % against 2.82 % mean total, 3.15 %
-    against 3.13 % leave-one-out) at a fraction of the cost (bench/README.md).
+    cells it scores the same on the ISPRS samples at a third of the time (bench/README.md).
     """
     if not ground.any():
         return np.full(z.shape, np.nan)

@@ -289,7 +289,7 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
 
 #: ``--auto`` cell: the mean point spacing, never coarser than set 01's cell. On the ISPRS samples
 #: (0.16-0.97 points/m2) coarser cells for sparser data lost 0.7 points of mean total error
-#: (bench/bench_auto.py): a cell under the spacing keeps each point's place in its own cell.
+#: (bench/README.md): a cell under the spacing keeps each point's place in its own cell.
 AUTO_MAX_CELL = SET01_CELL
 #: Coarse cells (m) over which the occupied area, and so the point density, is measured.
 DENSITY_CELL = 5.0
