@@ -10,6 +10,7 @@ from aldpat.filters.base import (  # noqa: F401
     FilterResult,
     FilterSpec,
     GroundParams,
+    PointFilterParams,
     get_filter,
     ground_filter,
     register_filter,
@@ -24,3 +25,6 @@ from aldpat.filters import outlier  # noqa: E402,F401
 from aldpat.filters import cluster_pm  # noqa: E402,F401
 from aldpat.filters import gapm  # noqa: E402,F401
 from aldpat.filters import multipass  # noqa: E402,F401
+from aldpat.filters import slope  # noqa: E402,F401
+from aldpat.filters import polynomial  # noqa: E402,F401
+from aldpat.filters import atin  # noqa: E402,F401

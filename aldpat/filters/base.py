@@ -115,20 +115,45 @@ class GroundParams:
     )
 
 
+@dataclass(frozen=True)
+class PointFilterParams:
+    """Parameters every point filter shares (``slope``, ``ipf``, ``poly2``, ``atin``): filters that
+    test points against their neighbours or a fitted surface rather than a mark matrix.
+
+    Subclasses say which cells ``--data-mode center`` and the reported mark matrix use
+    (:meth:`cell_shape`): the filter's own cells.
+    """
+
+    data_mode: str = param(
+        "real",
+        "output points at their own x, y (real) or one point per cell at the cell centre (center)",
+        choices=("real", "center"),
+        manual="Data Mode",
+    )
+
+    def cell_shape(self) -> tuple[float, float]:
+        """Width and height of the filter's cells."""
+        raise NotImplementedError
+
+
 FilterFn = Callable[[np.ndarray, np.ndarray, object], np.ndarray]
+#: A point filter: ``fn(x, y, z, params) -> point marks`` (int32, 0 for ground).
+PointFilterFn = Callable[[np.ndarray, np.ndarray, np.ndarray, object], np.ndarray]
 
 
 @dataclass(frozen=True)
 class FilterSpec:
-    """A registered grid filter."""
+    """A registered filter: a grid filter (``fn`` on a mark matrix) or, when ``on_points``, a
+    point filter (``fn(x, y, z, params)`` returning every point's mark)."""
 
     name: str
     summary: str
     params: type
-    fn: FilterFn
+    fn: Callable
     #: params -> rotation angles in degrees (the manual's Rotate Angle / Rotate Times);
     #: ``None``: the data are filtered once, unrotated.
     rotations: Callable[[object], Sequence[float]] | None = None
+    on_points: bool = False
 
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
@@ -136,15 +161,18 @@ FILTERS: dict[str, FilterSpec] = {}
 
 
 def register_filter(name: str, *, params: type, summary: str,
-                    rotations: Callable[[object], Sequence[float]] | None = None):
-    """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``."""
-    if not (isinstance(params, type) and issubclass(params, GroundParams)):
-        raise TypeError(f"filter {name!r}: params must subclass GroundParams")
+                    rotations: Callable[[object], Sequence[float]] | None = None, on_points: bool = False):
+    """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
+    with ``on_points`` ``fn(x, y, z, params) -> point marks`` as the point filter ``name``."""
+    base = PointFilterParams if on_points else GroundParams
+    if not (isinstance(params, type) and issubclass(params, base)):
+        raise TypeError(f"filter {name!r}: params must subclass {base.__name__}")
 
-    def deco(fn: FilterFn) -> FilterFn:
+    def deco(fn: Callable) -> Callable:
         if name in FILTERS and FILTERS[name].fn is not fn:
             raise ValueError(f"filter {name!r} is registered twice")
-        FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations)
+        FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
+                                   on_points=on_points)
         return fn
 
     return deco
@@ -198,6 +226,8 @@ class FilterResult:
     angles: tuple[float, ...] = (0.0,)
     algorithm: str = ""
     params: object = None
+    #: cell height / width: a point filter with rectangular cells grids y / stretch on square cells
+    y_stretch: float = 1.0
 
     @property
     def cell_index(self) -> np.ndarray:
@@ -221,7 +251,7 @@ class FilterResult:
         xc, yc = g.spec.centers()
         index = g.lowest[real]
         return CenterPoints(
-            x=xc[cc], y=yc[rr], z=g.z[real], index=index,
+            x=xc[cc], y=yc[rr] * self.y_stretch, z=g.z[real], index=index,
             is_ground=self.is_ground[index], marks=self.point_marks[index],
         )
 
@@ -431,6 +461,8 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
         raise ValueError("x, y and z must be 1-D arrays of the same length")
     if len(z) and not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(z).all()):
         raise DataError("points with non-finite coordinates cannot be filtered")
+    if spec.on_points:
+        return _point_filter(spec, x, y, z, params)
     angles = tuple(float(a) for a in spec.rotations(params)) if spec.rotations else (0.0,)
     if not angles:
         angles = (0.0,)
@@ -467,3 +499,21 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
     base_marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
     base_marks[real] = point_marks[base.lowest[real]]
     return FilterResult(point_marks, is_ground, base, base_marks, angles, algorithm, params)
+
+
+def _point_filter(spec: FilterSpec, x, y, z, params) -> FilterResult:
+    """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
+    center`` and the mark matrix): a cell takes the mark of its lowest point."""
+    width, height = params.cell_shape()
+    stretch = height / width
+    base = lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width)
+    if len(z) == 0:
+        point_marks = np.zeros(0, np.int32)
+    else:
+        point_marks = np.asarray(spec.fn(x, y, z, params), dtype=np.int32)
+        if point_marks.shape != z.shape:
+            raise AssertionError(f"filter {spec.name!r} returned {point_marks.shape} marks for {len(z)} points")
+    real = ~base.empty
+    marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
+    marks[real] = point_marks[base.lowest[real]]
+    return FilterResult(point_marks, point_marks == MARK_GROUND, base, marks, (0.0,), spec.name, params, stretch)

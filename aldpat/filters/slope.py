@@ -1,0 +1,143 @@
+"""Maximum local slope (``slope``).
+
+ALDPAT manual (003_*), task 8 "Maximum Local Slope (MLS)" for the parameters (Width, Height,
+Max Z, Min Z, Search Radius, Min Distance, Max Slope) and Appendix "Maximum Local Slope (MLS)
+Filter", eq. (4), after Vosselman (2000): a mesh of ``width`` x ``height`` cells keeps the lowest
+point of each cell (the manual's 2-D array); a point ``p0`` is ground when the largest slope
+``(z0 - zj) / d0j`` from it down to any array element ``pj`` within ``search_radius`` is below
+``max_slope``. Pairs closer than ``min_distance`` are not compared (the manual's Min Distance);
+points outside [Min Z, Max Z] are non-ground.
+
+Choices where the manual is silent:
+
+* every point is tested, not only the array elements, and against the array elements (the
+  lowest point of each cell, the point itself excluded): the other points of a cell are then
+  ground when they lie as the terrain does, not by a separate tolerance;
+* a pair exactly ``search_radius`` apart is compared; a pair exactly ``max_slope`` steep makes the
+  upper point non-ground (eq. 4 keeps ``s0,max < s`` only).
+
+The search is exact and vectorised over the cell grid: neighbouring cells are visited in order
+of their smallest possible distance, and a point leaves the search as soon as it is found
+non-ground or no cell left can be steep enough below it -- its height above the lowest array
+element within reach, divided by ``max_slope``, bounds the distance a steep neighbour can have.
+On terrain most points leave after the first ring of cells.
+
+Marks: 0 ground, 1 non-ground (a steep neighbour or outside [Min Z, Max Z]).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from aldpat._lazy import lazy_import
+from aldpat.core.lowest_grid import lowest_grid
+from aldpat.errors import ParamError
+from aldpat.filters.base import PointFilterParams, register_filter
+from aldpat.params import param
+
+ndimage = lazy_import("scipy.ndimage")
+
+log = logging.getLogger(__name__)
+
+#: Mark of a non-ground point.
+MARK_STEEP = 1
+
+
+@dataclass(frozen=True)
+class SlopeParams(PointFilterParams):
+    width: float = param(1.0, "cell width of the lowest-point mesh", unit="m", gt=0, manual="Width")
+    height: float = param(1.0, "cell height of the lowest-point mesh", unit="m", gt=0, manual="Height")
+    max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
+                                manual="Max Z")
+    min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
+                                manual="Min Z")
+    search_radius: float = param(8.0, "neighbours within this distance are compared", unit="m", gt=0,
+                                 manual="Search Radius")
+    min_distance: float = param(0.5, "pairs closer than this are not compared (a slope over a tiny "
+                                     "distance says nothing)", unit="m", ge=0, manual="Min Distance")
+    max_slope: float = param(0.8, "a point is non-ground when the slope from it down to a neighbour "
+                                  "reaches this", unit="m/m", gt=0, manual="Max Slope")
+
+    def __post_init__(self) -> None:
+        if self.min_z is not None and self.max_z is not None and self.min_z > self.max_z:
+            raise ParamError(f"min_z: {self.min_z:g} is above max_z {self.max_z:g}")
+        if self.min_distance >= self.search_radius:
+            raise ParamError(f"min_distance: {self.min_distance:g} must be below search_radius "
+                             f"{self.search_radius:g}")
+
+    def cell_shape(self) -> tuple[float, float]:
+        return self.width, self.height
+
+
+def _offsets(width: float, height: float, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cell offsets (dr, dc) that can hold a point within ``radius`` of a point of cell (0, 0),
+    with the smallest distance two such points can have, nearest first."""
+    kc = math.ceil(radius / width)
+    kr = math.ceil(radius / height)
+    dr, dc = np.meshgrid(np.arange(-kr, kr + 1), np.arange(-kc, kc + 1), indexing="ij")
+    gap = np.hypot(np.maximum(np.abs(dc) - 1, 0) * width, np.maximum(np.abs(dr) - 1, 0) * height)
+    keep = gap <= radius
+    order = np.argsort(gap[keep], kind="stable")
+    return dr[keep][order], dc[keep][order], gap[keep][order]
+
+
+def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParams) -> np.ndarray:
+    """True for every point with a neighbour of the lowest-point array within ``search_radius``
+    that lies ``max_slope`` or more below it (manual eq. 4)."""
+    p = params
+    n = len(z)
+    grid = lowest_grid(x, y * (p.width / p.height), z, p.width)
+    spec = grid.spec
+    rows, cols = spec.shape
+    flat_lowest = grid.lowest.ravel()
+    ci = grid.cell_index
+    row = ci // cols
+    col = ci % cols
+    # lowest array element within reach of every cell: bounds how far a steep neighbour may be
+    kr, kc = math.ceil(p.search_radius / p.height), math.ceil(p.search_radius / p.width)
+    reach_min = ndimage.minimum_filter(np.where(grid.empty, np.inf, grid.z), size=(2 * kr + 1, 2 * kc + 1),
+                                       mode="constant", cval=np.inf).ravel()
+    steep = np.zeros(n, bool)
+    active = np.flatnonzero(z > reach_min[ci])  # a point at or below every neighbour has no slope down
+    r2_max = p.search_radius ** 2
+    r2_min = p.min_distance ** 2
+    for dr, dc, gap in zip(*_offsets(p.width, p.height, p.search_radius)):
+        if len(active) == 0:
+            break
+        # a neighbour at least ``gap`` away must lie max_slope * gap below: beyond reach_min?
+        still = z[active] - p.max_slope * gap >= reach_min[ci[active]]
+        active = active[still]
+        if len(active) == 0:
+            break
+        r = row[active] + dr
+        c = col[active] + dc
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        idx = active[inside]
+        nb = flat_lowest[r[inside] * cols + c[inside]]
+        has = nb >= 0
+        idx, nb = idx[has], nb[has]
+        d2 = (x[idx] - x[nb]) ** 2 + (y[idx] - y[nb]) ** 2
+        compared = (d2 >= r2_min) & (d2 <= r2_max) & (d2 > 0)
+        drop = z[idx] - z[nb]
+        found = compared & (drop > 0) & (drop * drop >= p.max_slope * p.max_slope * d2)
+        if found.any():
+            steep[idx[found]] = True
+            active = active[~steep[active]]
+    log.debug("slope: %d of %d points have a steep neighbour", int(steep.sum()), n)
+    return steep
+
+
+@register_filter("slope", params=SlopeParams, on_points=True,
+                 summary="maximum local slope (manual appendix MLS; Vosselman 2000)")
+def slope(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParams) -> np.ndarray:
+    """Point marks of the maximum local slope filter (manual appendix MLS, eq. 4)."""
+    non_ground = steep_points(x, y, z, params)
+    if params.min_z is not None:
+        non_ground |= z < params.min_z
+    if params.max_z is not None:
+        non_ground |= z > params.max_z
+    return np.where(non_ground, MARK_STEEP, 0).astype(np.int32)
