@@ -113,6 +113,8 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray) -> np.ndarray:
                 total += comb(a, i) * comb(b, j) * (-un) ** (a - i) * (-vn) ** (b - j) * table[i, j]
         return total
 
+    if sums.degree == 1:
+        return _plane_at_nodes(raw, raw_z, centred)
     terms = _monomials(sums.degree)
     m = len(terms)
     normal = np.empty((len(rr), m, m))
@@ -133,3 +135,23 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray) -> np.ndarray:
         rhs[few, 1:] = 0.0
     coef = np.linalg.solve(normal, rhs[..., None])[..., 0]
     return coef[:, 0]
+
+
+def _plane_at_nodes(raw: dict, raw_z: dict, centred) -> np.ndarray:
+    """The plane's value at each node by Cramer's rule on the 3 x 3 normal equations: no
+    stacked matrices (as many nodes as points at 1 m cells), same answer as the general solve."""
+    n = centred(raw, 0, 0)
+    su, sv = centred(raw, 1, 0), centred(raw, 0, 1)
+    ridge = RIDGE * np.maximum(n, 1.0)
+    suu = centred(raw, 2, 0) + ridge
+    svv = centred(raw, 0, 2) + ridge
+    suv = centred(raw, 1, 1)
+    sz, suz, svz = centred(raw_z, 0, 0), centred(raw_z, 1, 0), centred(raw_z, 0, 1)
+    minor = suu * svv - suv * suv
+    det = n * minor - su * (su * svv - suv * sv) + sv * (su * suv - suu * sv)
+    num = sz * minor - su * (suz * svv - suv * svz) + sv * (suz * suv - suu * svz)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        value = num / det
+    few = (n < 3) | ~np.isfinite(value)  # too few points for a plane: their mean
+    value[few] = sz[few] / np.maximum(n[few], 1e-300)
+    return value

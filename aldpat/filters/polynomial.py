@@ -109,14 +109,18 @@ class IpfParams(PointFilterParams):
 @dataclass(frozen=True)
 class Poly2Params(IpfParams):
     sigma_difference: float = param(
-        0.2, "a rejected candidate is recovered only when the current surface fits the ground points "
+        0.4, "a rejected candidate is recovered only when the current surface fits the ground points "
               "better than the previous one by this much (RMS residual)", unit="m", ge=0,
         manual="Sigma Difference",
     )
+    cell_size: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
+                             manual="Cell Size")
     z_difference: float = param(0.5, "a candidate within this height of the surface joins the ground set",
                                 unit="m", gt=0, manual="Z Difference")
     init_window_length: float = param(40.0, "first moving window: larger than the largest object",
                                       unit="m", gt=0, manual="Init Window Length")
+    outlier_tolerance: float = param(0.8, "at the end, every point within this height of the final "
+                                          "surface is ground", unit="m", gt=0, manual="Outlier Tolerance")
     neighbor_range: int = param(6, "fewest ground points a local fit uses (its window grows until it "
                                     "holds them)", ge=1, manual="Neighbor Range")
     interpolation_window: float = param(10.0, "window in which the two surfaces' fit to the ground "

@@ -212,3 +212,27 @@ def test_gapm_auto_records_what_it_derived(work, tmp_path):
     log = (tmp_path / "samp_gapm.log").read_text()
     assert "derived from the data:" in log and "--auto: cell = 0.75 m" in log
     assert "auto" in log and count_points(tmp_path / "samp_gapm.txt") > 0
+
+
+def test_worksheet_runs_the_manuals_point_filters_with_their_parameter_files(tmp_path):
+    """slope, ipf, poly2 and atin as worksheet jobs with jobs/params/<algo>.toml, then evaluated."""
+    work = tmp_path / "jobs"
+    shutil.copytree(DATA, work / "data")
+    shutil.copytree(DATA.parent / "params", work / "params")
+    jobs = "".join(
+        f'[[job]]\ntask = "filter"\nalgorithm = "{algo}"\ninputs = ["data/samp24.txt"]\n'
+        f'odir = "out"\nparams = "params/{algo}.toml"\nresult = "classified"\nmarks = true\n\n'
+        for algo in ("slope", "ipf", "poly2", "atin")
+    )
+    (work / "points.toml").write_text(jobs)
+    done = aldpat("run", work / "points.toml", cwd=tmp_path).ok()
+    assert "Failed" not in done.stderr
+    n = count_points(work / "data" / "samp24.txt")
+    for algo in ("slope", "ipf", "poly2", "atin"):
+        out = work / "out" / f"samp24_{algo}.txt"
+        assert count_points(out) == n
+        table = np.loadtxt(out)
+        mark, cls = table[:, -2], table[:, -1]
+        assert set(np.unique(cls)) == {1.0, 2.0} and np.array_equal(mark == 0, cls == 2)
+        log = (work / "out" / f"samp24_{algo}.log").read_text()
+        assert "(params file)" in log

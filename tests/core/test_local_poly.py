@@ -1,0 +1,53 @@
+"""Local polynomial surfaces (the polynomial filters' interpolation) on known surfaces."""
+
+import numpy as np
+import pytest
+
+from aldpat.core.local_poly import PointSums, fit_surface
+from aldpat.core.lowest_grid import GridSpec
+
+SPEC = GridSpec(100.0, 200.0, 2.0, 20, 25)  # 50 x 40 m of 2 m nodes, not at the origin
+
+
+def _points(n=3000, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(100.0, 150.0, n), rng.uniform(200.0, 240.0, n)
+
+
+def _nodes():
+    xc, yc = SPEC.centers()
+    return np.meshgrid(xc, yc)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_a_plane_is_reproduced_at_every_node(degree):
+    x, y = _points()
+    z = 5.0 + 0.1 * x - 0.05 * y
+    surface = fit_surface(PointSums(SPEC, x, y, z, degree), 2)
+    xn, yn = _nodes()
+    assert np.allclose(surface, 5.0 + 0.1 * xn - 0.05 * yn, atol=1e-4)
+
+
+def test_a_quadratic_needs_degree_two():
+    x, y = _points()
+    z = 0.01 * (x - 125.0) ** 2 + 0.02 * (x - 125.0) * (y - 220.0)
+    xn, yn = _nodes()
+    truth = 0.01 * (xn - 125.0) ** 2 + 0.02 * (xn - 125.0) * (yn - 220.0)
+    assert np.allclose(fit_surface(PointSums(SPEC, x, y, z, 2), 2), truth, atol=1e-3)
+    assert not np.allclose(fit_surface(PointSums(SPEC, x, y, z, 1), 2), truth, atol=0.05)
+
+
+def test_sparse_windows_grow_and_a_lone_point_gives_its_height():
+    # three points far apart: every node's window must grow to reach them; one point alone -> mean
+    x = np.array([101.0, 148.0, 120.0])
+    y = np.array([201.0, 201.0, 238.0])
+    z = np.array([1.0, 2.0, 3.0])
+    surface = fit_surface(PointSums(SPEC, x, y, z, 1), 1, min_points=3)
+    assert np.isfinite(surface).all()
+    one = fit_surface(PointSums(SPEC, x[:1], y[:1], z[:1], 1), 1)
+    assert np.allclose(one, 1.0)
+
+
+def test_no_points_is_all_nan():
+    empty = np.zeros(0)
+    assert np.isnan(fit_surface(PointSums(SPEC, empty, empty, empty, 1), 1)).all()
