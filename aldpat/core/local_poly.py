@@ -25,6 +25,8 @@ from aldpat.core.lowest_grid import GridSpec, fill_nearest
 
 ndimage = lazy_import("scipy.ndimage")
 
+#: Nodes solved per band of rows (bounds the window sums held at once).
+BAND_CELLS = 1 << 20
 #: How many times a window may double to reach ``min_points``.
 MAX_GROWTH = 4
 #: Ridge added to the slope and curvature terms (relative to the point count): a window whose
@@ -45,16 +47,16 @@ def _box_sum(a: np.ndarray, k: int) -> np.ndarray:
 
 
 class PointSums:
-    """Per-cell sums of the powers of a point set's position (in cells), ready to fit."""
+    """Sums of the powers of a point set's position (in cells) per cell, ready to fit.
+
+    Built from any points (``PointSums(spec, x, y, z, degree)``: every sum held as a grid), or
+    from at most one point per cell (:meth:`one_per_cell`: the points' grids are held and the
+    sums of a band of rows are formed when it is solved -- four grids instead of nine).
+    """
 
     def __init__(self, spec: GridSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, degree: int):
-        if degree not in (1, 2):
-            raise ValueError(f"degree must be 1 or 2, got {degree}")
-        self.spec = spec
-        self.degree = degree
+        self._start(spec, degree)
         rows, cols = spec.shape
-        # position in cells about the grid's centre: keeps the powers small for the binomial shift
-        self.u0, self.v0 = cols / 2.0, rows / 2.0
         u = (x - spec.x0) / spec.cell - 0.5 - self.u0
         v = (y - spec.y0) / spec.cell - 0.5 - self.v0
         col = np.clip(np.floor(u + self.u0 + 0.5).astype(np.int64), 0, cols - 1)
@@ -68,6 +70,45 @@ class PointSums:
             self.moments[i, j] = np.bincount(flat, weights=w, minlength=size).reshape(rows, cols)
             if i + j <= degree:
                 self.z_moments[i, j] = np.bincount(flat, weights=w * z, minlength=size).reshape(rows, cols)
+        self._cells: tuple[np.ndarray, ...] | None = None
+
+    def _start(self, spec: GridSpec, degree: int) -> None:
+        if degree not in (1, 2):
+            raise ValueError(f"degree must be 1 or 2, got {degree}")
+        self.spec = spec
+        self.degree = degree
+        rows, cols = spec.shape
+        # position in cells about the grid's centre: keeps the powers small for the binomial shift
+        self.u0, self.v0 = cols / 2.0, rows / 2.0
+
+    @classmethod
+    def one_per_cell(cls, spec: GridSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray,
+                     degree: int) -> PointSums:
+        """Sums of the points ``x[r, c], y[r, c], z[r, c]`` of the cells where ``has``."""
+        self = cls.__new__(cls)
+        self._start(spec, degree)
+        u = np.where(has, (x - spec.x0) / spec.cell - 0.5 - self.u0, 0.0)
+        v = np.where(has, (y - spec.y0) / spec.cell - 0.5 - self.v0, 0.0)
+        self._cells = (u, v, np.where(has, z, 0.0), has.astype(np.float64))
+        return self
+
+    def count(self) -> np.ndarray:
+        """Points per cell."""
+        return self._cells[3] if self._cells is not None else self.moments[0, 0]
+
+    def band(self, lo: int, hi: int) -> tuple[dict, dict]:
+        """The sums of rows lo to hi: powers of position, and the same times z."""
+        if self._cells is None:
+            return ({key: m[lo:hi] for key, m in self.moments.items()},
+                    {key: m[lo:hi] for key, m in self.z_moments.items()})
+        u, v, z, w = (a[lo:hi] for a in self._cells)
+        moments, z_moments = {}, {}
+        for i, j in _monomials(2 * self.degree):
+            t = w * u ** i * v ** j
+            moments[i, j] = t
+            if i + j <= self.degree:
+                z_moments[i, j] = t * z
+        return moments, z_moments
 
 
 def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
@@ -77,7 +118,7 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
     rows, cols = spec.shape
     out = np.full((rows, cols), np.nan)
     todo = np.ones((rows, cols), bool)
-    count_all = sums.moments[0, 0]
+    count_all = sums.count()
     if not count_all.any():
         return out
     k = max(int(k), 0)
@@ -85,9 +126,13 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
         last = growth == MAX_GROWTH
         count = _box_sum(count_all, k)
         ready = todo & (count >= (1 if last else min_points))
-        if ready.any():
-            out[ready] = _solve_nodes(sums, k, ready)
-            todo &= ~ready
+        # in bands of rows, so that the window sums of every moment are held for a band only
+        band = max(64, BAND_CELLS // max(cols, 1))
+        for r0 in range(0, rows, band):
+            r1 = min(rows, r0 + band)
+            if ready[r0:r1].any():
+                out[r0:r1][ready[r0:r1]] = _solve_nodes(sums, k, ready, r0, r1)
+        todo &= ~ready
         if not todo.any():
             break
         k = max(2 * k, 1)
@@ -96,14 +141,20 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
     return out
 
 
-def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray) -> np.ndarray:
-    """Fitted value at the chosen nodes, each from the window of ``k`` cells around it."""
-    rr, cc = np.nonzero(nodes)
+def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -> np.ndarray:
+    """Fitted value at the chosen nodes of rows r0 to r1, each from the window of ``k`` cells
+    around it (row-major order, as ``nodes[r0:r1]`` lists them)."""
+    rows = nodes.shape[0]
+    lo, hi = max(0, r0 - k), min(rows, r1 + k)  # the rows the band's windows reach
+    rr, cc = np.nonzero(nodes[r0:r1])
+    at = rr + (r0 - lo)
     # node position in the same centred cell units as the point sums
     un = cc - sums.u0
-    vn = rr - sums.v0
-    raw = {key: _box_sum(m, k)[rr, cc] for key, m in sums.moments.items()}
-    raw_z = {key: _box_sum(m, k)[rr, cc] for key, m in sums.z_moments.items()}
+    vn = rr + r0 - sums.v0
+    moments, z_moments = sums.band(lo, hi)
+    raw = {key: _box_sum(m, k)[at, cc] for key, m in moments.items()}
+    raw_z = {key: _box_sum(m, k)[at, cc] for key, m in z_moments.items()}
+    del moments, z_moments
 
     def centred(table: dict, a: int, b: int) -> np.ndarray:
         # sum (u - un)^a (v - vn)^b w = sum_i sum_j C(a,i) C(b,j) (-un)^(a-i) (-vn)^(b-j) S_ij

@@ -504,15 +504,16 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
 def _point_filter(spec: FilterSpec, x, y, z, params) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
-    width, height = params.cell_shape()
-    stretch = height / width
-    base = lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width)
     if len(z) == 0:
         point_marks = np.zeros(0, np.int32)
     else:
         point_marks = np.asarray(spec.fn(x, y, z, params), dtype=np.int32)
         if point_marks.shape != z.shape:
             raise AssertionError(f"filter {spec.name!r} returned {point_marks.shape} marks for {len(z)} points")
+    # gridded after the filter, whose own grids are gone by then (peak memory)
+    width, height = params.cell_shape()
+    stretch = height / width
+    base = lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width)
     real = ~base.empty
     marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
     marks[real] = point_marks[base.lowest[real]]

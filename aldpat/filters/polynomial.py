@@ -171,7 +171,7 @@ class _Ground:
 
     def surface(self, cells: np.ndarray, k: int) -> np.ndarray:
         p = self.params
-        sums = PointSums(self.grid.spec, self.cell_x[cells], self.cell_y[cells], self.grid.z[cells], p.degree)
+        sums = PointSums.one_per_cell(self.grid.spec, self.cell_x, self.cell_y, self.grid.z, cells, p.degree)
         return fit_surface(sums, max(k, 1), min_points=p.min_points)
 
 

@@ -51,3 +51,35 @@ def test_sparse_windows_grow_and_a_lone_point_gives_its_height():
 def test_no_points_is_all_nan():
     empty = np.zeros(0)
     assert np.isnan(fit_surface(PointSums(SPEC, empty, empty, empty, 1), 1)).all()
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_bands_of_rows_give_the_answer_of_one_band(monkeypatch, degree):
+    import aldpat.core.local_poly as local_poly
+
+    spec = GridSpec(0.0, 0.0, 1.0, 150, 40)
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0, 40, 4000), rng.uniform(0, 150, 4000)
+    z = np.sin(x / 7.0) + np.cos(y / 11.0) + rng.normal(0, 0.1, x.size)
+    whole = fit_surface(PointSums(spec, x, y, z, degree), 5)
+    monkeypatch.setattr(local_poly, "BAND_CELLS", 1)  # bands of 64 rows: the windows cross them
+    banded = fit_surface(PointSums(spec, x, y, z, degree), 5)
+    # the same sums in another order (the box filter runs over a slice): rounding only
+    assert np.allclose(banded, whole, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_one_point_per_cell_gives_the_sums_of_those_points(degree):
+    spec = GridSpec(0.0, 0.0, 1.0, 90, 30)
+    rng = np.random.default_rng(4)
+    rows, cols = spec.shape
+    has = rng.random((rows, cols)) < 0.6
+    r, c = np.nonzero(has)
+    x = np.zeros((rows, cols))
+    y = np.zeros((rows, cols))
+    x[has] = c + rng.random(len(c))
+    y[has] = r + rng.random(len(r))
+    z = np.where(has, np.sin(x / 5.0) + 0.1 * y, np.nan)
+    scattered = fit_surface(PointSums(spec, x[has], y[has], z[has], degree), 3)
+    per_cell = fit_surface(PointSums.one_per_cell(spec, x, y, z, has, degree), 3)
+    assert np.allclose(per_cell, scattered, rtol=0, atol=1e-7)
