@@ -36,18 +36,18 @@ REPO = Path(__file__).resolve().parents[1]
 #: Candidate values per filter; everything else stays at the filter's default.
 CANDIDATES: dict[str, dict[str, tuple]] = {
     "slope": {
-        "width": (1.0, 2.0),
+        "cell": (1.0, 2.0),
         "search_radius": (5.0, 8.0, 12.0),
         "max_slope": (0.3, 0.45, 0.6, 0.8, 1.0),
     },
     "ipf": {
-        "cell_size": (1.0, 2.0),
+        "cell": (1.0, 2.0),
         "z_difference": (0.3, 0.5, 1.0),
         "outlier_tolerance": (0.3, 0.4, 0.6),
         "init_window_length": (30.0, 60.0),
     },
     "poly2": {
-        "cell_size": (1.0, 2.0),
+        "cell": (1.0, 2.0),
         "z_difference": (0.3, 0.5),
         "sigma_difference": (0.2, 0.4),
         "outlier_tolerance": (0.4, 0.6, 0.8),

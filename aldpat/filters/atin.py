@@ -4,7 +4,7 @@ ALDPAT manual (003_*), task 8 "Adaptive TIN (ATIN)" for the parameters (Cell Siz
 Angle Threshold, Init TriGrid Size, Tile X Width, Tile Y Height, Tile Buffer) and Appendix
 "Adaptive TIN (ATIN) Filter" (Fig. 16), after Axelsson (2000):
 
-1. the lowest point of each cell of ``cell_size`` is a candidate (the manual's parsing grid);
+1. the lowest point of each cell of ``cell`` is a candidate (the manual's parsing grid);
 2. the lowest candidate of each square of ``init_trigrid_size`` -- larger than the largest
    object -- is a seed; the seeds are triangulated (Delaunay);
 3. a candidate is added to the ground set when its distance to the plane of the triangle below
@@ -65,7 +65,7 @@ MAX_ROUNDS = 50
 
 @dataclass(frozen=True)
 class AtinParams(PointFilterParams):
-    cell_size: float = param(1.0, "parsing grid: the lowest point of each cell is a candidate", unit="m",
+    cell: float = param(1.0, "parsing grid: the lowest point of each cell is a candidate", unit="m",
                              gt=0, manual="Cell Size")
     z_difference: float = param(0.5, "a candidate closer than this to the plane of the triangle below it "
                                      "is added", unit="m", gt=0, manual="Z difference")
@@ -87,7 +87,7 @@ class AtinParams(PointFilterParams):
                                "passes (steep terrain, manual Fig. 16)")
 
     def cell_shape(self) -> tuple[float, float]:
-        return self.cell_size, self.cell_size
+        return self.cell, self.cell
 
 
 class _Tin:
@@ -260,7 +260,7 @@ class _Buckets:
 def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams) -> np.ndarray:
     """Point marks of the adaptive TIN filter (manual appendix ATIN, Fig. 16)."""
     p = params
-    grid = lowest_grid(x, y, z, p.cell_size)
+    grid = lowest_grid(x, y, z, p.cell)
     cand = grid.lowest[~grid.empty]
     cand = cand[np.argsort(grid.cell_index[cand], kind="stable")]  # row-major: qhull likes locality
     cx, cy, cz = x[cand], y[cand], z[cand]

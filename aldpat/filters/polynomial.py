@@ -4,7 +4,7 @@ ALDPAT manual (003_*), task 8 "Iterative Polynomial Fitting (IPF)" and "Polynomi
 Filter" for the parameters, Appendix "Iterative Polynomial Fitting (IPF) Filter" (Figs. 14, 15)
 for the method:
 
-1. nodes every ``cell_size``; the lowest point within a window of ``init_window_length``
+1. nodes every ``cell``; the lowest point within a window of ``init_window_length``
    centred on each node is a seed: the seeds are the first ground set;
 2. the window shrinks through ``window_series`` (default: halving, ``window_series_length`` =
    floor(log2(init window) - log2(1)) + 1, the manual's formula with a smallest window of 1 m);
@@ -62,7 +62,7 @@ _CHUNK = 1 << 21
 
 @dataclass(frozen=True)
 class IpfParams(PointFilterParams):
-    cell_size: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
+    cell: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
                              manual="Cell Size")
     z_difference: float = param(1.0, "a candidate within this height of the surface joins the ground set",
                                 unit="m", gt=0, manual="Z Difference")
@@ -85,7 +85,7 @@ class IpfParams(PointFilterParams):
             raise ParamError(f"window_series: must not grow, got {list(series)}")
 
     def cell_shape(self) -> tuple[float, float]:
-        return self.cell_size, self.cell_size
+        return self.cell, self.cell
 
     def windows(self) -> tuple[float, ...]:
         """The window lengths, first (seed) window included."""
@@ -113,7 +113,7 @@ class Poly2Params(IpfParams):
               "better than the previous one by this much (RMS residual)", unit="m", ge=0,
         manual="Sigma Difference",
     )
-    cell_size: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
+    cell: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
                              manual="Cell Size")
     z_difference: float = param(0.5, "a candidate within this height of the surface joins the ground set",
                                 unit="m", gt=0, manual="Z Difference")
@@ -189,10 +189,10 @@ def polynomial_marks(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: IpfPar
                      ) -> np.ndarray:
     """Point marks of ``ipf`` (``recover=False``) or ``poly2`` (``recover=True``)."""
     p = params
-    grid = lowest_grid(x, y, z, p.cell_size)
+    grid = lowest_grid(x, y, z, p.cell)
     zinf = np.where(grid.empty, np.inf, grid.z)
     ground_set = _Ground(grid, x, y, z, p)
-    ks = [half_window(w, p.cell_size) for w in p.windows()]
+    ks = [half_window(w, p.cell) for w in p.windows()]
     ground = _candidates(zinf, ks[0])
     log.debug("%s: %d seed cells (window %d cells)", "poly2" if recover else "ipf", int(ground.sum()),
               2 * ks[0] + 1)
@@ -204,7 +204,7 @@ def polynomial_marks(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: IpfPar
             rejected = cand & ~near
             if rejected.any():
                 current = ground_set.surface(ground | cand, prev_k)
-                kw = half_window(p.interpolation_window, p.cell_size)
+                kw = half_window(p.interpolation_window, p.cell)
                 with np.errstate(invalid="ignore"):  # nodes without ground on either side: NaN, not better
                     better = (_rms_residual(ground, grid.z, surface, kw)
                               - _rms_residual(ground, grid.z, current, kw)) >= p.sigma_difference

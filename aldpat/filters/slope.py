@@ -2,7 +2,7 @@
 
 ALDPAT manual (003_*), task 8 "Maximum Local Slope (MLS)" for the parameters (Width, Height,
 Max Z, Min Z, Search Radius, Min Distance, Max Slope) and Appendix "Maximum Local Slope (MLS)
-Filter", eq. (4), after Vosselman (2000): a mesh of ``width`` x ``height`` cells keeps the lowest
+Filter", eq. (4), after Vosselman (2000): a mesh of ``cell`` x ``height`` cells keeps the lowest
 point of each cell (the manual's 2-D array); a point ``p0`` is ground when the largest slope
 ``(z0 - zj) / d0j`` from it down to any array element ``pj`` within ``search_radius`` is below
 ``max_slope``. Pairs closer than ``min_distance`` are not compared (the manual's Min Distance);
@@ -49,8 +49,9 @@ MARK_STEEP = 1
 
 @dataclass(frozen=True)
 class SlopeParams(PointFilterParams):
-    width: float = param(1.0, "cell width of the lowest-point mesh", unit="m", gt=0, manual="Width")
-    height: float = param(1.0, "cell height of the lowest-point mesh", unit="m", gt=0, manual="Height")
+    cell: float = param(1.0, "cell width of the lowest-point mesh", unit="m", gt=0, manual="Width")
+    height: float | None = param(None, "cell height of the lowest-point mesh (none: square cells of cell)",
+                                 unit="m", gt=0, manual="Height")
     max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
                                 manual="Max Z")
     min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
@@ -70,7 +71,7 @@ class SlopeParams(PointFilterParams):
                              f"{self.search_radius:g}")
 
     def cell_shape(self) -> tuple[float, float]:
-        return self.width, self.height
+        return self.cell, self.height if self.height is not None else self.cell
 
 
 def _offsets(width: float, height: float, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -90,7 +91,8 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParam
     that lies ``max_slope`` or more below it (manual eq. 4)."""
     p = params
     n = len(z)
-    grid = lowest_grid(x, y * (p.width / p.height), z, p.width)
+    width, height = p.cell_shape()
+    grid = lowest_grid(x, y * (width / height), z, width)
     spec = grid.spec
     rows, cols = spec.shape
     flat_lowest = grid.lowest.ravel()
@@ -98,14 +100,14 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParam
     row = ci // cols
     col = ci % cols
     # lowest array element within reach of every cell: bounds how far a steep neighbour may be
-    kr, kc = math.ceil(p.search_radius / p.height), math.ceil(p.search_radius / p.width)
+    kr, kc = math.ceil(p.search_radius / height), math.ceil(p.search_radius / width)
     reach_min = ndimage.minimum_filter(np.where(grid.empty, np.inf, grid.z), size=(2 * kr + 1, 2 * kc + 1),
                                        mode="constant", cval=np.inf).ravel()
     steep = np.zeros(n, bool)
     active = np.flatnonzero(z > reach_min[ci])  # a point at or below every neighbour has no slope down
     r2_max = p.search_radius ** 2
     r2_min = p.min_distance ** 2
-    for dr, dc, gap in zip(*_offsets(p.width, p.height, p.search_radius)):
+    for dr, dc, gap in zip(*_offsets(width, height, p.search_radius)):
         if len(active) == 0:
             break
         # a neighbour at least ``gap`` away must lie max_slope * gap below: beyond reach_min?
