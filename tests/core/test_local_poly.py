@@ -55,7 +55,7 @@ def test_no_points_is_all_nan():
 
 @pytest.mark.parametrize("degree", [1, 2])
 def test_bands_of_rows_give_the_answer_of_one_band(monkeypatch, degree):
-    import aldpat.core.local_poly as local_poly
+    from aldpat.core import local_poly
 
     spec = GridSpec(0.0, 0.0, 1.0, 150, 40)
     rng = np.random.default_rng(3)
