@@ -8,8 +8,9 @@ there.
 
 Vectorised over nodes: the sums ``sum u^i v^j`` and ``sum z u^i v^j`` of the points (``u``,
 ``v``: position in cells) are accumulated per cell, summed over every window by a box filter,
-and moved to each node's own origin by the binomial theorem, so that each node's normal
-equations are solved in one batched call. Nodes whose window holds fewer than ``min_points``
+and moved to each node's own origin by the binomial theorem, one band of rows at a time; each
+node's normal equations are then solved at once for the band (Cramer's rule for planes, one
+batched solve for quadratics). Nodes whose window holds fewer than ``min_points``
 points take a window twice as wide, then four times ... (up to ``MAX_GROWTH`` doublings); a node
 still short of points takes the nearest fitted node's value.
 """
@@ -122,12 +123,12 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
     if not count_all.any():
         return out
     k = max(int(k), 0)
+    # in bands of rows, so that the window sums of every moment are held for a band only
+    band = max(64, BAND_CELLS // max(cols, 1))
     for growth in range(MAX_GROWTH + 1):
         last = growth == MAX_GROWTH
         count = _box_sum(count_all, k)
         ready = todo & (count >= (1 if last else min_points))
-        # in bands of rows, so that the window sums of every moment are held for a band only
-        band = max(64, BAND_CELLS // max(cols, 1))
         for r0 in range(0, rows, band):
             r1 = min(rows, r0 + band)
             if ready[r0:r1].any():

@@ -123,12 +123,13 @@ def _blend(grid: np.ndarray, corners: tuple) -> np.ndarray:
 
 def within_surface(x: np.ndarray, y: np.ndarray, z: np.ndarray, surface: np.ndarray, spec: GridSpec, *,
                    threshold: float, slope_scalar: float) -> np.ndarray:
-    """True where ``|z - surface| <= threshold + slope_scalar * slope`` at the point."""
-    slope = slope_of(surface, spec.cell)
+    """True where ``|z - surface| <= threshold + slope_scalar * slope`` at the point (a fixed
+    tolerance when ``slope_scalar`` is 0)."""
+    slope = slope_of(surface, spec.cell) if slope_scalar else None
     out = np.empty(len(z), bool)
     for a in range(0, len(z), _CHUNK):
         b = min(len(z), a + _CHUNK)
         corners = _corners(surface.shape, spec, x[a:b], y[a:b])  # once for both grids
         h = np.abs(z[a:b] - _blend(surface, corners))
-        out[a:b] = h <= threshold + slope_scalar * _blend(slope, corners)
+        out[a:b] = h <= (threshold if slope is None else threshold + slope_scalar * _blend(slope, corners))
     return out

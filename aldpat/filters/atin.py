@@ -32,8 +32,8 @@ Choices where the manual is silent:
   latter lowers the mean total error from 6.9 to 6.3 % but needs about 25 times as many TIN
   rebuilds, so it is an option;
 * the TIN's corners are held by four virtual points at the corners of the buffered rectangle,
-  at the height of the nearest seed, so candidates outside the seeds' hull have a triangle too;
-  virtual points are never output;
+  each at the height of the ground point nearest to it in that round, so candidates outside the
+  ground set's hull have a triangle too; virtual points are never output;
 * a point that is not the lowest of its cell is ground when it passes the same distance and
   angle test against the final TIN (nothing is added for it).
 
@@ -49,7 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat._lazy import lazy_import
-from aldpat.core.lowest_grid import lowest_grid
+from aldpat.core.lowest_grid import LowestGrid, lowest_grid
 from aldpat.filters.base import PointFilterParams, register_filter
 from aldpat.params import param
 
@@ -211,7 +211,7 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
     tin = None
     for _ in range(MAX_ROUNDS):
         gi = np.flatnonzero(ground)
-        # virtual corners at the height of the nearest seed (ground point)
+        # virtual corners at the height of the nearest ground point
         near = np.argmin((x[gi][None, :] - corners_x[:, None]) ** 2 + (y[gi][None, :] - corners_y[:, None]) ** 2,
                          axis=1)
         px = np.concatenate([x[gi], corners_x])
@@ -257,10 +257,10 @@ class _Buckets:
 
 @register_filter("atin", params=AtinParams, on_points=True,
                  summary="adaptive TIN densification (manual appendix ATIN; Axelsson 2000)")
-def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams) -> np.ndarray:
-    """Point marks of the adaptive TIN filter (manual appendix ATIN, Fig. 16)."""
+def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: AtinParams) -> np.ndarray:
+    """Point marks of the adaptive TIN filter (manual appendix ATIN, Fig. 16); ``grid`` holds the
+    lowest point of each ``cell`` (the candidates)."""
     p = params
-    grid = lowest_grid(x, y, z, p.cell)
     cand = grid.lowest[~grid.empty]
     cand = cand[np.argsort(grid.cell_index[cand], kind="stable")]  # row-major: qhull likes locality
     cx, cy, cz = x[cand], y[cand], z[cand]
@@ -268,6 +268,7 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams) -> np.
     is_cand[cand] = True
     others = np.flatnonzero(~is_cand)
     marks = np.full(len(z), MARK_OFF_TIN, np.int32)
+    ground = np.zeros(len(cz), bool)  # one rectangle's ground candidates at a time
     w, h, buf = p.tile_x_width, p.tile_y_height, p.tile_buffer
     c0, r0 = math.floor(float(x.min()) / w), math.floor(float(y.min()) / h)
     cols = math.floor(float(x.max()) / w) - c0 + 1
@@ -287,9 +288,9 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams) -> np.
             keep = (cx[near] >= rx0 - buf) & (cx[near] < rx1 + buf) & (cy[near] >= ry0 - buf) & (cy[near] < ry1 + buf)
             sel = near[keep]
             g, tin = densify(cx[sel], cy[sel], cz[sel], p, (rx0 - buf, ry0 - buf, rx1 + buf, ry1 + buf))
-            ground = np.zeros(len(cz), bool)
             ground[sel[g]] = True
             marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_OFF_TIN)
+            ground[sel] = False
             mine = others[other_buckets.take(r, r, c, c)]
             if len(mine) and tin is not None:
                 ok = _passes(tin, x[mine], y[mine], z[mine], p)

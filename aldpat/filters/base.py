@@ -137,19 +137,20 @@ class PointFilterParams:
 
 
 FilterFn = Callable[[np.ndarray, np.ndarray, object], np.ndarray]
-#: A point filter: ``fn(x, y, z, params) -> point marks`` (int32, 0 for ground).
-PointFilterFn = Callable[[np.ndarray, np.ndarray, np.ndarray, object], np.ndarray]
+#: A point filter: ``fn(x, y, z, grid, params) -> point marks`` (int32, 0 for ground); ``grid`` is
+#: the lowest-point grid of the filter's own cells (:func:`cell_grid`).
+PointFilterFn = Callable[[np.ndarray, np.ndarray, np.ndarray, LowestGrid, object], np.ndarray]
 
 
 @dataclass(frozen=True)
 class FilterSpec:
     """A registered filter: a grid filter (``fn`` on a mark matrix) or, when ``on_points``, a
-    point filter (``fn(x, y, z, params)`` returning every point's mark)."""
+    point filter (``fn(x, y, z, grid, params)`` returning every point's mark)."""
 
     name: str
     summary: str
     params: type
-    fn: Callable
+    fn: FilterFn | PointFilterFn
     #: params -> rotation angles in degrees (the manual's Rotate Angle / Rotate Times);
     #: ``None``: the data are filtered once, unrotated.
     rotations: Callable[[object], Sequence[float]] | None = None
@@ -163,7 +164,7 @@ FILTERS: dict[str, FilterSpec] = {}
 def register_filter(name: str, *, params: type, summary: str,
                     rotations: Callable[[object], Sequence[float]] | None = None, on_points: bool = False):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
-    with ``on_points`` ``fn(x, y, z, params) -> point marks`` as the point filter ``name``."""
+    with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
     if not (isinstance(params, type) and issubclass(params, base)):
         raise TypeError(f"filter {name!r}: params must subclass {base.__name__}")
@@ -495,26 +496,36 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
         is_ground[set_aside] = False
         point_marks[set_aside] = MARK_LOW_OUTLIER
     # the mark matrix reported is that of the axis-aligned grid
-    real = ~base.empty
-    base_marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
-    base_marks[real] = point_marks[base.lowest[real]]
-    return FilterResult(point_marks, is_ground, base, base_marks, angles, algorithm, params)
+    return FilterResult(point_marks, is_ground, base, _cell_marks(base, point_marks), angles, algorithm, params)
+
+
+def _cell_marks(grid: LowestGrid, point_marks: np.ndarray) -> np.ndarray:
+    """Mark matrix of a grid: each cell the mark of its lowest point, empty cells interpolated."""
+    real = ~grid.empty
+    marks = np.full(grid.z.shape, MARK_INTERPOLATED, np.int32)
+    marks[real] = point_marks[grid.lowest[real]]
+    return marks
+
+
+def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params) -> LowestGrid:
+    """The lowest point of each of a point filter's cells (``params.cell_shape()``). Rectangular
+    cells are square cells of the width over y divided by height / width (the result's
+    ``y_stretch``), so every grid tool applies unchanged."""
+    width, height = params.cell_shape()
+    stretch = height / width
+    return lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width)
 
 
 def _point_filter(spec: FilterSpec, x, y, z, params) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
+    grid = cell_grid(x, y, z, params)  # the filter's own grid: gridded once, for it and the report
     if len(z) == 0:
         point_marks = np.zeros(0, np.int32)
     else:
-        point_marks = np.asarray(spec.fn(x, y, z, params), dtype=np.int32)
+        point_marks = np.asarray(spec.fn(x, y, z, grid, params), dtype=np.int32)
         if point_marks.shape != z.shape:
             raise AssertionError(f"filter {spec.name!r} returned {point_marks.shape} marks for {len(z)} points")
-    # gridded after the filter, whose own grids are gone by then (peak memory)
     width, height = params.cell_shape()
-    stretch = height / width
-    base = lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width)
-    real = ~base.empty
-    marks = np.full(base.z.shape, MARK_INTERPOLATED, np.int32)
-    marks[real] = point_marks[base.lowest[real]]
-    return FilterResult(point_marks, point_marks == MARK_GROUND, base, marks, (0.0,), spec.name, params, stretch)
+    return FilterResult(point_marks, point_marks == MARK_GROUND, grid, _cell_marks(grid, point_marks), (0.0,),
+                        spec.name, params, height / width)

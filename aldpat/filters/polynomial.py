@@ -44,8 +44,8 @@ import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.local_poly import PointSums, fit_surface
-from aldpat.core.lowest_grid import LowestGrid, lowest_grid
-from aldpat.core.surface_test import bilinear
+from aldpat.core.lowest_grid import LowestGrid
+from aldpat.core.surface_test import within_surface
 from aldpat.errors import ParamError
 from aldpat.filters.base import PointFilterParams, register_filter
 from aldpat.params import param
@@ -56,8 +56,6 @@ log = logging.getLogger(__name__)
 
 #: Mark of a non-ground point.
 MARK_OFF_SURFACE = 1
-#: Points classified per block against the final surface (bounds temporaries).
-_CHUNK = 1 << 21
 
 
 @dataclass(frozen=True)
@@ -159,9 +157,8 @@ def _candidates(zinf: np.ndarray, k: int) -> np.ndarray:
 class _Ground:
     """The ground set as cells of the node grid (a cell's lowest point), with its surface."""
 
-    def __init__(self, grid: LowestGrid, x, y, z, params: IpfParams):
+    def __init__(self, grid: LowestGrid, x, y, params: IpfParams):
         self.grid = grid
-        self.x, self.y, self.z = x, y, z
         self.params = params
         self.cell_x = np.zeros(grid.z.shape)
         self.cell_y = np.zeros(grid.z.shape)
@@ -185,26 +182,25 @@ def _rms_residual(ground: np.ndarray, z: np.ndarray, surface: np.ndarray, k: int
         return np.sqrt(s / n)
 
 
-def polynomial_marks(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: IpfParams, *, recover: bool
+def polynomial_marks(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: IpfParams
                      ) -> np.ndarray:
-    """Point marks of ``ipf`` (``recover=False``) or ``poly2`` (``recover=True``)."""
+    """Point marks of ``ipf``, or of ``poly2`` (the recovery of Fig. 15) for :class:`Poly2Params`;
+    ``grid`` holds the lowest point of each node's cell."""
     p = params
-    grid = lowest_grid(x, y, z, p.cell)
     zinf = np.where(grid.empty, np.inf, grid.z)
-    ground_set = _Ground(grid, x, y, z, p)
+    ground_set = _Ground(grid, x, y, p)
     ks = [half_window(w, p.cell) for w in p.windows()]
+    kw = half_window(p.interpolation_window, p.cell) if isinstance(p, Poly2Params) else 0
     ground = _candidates(zinf, ks[0])
-    log.debug("%s: %d seed cells (window %d cells)", "poly2" if recover else "ipf", int(ground.sum()),
-              2 * ks[0] + 1)
+    log.debug("%d seed cells (window %d cells)", int(ground.sum()), 2 * ks[0] + 1)
     surface = ground_set.surface(ground, ks[0])
     for prev_k, k in itertools.pairwise(ks):
         cand = _candidates(zinf, k) & ~ground
         near = cand & (np.abs(grid.z - surface) <= p.z_difference)
-        if recover and isinstance(p, Poly2Params):
+        if isinstance(p, Poly2Params):
             rejected = cand & ~near
             if rejected.any():
                 current = ground_set.surface(ground | cand, prev_k)
-                kw = half_window(p.interpolation_window, p.cell)
                 with np.errstate(invalid="ignore"):  # nodes without ground on either side: NaN, not better
                     better = (_rms_residual(ground, grid.z, surface, kw)
                               - _rms_residual(ground, grid.z, current, kw)) >= p.sigma_difference
@@ -214,23 +210,19 @@ def polynomial_marks(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: IpfPar
         ground |= near
         surface = ground_set.surface(ground, k)
         log.debug("window %d cells: %d candidates, %d joined", 2 * k + 1, int(cand.sum()), int(near.sum()))
-    marks = np.empty(len(z), np.int32)
-    for a in range(0, len(z), _CHUNK):
-        b = min(len(z), a + _CHUNK)
-        h = np.abs(z[a:b] - bilinear(surface, grid.spec, x[a:b], y[a:b]))
-        marks[a:b] = np.where(h <= p.outlier_tolerance, 0, MARK_OFF_SURFACE)
-    return marks
+    on_surface = within_surface(x, y, z, surface, grid.spec, threshold=p.outlier_tolerance, slope_scalar=0.0)
+    return np.where(on_surface, 0, MARK_OFF_SURFACE).astype(np.int32)
 
 
 @register_filter("ipf", params=IpfParams, on_points=True,
                  summary="iterative local polynomial fitting (manual appendix IPF)")
-def ipf(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: IpfParams) -> np.ndarray:
+def ipf(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: IpfParams) -> np.ndarray:
     """Point marks of the iterative polynomial fitting filter (manual appendix IPF, Fig. 14)."""
-    return polynomial_marks(x, y, z, params, recover=False)
+    return polynomial_marks(x, y, z, grid, params)
 
 
 @register_filter("poly2", params=Poly2Params, on_points=True,
                  summary="polynomial two-surface filter (manual appendix IPF, Fig. 15)")
-def poly2(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: Poly2Params) -> np.ndarray:
+def poly2(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: Poly2Params) -> np.ndarray:
     """Point marks of the polynomial two-surface filter (manual appendix IPF, Fig. 15)."""
-    return polynomial_marks(x, y, z, params, recover=True)
+    return polynomial_marks(x, y, z, grid, params)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat._lazy import lazy_import
-from aldpat.core.lowest_grid import lowest_grid
+from aldpat.core.lowest_grid import LowestGrid
 from aldpat.errors import ParamError
 from aldpat.filters.base import PointFilterParams, register_filter
 from aldpat.params import param
@@ -86,13 +86,14 @@ def _offsets(width: float, height: float, radius: float) -> tuple[np.ndarray, np
     return dr[keep][order], dc[keep][order], gap[keep][order]
 
 
-def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParams) -> np.ndarray:
-    """True for every point with a neighbour of the lowest-point array within ``search_radius``
-    that lies ``max_slope`` or more below it (manual eq. 4)."""
+def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: SlopeParams
+                 ) -> np.ndarray:
+    """True for every point with a neighbour of the lowest-point array ``grid`` (the filter's
+    ``cell`` x ``height`` cells) within ``search_radius`` that lies ``max_slope`` or more below it
+    (manual eq. 4)."""
     p = params
     n = len(z)
     width, height = p.cell_shape()
-    grid = lowest_grid(x, y * (width / height), z, width)
     spec = grid.spec
     rows, cols = spec.shape
     flat_lowest = grid.lowest.ravel()
@@ -135,9 +136,9 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParam
 
 @register_filter("slope", params=SlopeParams, on_points=True,
                  summary="maximum local slope (manual appendix MLS; Vosselman 2000)")
-def slope(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: SlopeParams) -> np.ndarray:
+def slope(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: SlopeParams) -> np.ndarray:
     """Point marks of the maximum local slope filter (manual appendix MLS, eq. 4)."""
-    non_ground = steep_points(x, y, z, params)
+    non_ground = steep_points(x, y, z, grid, params)
     if params.min_z is not None:
         non_ground |= z < params.min_z
     if params.max_z is not None:
