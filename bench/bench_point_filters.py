@@ -3,6 +3,7 @@ leave-one-out choice of their shipped settings.
 
     python bench/bench_point_filters.py report                 # each filter with jobs/params/<algo>.toml
     python bench/bench_point_filters.py sweep --algos slope    # every candidate setting, in-sample and LOO
+    python bench/bench_point_filters.py report --algos atin --set best_per_triangle=true   # a variant
 
 Reads the seven ISPRS reference samples in ``../shared/data/isprs`` beside the repository
 (``ALDPAT_ISPRS`` to point elsewhere). ``sweep`` scores every combination of the candidate values
@@ -103,13 +104,13 @@ def sweep(algo: str, samples) -> None:
     print(f"{algo} leave-one-out mean total: {np.mean(loo):.2f} %")
 
 
-def report(algos, samples) -> None:
+def report(algos, samples, settings: dict | None = None) -> None:
     names = [s.name for s in samples]
     print("| filter (parameter file) | " + " | ".join(names) + " | mean |")
     print("|---" * (len(names) + 2) + "|")
     for algo in algos:
         t = time.time()
-        scores = evaluate(algo, samples, {})
+        scores = evaluate(algo, samples, settings or {})
         cells = [f"{sc.type1:.2f} / {sc.type2:.2f} / **{sc.total:.2f}**" for sc in scores]
         mean = np.mean([sc.total for sc in scores])
         print(f"| {algo} (`{algo}.toml`) | " + " | ".join(cells) + f" | {mean:.2f} |")
@@ -120,10 +121,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("what", choices=("report", "sweep"))
     ap.add_argument("--algos", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="report: override parameter file values (TOML values, e.g. best_per_triangle=true)")
     args = ap.parse_args()
     samples = load_samples()
     if args.what == "report":
-        report(args.algos, samples)
+        settings = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (item.split("=", 1) for item in args.set)}
+        report(args.algos, samples, settings)
     else:
         for algo in args.algos:
             sweep(algo, samples)
