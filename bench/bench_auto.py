@@ -6,8 +6,7 @@
     python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
     python bench/bench_auto.py lowout       # the low-outlier test on top of the defaults
 
-Reads the seven ISPRS reference samples in ``../shared/data/isprs`` beside the repository
-(``ALDPAT_ISPRS`` to point elsewhere). ``sweep`` scores every combination of the candidate
+Reads the seven ISPRS reference samples (``bench/data_paths.py`` says where). ``sweep`` scores every combination of the candidate
 constants below with the package's own filter (``aldpat.filters.base.ground_filter``) and
 prints (1) the best combinations fitted on all seven samples together -- an in-sample figure
 -- and (2) the leave-one-out figure: for each sample, the combination best on the *other six*

@@ -1,4 +1,4 @@
-"""Ground filters: ISPRS accuracy and speed of every registered filter (issue 5).
+"""Ground filters: ISPRS accuracy and speed of every registered filter.
 
     python bench/bench_filters.py isprs                      # Type I / II / total per sample
     python bench/bench_filters.py isprs --algos pm gapm --params gapm=jobs/params/gapm-isprs-set01.toml
@@ -7,7 +7,7 @@
     python bench/bench_filters.py speed --algos gapm --params gapm=jobs/params/gapm-isprs-set01.toml --peers
 
 ``isprs`` runs every registered filter on all points of the seven ISPRS samples
-(``../shared/data/isprs`` beside the repository; set ALDPAT_ISPRS to move it) with ``jobs/params/<algo>.toml`` when
+(``bench/data_paths.py`` says where) with ``jobs/params/<algo>.toml`` when
 that file exists (defaults otherwise, or the file given with ``--params algo=FILE``), prints
 Type I, Type II, total error and kappa per sample, the mean total, and the filter's points per
 second (gridding + filter + classification, in process).
@@ -37,10 +37,11 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(BENCH))
 
 from _measure import measure, mib  # noqa: E402
+from data_paths import ISPRS_SITES  # noqa: E402
 from isprs import PUBLISHED_GAPM_SET01, SAMPLES, Sample, load_samples, score  # noqa: E402
 
 WORK = BENCH / "_work"
-SITES = REPO.parent / "shared" / "data" / "isprs-sites"  # the project's shared data, beside the clone
+SITES = ISPRS_SITES
 
 
 def rate(n: int, seconds: float) -> str:

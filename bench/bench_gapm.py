@@ -5,11 +5,11 @@
     python bench/bench_gapm.py speed --points 2 --algos outlier cluster-pm gapm multipass
     python bench/bench_gapm.py tiles               # tiles with buffers against the whole area
 
-``accuracy`` (reads ``../shared/data/isprs`` beside the repository) prints, per sample, Type I / Type II / total
+``accuracy`` (reads the ISPRS samples; ``bench/data_paths.py`` says where) prints, per sample, Type I / Type II / total
 error of:
 
 * ``gapm`` with the dissertation's parameter sets 01, 02, 03 (``jobs/params/gapm-isprs-set0N``)
-  next to the published set 01 errors (Table 6-9) and the two targets of issue 5 (mean total at
+  next to the published set 01 errors (Table 6-9) and the project's two targets (mean total at
   most 4.42 %, no sample more than 1.5 points worse than published);
 * ``cluster-pm`` against the same progressive filter with the cluster analysis switched off
   (same windows, thresholds and directions), which it must never lose to;
@@ -18,7 +18,7 @@ error of:
 * ``outlier`` with its defaults.
 
 ``speed`` builds (once, under ``bench/_work/``) a LAS file of tiled copies of the ISPRS site
-FSite5 (``../shared/data/isprs-sites``) and runs ``aldpat filter ALGO`` on it in a fresh
+FSite5 (``data_paths.FSITE5``) and runs ``aldpat filter ALGO`` on it in a fresh
 process per algorithm (read, grid, filter, classify, write), printing points/second and peak
 resident memory.
 """
@@ -39,6 +39,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
 from _measure import measure, mib  # noqa: E402
+from data_paths import FSITE5  # noqa: E402
 from isprs import PUBLISHED_GAPM_SET01, SAMPLES, load_samples, score  # noqa: E402
 
 from aldpat.filters import FILTERS, ground_filter  # noqa: E402
@@ -172,11 +173,11 @@ def run_tiles(algos: list[str], size: float, tiles: int) -> None:
 
     The rows and columns of cluster-pm, gapm and multipass are analysed end to end (clusters,
     minima, priority-interpolated sets), so a tile's classes can differ from the whole area's
-    near its edges even with a buffer; issue 5 asks for at least 99.5 % agreement.
+    near its edges even with a buffer; the target is at least 99.5 % agreement.
     """
     import laspy
 
-    src = laspy.read(REPO.parent / "shared" / "data" / "isprs-sites" / "FSite5_orig-utm.laz")
+    src = laspy.read(FSITE5)
     x, y, z = np.asarray(src.x), np.asarray(src.y), np.asarray(src.z)
     x0, y0 = np.floor(x.min() / 100) * 100 + 100, np.floor(y.min() / 100) * 100 + 100
     keep = (x >= x0) & (x < x0 + size) & (y >= y0) & (y < y0 + size)

@@ -3,7 +3,7 @@
     python bench/bench_grid.py                              # every method, 10 M points
     python bench/bench_grid.py --points 2 --methods linear kriging
 
-Issue 4 targets on this machine: nearest, linear, idw and the binning methods under 60 s,
+Targets on this machine: nearest, linear, idw and the binning methods under 60 s,
 kriging with local neighbourhoods under 10 minutes. Points (uniform x, y over the tile plus a
 20 m buffer; z a rolling terrain with noise) are made once and kept in bench/_work/. Each method
 runs in a fresh process; "grid s" is the interpolation alone (wall clock), "cpu s" its processor

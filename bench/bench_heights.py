@@ -3,7 +3,7 @@
     python bench/bench_heights.py                 # 10 M points in memory, 2 M-line file
     python bench/bench_heights.py --points 20 --file-points 5
 
-Uses the real EGM96 15' grid (../shared/data/geoid/egm96_15.gtx beside the repository). "core" converts arrays in
+Uses the real EGM96 15' grid (``data_paths.EGM96``). "core" converts arrays in
 chunks of 1 M points (UTM 15N -> H = h - N; then also re-projecting to State Plane feet); "task"
 runs ``aldpat ortho-height`` on a text file, whose peak memory must not grow with the file.
 Each measurement runs in a fresh process.
@@ -18,11 +18,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib, write_synthetic_points  # noqa: E402
+from _measure import measure, mib, write_synthetic_points
+from data_paths import EGM96
 
 WORK = Path(__file__).resolve().parent / "_work"
 REPO = Path(__file__).resolve().parents[1]
-GEOID = str(REPO.parent / "shared" / "data" / "geoid" / "egm96_15.gtx")
+GEOID = str(EGM96)
 
 CORE = """
 import sys

@@ -5,8 +5,7 @@ leave-one-out choice of their shipped settings.
     python bench/bench_point_filters.py sweep --algos slope    # every candidate setting, in-sample and LOO
     python bench/bench_point_filters.py report --algos atin --set best_per_triangle=true   # a variant
 
-Reads the seven ISPRS reference samples in ``../shared/data/isprs`` beside the repository
-(``ALDPAT_ISPRS`` to point elsewhere). ``sweep`` scores every combination of the candidate values
+Reads the seven ISPRS reference samples (``bench/data_paths.py`` says where). ``sweep`` scores every combination of the candidate values
 below and prints the best combination fitted on all seven (an in-sample figure) and the
 leave-one-out figure: for each sample the combination best on the *other six* is scored on it;
 the mean of those seven is what a setting chosen this way can be expected to reach on samples it

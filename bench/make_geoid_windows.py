@@ -1,8 +1,8 @@
 """Cut small windows of the EGM96 GTX grid around the NGA test points into tests/data/.
 
-    python bench/make_geoid_windows.py [../shared/data/geoid/egm96_15.gtx]
+    python bench/make_geoid_windows.py [EGM96_15.gtx]   # default: data_paths.EGM96
 
-Tests may only read files inside the repository, so each NGA EGM96 test point of issue 4 gets a
+Tests may only read files inside the repository, so each NGA EGM96 test point checked by the tests gets a
 4 x 4 node window (0.75 degree a side) of the real 15-minute grid: a few hundred bytes each.
 GTX layout: big-endian float64 lower-left latitude, lower-left longitude, dlat, dlon, big-endian
 int32 rows, cols, then big-endian float32 rows from the south.
@@ -16,8 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from data_paths import EGM96
+
 REPO = Path(__file__).resolve().parents[1]
-SOURCE = REPO.parent / "shared" / "data" / "geoid" / "egm96_15.gtx"  # the shared data beside the clone
+SOURCE = EGM96
 #: (latitude, longitude 0..360, N in metres): the NGA's EGM96 test values, shared with the tests
 NGA_POINTS = [tuple(row) for row in np.loadtxt(REPO / "tests" / "data" / "egm96_nga_values.txt")]
 

@@ -1,8 +1,8 @@
 """Build the demo ALTM tape jobs/data/fsite5_tape.txt from a real ISPRS test site.
 
-    /work/venv/bin/python tools/make_demo_tape.py [SITE.laz] [OUT.txt]
+    python tools/make_demo_tape.py [SITE.laz] [OUT.txt]
 
-The ISPRS raw sites (see ../shared/data/README.md) store first and last pulse of each shot as
+The ISPRS raw sites (first and last pulse, as LAZ) store first and last pulse of each shot as
 return 1 and return 2 in the same order: pulse k of the first half pairs with pulse k of the
 second half. A 300 m x 150 m window of FSite5 is cut into three east-west bands of 50 m, each
 taken as a flight strip. GPS time is synthesised from shot order (10 ms a shot, as the sites
@@ -20,7 +20,10 @@ import laspy
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-SITE = Path("/work/shared/data/isprs-sites/FSite5_orig-utm.laz")
+# the ISPRS test site FSite5 as LAZ; bench/data_paths.py says where the public data are looked for
+sys.path.insert(0, str(REPO / "bench"))
+from data_paths import FSITE5 as SITE
+
 OUT = REPO / "jobs" / "data" / "fsite5_tape.txt"
 WINDOW = (494200.0, 5420300.0, 494500.0, 5420450.0)  # min x, min y, max x, max y
 BAND = 50.0  # strip width (m)

@@ -1,6 +1,6 @@
 """Strip boundary from a min-z grid, scanned by rows or by columns.
 
-ALDPAT manual (003_*), Task 4 "Estimate strip boundary":
+ALDPAT 1.0 user manual (2007), Task 4 "Estimate strip boundary":
 
 * a mesh of Width x Height cells overlays the data; each cell keeps its lowest point;
 * if xmax - xmin >= ymax - ymin, each row of the mesh gives the pair of points with minimum and

@@ -1,13 +1,13 @@
 """Aligned cell grids and the choice of one representative point per cell.
 
-ALDPAT manual (003_*), Miscellaneous Tasks, "Reduce Point Density": a window (cell) of
+ALDPAT 1.0 user manual (2007), Miscellaneous Tasks, "Reduce Point Density": a window (cell) of
 Width x Height keeps the point of minimum elevation ("Lowest"), the point of median elevation
-("Median") or the point at the centre of the window ("Center"). Dissertation (000_*) §3.1.1
+("Median") or the point at the centre of the window ("Center"). Cui (2013) §3.1.1
 "Sparse Data": the area is split into cells indexed by column and row and each cell keeps one
 representative point.
 
 Cells are aligned to whole multiples of the cell size from an origin (0, 0 unless given): cell
-(i, j) covers [ox + i*w, ox + (i+1)*w) x [oy + j*h, oy + (j+1)*h) (SPEC §2), so data thinned in
+(i, j) covers [ox + i*w, ox + (i+1)*w) x [oy + j*h, oy + (j+1)*h), so data thinned in
 pieces gives the same cells as data thinned at once.
 """
 

@@ -1,7 +1,7 @@
 """Row/column cluster analysis of unfiltered grid cells.
 
 Implements ``MakeCluster`` and the cluster recovery (``UpdateMark``) of the GAPM dissertation
-(``seeds/000_*.txt``, ch. 5 §5.2.1 and §5.2.3; reused in ch. 6 §6.2.1).
+(Cui 2013, ch. 5 §5.2.1 and §5.2.3; reused in ch. 6 §6.2.1).
 
 Every function works along ``axis=1`` (each row is one "row or column" of the dissertation) on
 whole 2-D blocks at once: the scans of the printed algorithm become running maxima/minima of

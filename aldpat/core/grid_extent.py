@@ -1,13 +1,13 @@
 """Where the nodes of a terrain grid lie: from a tile row, from bounds, or from the data.
 
-ALDPAT 1.0 manual (003), task 9 "Gridding Tiles" and Fig. 7: a grid's range is the tile's
+ALDPAT 1.0 user manual (2007), task 9 "Gridding Tiles" and Fig. 7: a grid's range is the tile's
 minimum and maximum x and y taken from ``tile_parameter.txt`` (task 7, Fig. 8: one row per tile
 holding the tile file's path, min x, max x, min y, max y, width, height, buffer) together with
 the cell size, and "the last row and column of a grid tile overlaps with the first row and
 column of the adjacent tiles". Nodes therefore sit *on* the range limits: a tile from 0 to
 2000 m at 1 m has 2001 nodes a side and shares its last column with the next tile's first.
 Without a reference file the manual uses the minimum and maximum x and y of the tile's points;
-here those are snapped outward to whole multiples of the cell size (SPEC grid alignment, moved
+here those are snapped outward to whole multiples of the cell size (the grid alignment of every grid task, moved
 by ``origin``) so that grids made apart still line up.
 
 Extents are node centres, as in Surfer grids (row 0 is the southern row).

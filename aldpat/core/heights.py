@@ -1,6 +1,6 @@
 """Ellipsoidal <-> orthometric heights with a geoid grid, and horizontal re-projection.
 
-ALDPAT 1.0 manual (003), task 3 "Convert ellipsoid to orthometric heights": ALDPAT called the
+ALDPAT 1.0 user manual (2007), task 3 "Convert ellipsoid to orthometric heights": ALDPAT called the
 Corps of Engineers' Corpscon to turn GPS (ellipsoidal) heights h into orthometric heights H with
 a geoid model (GeoidXX) and, on the way, to convert x, y between datums, UTM zones and State
 Plane. Here PROJ does both through pyproj:

@@ -1,8 +1,8 @@
 """Points to a grid: nearest neighbour, Delaunay TIN (linear), inverse distance, binning.
 
-ALDPAT 1.0 manual (003), task 9 "Gridding Tiles": ALDPAT handed tiles to Surfer, whose methods
+ALDPAT 1.0 user manual (2007), task 9 "Gridding Tiles": ALDPAT handed tiles to Surfer, whose methods
 these replace (kriging, Surfer's default, lives in :mod:`aldpat.core.kriging`). The nearest
-neighbour method is the one of the dissertation (000) §4.2 "nearest neighbour grid
+neighbour method is the one of the dissertation (Cui 2013) §4.2 "nearest neighbour grid
 interpolation". Every method returns the grid as ``(ny, nx)`` float64, row 0 the southern row,
 NaN where a node is blank, so that no terrain is invented far from data:
 
@@ -32,7 +32,7 @@ spatial = lazy_import("scipy.spatial")
 
 log = logging.getLogger(__name__)
 
-#: Method names of ``aldpat grid --method`` (SPEC §3).
+#: Method names of ``aldpat grid --method`` (the README's command list).
 METHODS = ("nearest", "linear", "idw", "kriging", "min", "max", "mean")
 BINNING = ("min", "max", "mean")
 
@@ -88,7 +88,7 @@ def _tree(x: np.ndarray, y: np.ndarray) -> tuple["spatial.cKDTree", tuple[float,
 
 
 def nearest(x, y, z, spec: GridSpec, *, max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
-    """Each node takes the elevation of its nearest point (dissertation (000) §4.2)."""
+    """Each node takes the elevation of its nearest point (dissertation (Cui 2013) §4.2)."""
     x, y, z = _as_points(x, y, z)
     tree, origin = _tree(x, y)
     out = np.full(spec.shape, np.nan)

@@ -1,6 +1,6 @@
 """Ordinary kriging over local neighbourhoods with a variogram fitted to the data.
 
-ALDPAT 1.0 manual (003), task 9 "Gridding Tiles": ALDPAT gridded tiles in Surfer, whose default
+ALDPAT 1.0 user manual (2007), task 9 "Gridding Tiles": ALDPAT gridded tiles in Surfer, whose default
 method is kriging with a linear variogram and no nugget; that is the default here too. Each
 node is estimated from its ``max_points`` nearest points (optionally within ``radius``) by
 solving the ordinary kriging system in variogram form

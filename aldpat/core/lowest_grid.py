@@ -1,13 +1,13 @@
 """Points to a grid of lowest points, and nearest-neighbour filling of empty cells.
 
-Dissertation (000_*) ch. 3 "Resampling Data": each grid cell keeps one representative point,
+Cui (2013) ch. 3 "Resampling Data": each grid cell keeps one representative point,
 the lowest one, and the filters treat the cell as that point. §4.2.1 "Grid-Based Nearest
 Neighbor Interpolation": an empty cell takes the elevation of the nearest non-empty cell.
 
 Grid convention (shared by every grid filter): ``z[row, col]``, ``col`` increases with x (east)
 and ``row`` with y (north); cell ``(r, c)`` covers ``[x0 + c*cell, x0 + (c+1)*cell) x
 [y0 + r*cell, y0 + (r+1)*cell)``. ``x0`` and ``y0`` are whole multiples of ``cell`` from the
-origin (SPEC §2 grid alignment), so tiles gridded apart share their cell boundaries.
+origin (the grid alignment every grid task shares), so tiles gridded apart share their cell boundaries.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ class LowestGrid:
 
 
 def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float, float] | None = None) -> GridSpec:
-    """The smallest aligned grid covering the points (SPEC §2 grid alignment)."""
+    """The smallest aligned grid covering the points."""
     if not cell > 0:
         raise ValueError(f"cell must be > 0, got {cell!r}")
     ox, oy = origin if origin is not None else (0.0, 0.0)

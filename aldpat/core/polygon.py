@@ -1,8 +1,8 @@
 """Point-in-polygon by the even-odd (crossing number) rule, and ring orientation.
 
-Dissertation (000_*) §3.1.2 "Data Retrieval": a point is inside a polygon when a ray from it
+Cui (2013) §3.1.2 "Data Retrieval": a point is inside a polygon when a ray from it
 crosses the boundary an odd number of times (Jordan curve theorem; Haines 1994, "Point in
-polygon strategies"). ALDPAT manual (003_*), Miscellaneous Tasks, "Extract Points by Polygon":
+polygon strategies"). ALDPAT 1.0 user manual (2007), Miscellaneous Tasks, "Extract Points by Polygon":
 vertices in clockwise or anticlockwise order; the closing vertex is not repeated (a repeated
 one is tolerated here). The rule works for concave polygons, and, applied to all rings of a
 polygon at once, treats holes as outside.

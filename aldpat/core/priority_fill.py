@@ -1,6 +1,6 @@
 """Priority boundary interpolation of connected empty cells.
 
-``PQBoundInterp`` and ``findEmpConn`` of the GAPM dissertation (``seeds/000_*.txt``, ch. 4
+``PQBoundInterp`` and ``findEmpConn`` of the GAPM dissertation (Cui 2013, ch. 4
 §4.2.4; summarised again in ch. 5 §5.2.3).
 
 ``findEmpConn`` is a breadth-first labelling of 4- or 8-connected empty cells: that is

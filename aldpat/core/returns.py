@@ -1,6 +1,6 @@
 """First and last returns of a 9-column ALTM strip: UTM zone prefixes and the stop gap.
 
-ALDPAT manual (003_*), Task 2 "Separate First and Last Return Measurements from a 9 Column
+ALDPAT 1.0 user manual (2007), Task 2 "Separate First and Last Return Measurements from a 9 Column
 Strip File":
 
 * UTM Zone: "UTM zone number may be included for x and y coordinates in the 9 column data ...

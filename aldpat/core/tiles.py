@@ -1,6 +1,6 @@
 """Tile layout: tiles of Width x Height with a buffer, along x and y, x only or y only.
 
-ALDPAT manual (003_*), Task 7 "Tile Strips": tiles cover the rectangle Min X..Max X,
+ALDPAT 1.0 user manual (2007), Task 7 "Tile Strips": tiles cover the rectangle Min X..Max X,
 Min Y..Max Y (given, or the minimal rectangle covering all strips); "XY" increments both x and
 y by the tile width and height; "X" increments only x (each tile spans the whole y range, the
 height is ignored); "Y" increments only y (the width is ignored). A buffer around each tile

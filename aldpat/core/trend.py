@@ -1,7 +1,7 @@
 """Trend analysis: local minima of rows and the adaptive filtering threshold.
 
 Implements ``MakeTrendArray`` and ``CalThreshArray`` of the GAPM dissertation
-(``seeds/000_*.txt``, ch. 6 §6.2.2 trend analysis, §6.2.3 threshold estimation, §6.2.4
+(Cui 2013, ch. 6 §6.2.2 trend analysis, §6.2.3 threshold estimation, §6.2.4
 ``CalThreshArray``).
 
 Like :mod:`aldpat.core.clusters`, everything works along ``axis=1`` on whole 2-D blocks.

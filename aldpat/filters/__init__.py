@@ -1,4 +1,4 @@
-"""Ground filters on a grid of lowest points (SPEC §4), registered by name in FILTERS.
+"""Ground filters on a grid of lowest points, registered by name in FILTERS.
 
 Importing this package imports every filter module so that :data:`FILTERS` is complete.
 """

@@ -1,6 +1,6 @@
 """Adaptive TIN densification (``atin``).
 
-ALDPAT manual (003_*), task 8 "Adaptive TIN (ATIN)" for the parameters (Cell Size, Z Difference,
+ALDPAT 1.0 user manual (2007), task 8 "Adaptive TIN (ATIN)" for the parameters (Cell Size, Z Difference,
 Angle Threshold, Init TriGrid Size, Tile X Width, Tile Y Height, Tile Buffer) and Appendix
 "Adaptive TIN (ATIN) Filter" (Fig. 16), after Axelsson (2000):
 

@@ -1,6 +1,6 @@
 """The grid-filter registry and the driver that turns a grid filter into point classes.
 
-Every ground filter of SPEC §4 that works on a grid of lowest points is a function
+Every ground filter that works on a grid of lowest points is a function
 ``fn(z, empty, params) -> marks`` registered with :func:`register_filter`:
 
 * ``z`` is the lowest-point grid (dissertation ch. 3) with empty cells already filled by
@@ -13,7 +13,7 @@ Every ground filter of SPEC §4 that works on a grid of lowest points is a funct
 :func:`ground_filter` grids the points, fills empties, calls ``fn`` and classifies every point:
 the lowest point of a cell by the cell's mark, every other point by its height above the final
 ground surface (ground within ``ground_tolerance``), so that results compare point for point
-with other tools (issue 5). The surface at a point is interpolated bilinearly between the
+with other tools. The surface at a point is interpolated bilinearly between the
 centres of the ground cells among the four around it; a point with no ground cell around it
 lies amid removed cells and is not ground.
 """
@@ -315,7 +315,7 @@ def _ground_height(ground_z: np.ndarray, ground: np.ndarray, spec: GridSpec, x: 
 
 
 def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
-    """Point marks and classes from a cell mark matrix (issue 5 "Behaviour").
+    """Point marks and classes from a cell mark matrix.
 
     The lowest point of a cell takes the cell's mark. Points exactly as low share it: which of
     them the grid kept is an accident of input order, and classes must not depend on it. Any

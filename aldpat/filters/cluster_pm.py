@@ -1,6 +1,6 @@
 """Cluster-based progressive morphological filter (``cluster-pm``).
 
-``MorphClusterFilter`` of the GAPM dissertation (``seeds/000_*.txt``, ch. 5 §5.2.2): the
+``MorphClusterFilter`` of the GAPM dissertation (Cui 2013, ch. 5 §5.2.2): the
 progressive morphological filter of Zhang et al. (§5.1) with 1-D line windows, rows then
 columns at every window (lines 3-18), where from ``cluster_window_size`` on the unfiltered
 cells of each row/column are grouped into clusters before the opening (``MakeCluster``,

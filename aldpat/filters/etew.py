@@ -1,6 +1,6 @@
 """Elevation threshold with expanding window (``etew``).
 
-ALDPAT manual (003_*), Appendix "Elevation Threshold with Expand Window (ETEW) Filter"
+ALDPAT 1.0 user manual (2007), Appendix "Elevation Threshold with Expand Window (ETEW) Filter"
 (Zhang and Whitman 2005) and task 8 for the parameters (Slope, Loop Times, Max Z, Min Z).
 
 The manual keeps the lowest point of each cell (our lowest-point grid is that first

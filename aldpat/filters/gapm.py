@@ -1,6 +1,6 @@
 """Generalized adaptive progressive morphological filter (``gapm``).
 
-``AdaptiveMorphFilter`` of the GAPM dissertation (``seeds/000_*.txt``, ch. 6 §6.2.4), with the
+``AdaptiveMorphFilter`` of the GAPM dissertation (Cui 2013, ch. 6 §6.2.4), with the
 cluster analysis of §6.2.1 (:mod:`aldpat.core.clusters`) and the trend analysis and threshold
 estimation of §6.2.2-6.2.3 (:mod:`aldpat.core.trend`). Rows and columns have their own window
 series (parameter set 01, Table 6-8: rows up to 20, columns up to 16). By default they run as
@@ -9,7 +9,7 @@ matrix; ``directions="separate"`` filters them apart and removes a cell that eit
 the combination of two mark matrices §6.2.5 describes. On the ISPRS samples the printed
 order is the better one (bench/bench_gapm.py).
 
-Reading of the garbled lines 13-17 (seeds README): below ``init_thresh_bin`` every cell uses
+Reading of the garbled lines 13-17 of the printed pseudo-code: below ``init_thresh_bin`` every cell uses
 the constant threshold of that window, otherwise its adaptive threshold; then a cell is
 removed where its height above the opened surface exceeds the threshold. In set 01 the
 "cluster threshold" of the half windows 1 and 2 (0.3, 0.5) is that constant threshold

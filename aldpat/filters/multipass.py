@@ -1,6 +1,6 @@
 """Multi-pass progressive morphological filter with priority boundary interpolation.
 
-The multi-pass filter of the GAPM dissertation (``seeds/000_*.txt``, ch. 4 §4.2.5):
+The multi-pass filter of the GAPM dissertation (Cui 2013, ch. 4 §4.2.5):
 
 1. ``MorphFilter``: progressive morphological filtering with windows kept small enough not
    to cut the terrain (ascending series, the first pass);

@@ -1,6 +1,6 @@
 """Morphological outlier removal (``outlier``).
 
-GAPM dissertation (``seeds/000_*.txt``, ch. 4 §4.1.1): isolated extremely high points (power
+GAPM dissertation (Cui 2013, ch. 4 §4.1.1): isolated extremely high points (power
 lines, birds) stand out of an *opening* with a small window (1 to 3 cells); isolated extremely
 low points (multipath, a window reaching a floor) sink below a *closing*. A cell is an outlier
 when it lies more than ``high_threshold`` above its opening or more than ``low_threshold``

@@ -1,7 +1,7 @@
 """Progressive morphological filter with 1-D line windows (``pm``).
 
-ALDPAT manual (003_*), Appendix "Progressive Morphological (PM) Filter" (Zhang et al. 2003)
-and task 8 "Progressive Morphology (PM)" for the parameters; dissertation (000_*) §5.1 for
+ALDPAT 1.0 user manual (2007), Appendix "Progressive Morphological (PM) Filter" (Zhang et al. 2003)
+and task 8 "Progressive Morphology (PM)" for the parameters; Cui (2013) §5.1 for
 the review and §5.2.2 for the mark matrix it fills (Table 5-1).
 
 For each window of an increasing series the current surface is opened; a cell whose

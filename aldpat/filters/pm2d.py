@@ -1,6 +1,6 @@
 """Progressive morphological filter with square windows (``pm2d``).
 
-ALDPAT manual (003_*), task 8 "2D Morphological Filters (Square or Circle Window)", "Morph 2D
+ALDPAT 1.0 user manual (2007), task 8 "2D Morphological Filters (Square or Circle Window)", "Morph 2D
 Filter", and the Appendix "Progressive Morphological (PM) Filter" ("the filtering window can
 be a one-dimensional line or two-dimensional rectangle"): the same progressive opening,
 thresholds and window series as ``pm`` (:mod:`aldpat.filters.pm`) with ``(2k+1) x (2k+1)``

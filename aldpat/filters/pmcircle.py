@@ -1,6 +1,6 @@
 """Progressive morphological filter with circular windows (``pmcircle``).
 
-ALDPAT manual (003_*), task 8 "2D Morphological Filters (Square or Circle Window)", "Morph
+ALDPAT 1.0 user manual (2007), task 8 "2D Morphological Filters (Square or Circle Window)", "Morph
 Circle Filter", and the Appendix "Progressive Morphological (PM) Filter": the progressive
 opening of ``pm`` (:mod:`aldpat.filters.pm`) with disk windows of radius ``k`` cells (the cells
 whose centres lie within ``k`` cells; diameter ``2k+1`` is the ``w`` of the threshold rule).

@@ -1,6 +1,6 @@
 """Iterative polynomial fitting (``ipf``) and the polynomial two-surface filter (``poly2``).
 
-ALDPAT manual (003_*), task 8 "Iterative Polynomial Fitting (IPF)" and "Polynomial Two-Surface
+ALDPAT 1.0 user manual (2007), task 8 "Iterative Polynomial Fitting (IPF)" and "Polynomial Two-Surface
 Filter" for the parameters, Appendix "Iterative Polynomial Fitting (IPF) Filter" (Figs. 14, 15)
 for the method:
 

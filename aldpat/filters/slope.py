@@ -1,6 +1,6 @@
 """Maximum local slope (``slope``).
 
-ALDPAT manual (003_*), task 8 "Maximum Local Slope (MLS)" for the parameters (Width, Height,
+ALDPAT 1.0 user manual (2007), task 8 "Maximum Local Slope (MLS)" for the parameters (Width, Height,
 Max Z, Min Z, Search Radius, Min Distance, Max Slope) and Appendix "Maximum Local Slope (MLS)
 Filter", eq. (4), after Vosselman (2000): a mesh of ``cell`` x ``height`` cells keeps the lowest
 point of each cell (the manual's 2-D array); a point ``p0`` is ground when the largest slope

@@ -1,6 +1,6 @@
 """ArcGIS grids: binary float grid (``.flt`` + ``.hdr`` [+ ``.prj``]) and ESRI ASCII (``.asc``).
 
-ALDPAT 1.0 manual (003), task 10 "Convert Surfer Grids to ArcGIS Grids" (Grd2Bin): ALDPAT wrote
+ALDPAT 1.0 user manual (2007), task 10 "Convert Surfer Grids to ArcGIS Grids" (Grd2Bin): ALDPAT wrote
 binary float grids that were "not georeferenced"; these carry their lower-left corner and cell
 size in the header and, when a CRS is known, a ``.prj`` in ESRI WKT, so ArcGIS and GDAL (EHdr,
 AAIGrid drivers) place them without an import step.

@@ -4,7 +4,7 @@
 ESRI Shapefile Technical Description (1998), "Polygon": "The order of vertices or orientation
 for a ring indicates which side of the ring is the interior of the polygon ... vertices of
 outer rings are in clockwise order, holes in counterclockwise order", and every ring is closed
-(first vertex repeated last). ALDPAT manual (003_*), Task 6 "Create Shape File": one polygon per
+(first vertex repeated last). ALDPAT 1.0 user manual (2007), Task 6 "Create Shape File": one polygon per
 strip; ALDPAT wrote no .prj ("Use ArcCatalog to define the projection") -- here ``crs`` writes it.
 
 All files of the set are written under temporary names and renamed together

@@ -1,6 +1,6 @@
 """Surfer grids: Surfer 6 ASCII (DSAA), Surfer 6 binary (DSBB) and Surfer 7 binary (DSRB).
 
-ALDPAT 1.0 manual (003), tasks 9 and 10: ALDPAT gridded tiles with Golden Software Surfer and
+ALDPAT 1.0 user manual (2007), tasks 9 and 10: ALDPAT gridded tiles with Golden Software Surfer and
 converted its ``.grd`` files for ArcGIS; these are the three grid files Surfer reads and writes,
 following Golden Software's published layouts (the same ones GDAL's GSAG, GSBG and GS7BG
 drivers implement):
@@ -34,7 +34,7 @@ BLANK_FROM = 1.7e38
 #: the largest node count a side that Surfer 6 binary's 16-bit header can hold
 DSBB_MAX = 32767
 
-#: ``--grid-format`` name -> writer; the names are the SPEC's.
+#: ``--grid-format`` name -> writer; the names ``aldpat grid --grid-format`` accepts.
 FORMATS = ("surfer7", "surfer6", "surfer6-ascii")
 
 _TAG_HEADER = 0x42525344  # "DSRB"

@@ -1,9 +1,9 @@
 """Options shared by the ALDPAT data-preparation tasks, declared once and subclassed.
 
-The ALDPAT manual (003_*, "4. Description of Tasks") names the same two choices in several
+The ALDPAT 1.0 user manual (2007, "4. Description of Tasks") names the same two choices in several
 tasks: "Fields" (XYZI or XYZ, tasks 2 and 7) and the column order of the 9-column tapes
 (task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" by default, "t, x1, y1, z1, i1, x2, y2, z2, i2"
-when REALM exported it the other way). Grid tasks share the cell-grid origin (SPEC §2).
+when REALM exported it the other way). Grid tasks share the cell-grid origin.
 A module whose name starts with "_" is not imported as a task.
 """
 

@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class OutputParams:
-    """Options every file-writing task shares (SPEC §2)."""
+    """Options every file-writing task shares."""
 
     odir: str | None = param(None, "output folder, created if missing (default: beside each input)", path=True,
                              metavar="DIR")
@@ -237,7 +237,7 @@ class JobContext:
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,
                     reader=None, use_suffix_option: bool = True) -> Path:
-        """``<odir or source folder>/<stem><suffix><ext>`` (SPEC §2 output place and name)."""
+        """``<odir or source folder>/<stem><suffix><ext>`` (the output place and name of every task)."""
         source = Path(source)
         suffix = default_suffix
         if use_suffix_option and self.output is not None and self.output.suffix is not None:

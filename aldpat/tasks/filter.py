@@ -1,4 +1,4 @@
-"""``aldpat filter ALGO``: separate ground from non-ground points (SPEC §4, manual task 8).
+"""``aldpat filter ALGO``: separate ground from non-ground points (ALDPAT 1.0 user manual (2007), task 8).
 
 One task per registered grid filter (:data:`aldpat.filters.FILTERS`): its parameters are the
 filter's own (``cell``, ``data_mode`` ... from :class:`~aldpat.filters.base.GroundParams`)

@@ -1,6 +1,6 @@
 """``aldpat grd2bin``: Surfer grid -> ArcGIS binary float grid (or ESRI ASCII grid).
 
-ALDPAT 1.0 manual (003), task 10 "Convert Surfer Grids to ArcGIS Grids" (Grd2Bin). ALDPAT's
+ALDPAT 1.0 user manual (2007), task 10 "Convert Surfer Grids to ArcGIS Grids" (Grd2Bin). ALDPAT's
 binary grids were "not georeferenced" and needed ArcGIS's import tool; these carry their corner
 and cell size in the ``.hdr`` (with ``BYTEORDER LSBFIRST``) and, with ``--crs``, a ``.prj``.
 Formats: :mod:`aldpat.io.surfer`, :mod:`aldpat.io.esri_grid`.

@@ -1,6 +1,6 @@
 """``aldpat grid``: interpolate a tile's points to a Surfer grid (Surfer's job in ALDPAT).
 
-ALDPAT 1.0 manual (003), task 9 "Gridding Tiles": each tile is gridded with the range of its
+ALDPAT 1.0 user manual (2007), task 9 "Gridding Tiles": each tile is gridded with the range of its
 row in ``tile_parameter.txt`` (task 7, Fig. 8) and the cell size, so that "the last row and
 column of a grid tile overlaps with the first row and column of the adjacent tiles" (Fig. 7);
 without the reference file the range comes from the tile's points. The range may also be given

@@ -1,6 +1,6 @@
 """``aldpat merge-boundary``: combine strip boundary files into the manual's 5-column file.
 
-ALDPAT manual (003_*), Task 5 "Merge Boundary Files": "The result is a 5-column text file
+ALDPAT 1.0 user manual (2007), Task 5 "Merge Boundary Files": "The result is a 5-column text file
 showing x, y and z coordinates, which strip contains the coordinates and the name of the input
 file. Note that '-1111' separates the strips." The output is named explicitly (``-o``).
 

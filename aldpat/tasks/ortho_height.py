@@ -1,6 +1,6 @@
 """``aldpat ortho-height``: ellipsoidal -> orthometric heights, optionally re-projecting x, y.
 
-ALDPAT 1.0 manual (003), task 3 "Convert ellipsoid to orthometric heights" (Corpscon's job):
+ALDPAT 1.0 user manual (2007), task 3 "Convert ellipsoid to orthometric heights" (Corpscon's job):
 ``H = h - N`` with a geoid grid, ``--reverse`` for ``h = H + N``, and x, y converted between
 datums, UTM zones or State Plane (``--to-crs``). Streams chunk by chunk in bounded memory; a
 point outside the geoid grid stops that file with a message naming it (no silent 0 or NaN).

@@ -1,8 +1,8 @@
 """``aldpat polygon-extract``: the points inside (or outside) a polygon.
 
-ALDPAT manual (003_*), Miscellaneous Tasks, "Extract Points by Polygon": the polygon's vertices
+ALDPAT 1.0 user manual (2007), Miscellaneous Tasks, "Extract Points by Polygon": the polygon's vertices
 come from a text file "with the following format of x, y", in clockwise or anticlockwise order,
-with no repeated vertex (a repeated closing vertex is tolerated here). Dissertation (000_*)
+with no repeated vertex (a repeated closing vertex is tolerated here). Cui (2013)
 §3.1.2: the crossing-number (Jordan curve) test, in :mod:`aldpat.core.polygon`. A polygon
 shapefile may be given instead: every polygon in it, holes included. Streamed chunk by chunk;
 text records are copied byte for byte when the output keeps the input's columns and delimiter.

@@ -1,6 +1,6 @@
 """``aldpat separate-returns``: a 9-column strip -> a first-return and a last-return point file.
 
-ALDPAT manual (003_*), Task 2 "Separate First and Last Return Measurements from a 9 Column
+ALDPAT 1.0 user manual (2007), Task 2 "Separate First and Last Return Measurements from a 9 Column
 Strip File", with its parameters UTM Zone, Stop Gap and Fields (see :mod:`aldpat.core.returns`
 for the rules). The first-return file gets the suffix ``_1``, the last-return file ``_2``
 ("second stop files (identified by the suffix '_2')"), which the manual recommends moving "into

@@ -1,6 +1,6 @@
 """``aldpat shapefile``: a merged boundary file -> an ESRI polygon shapefile.
 
-ALDPAT manual (003_*), Task 6 "Create Shape File": one polygon per strip of the merged boundary
+ALDPAT 1.0 user manual (2007), Task 6 "Create Shape File": one polygon per strip of the merged boundary
 file (Task 5), for display in a GIS. Attributes: ``strip`` (the strip index) and ``file`` (the
 boundary file's name). ``--crs`` writes the ``.prj`` that ALDPAT left to ArcCatalog. Rings are
 written clockwise and closed, as the shapefile specification requires

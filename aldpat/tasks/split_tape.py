@@ -1,6 +1,6 @@
 """``aldpat split-tape``: cut an aggregated 9-column ALTM tape into flight strips.
 
-ALDPAT manual (003_*), Task 1 "Split Tape Files into Strips": "Since the laser is turned off
+ALDPAT 1.0 user manual (2007), Task 1 "Split Tape Files into Strips": "Since the laser is turned off
 between two adjacent strips, the time interval computed based on t for current and previous
 records ... is used to determine the separation of strips. If the time interval is greater than
 a given threshold value (i.e., 60 seconds), a new strip file is generated. The output format of

@@ -1,6 +1,6 @@
 """``aldpat strip-boundary``: the boundary polygon of a flight strip.
 
-ALDPAT manual (003_*), Task 4 "Estimate strip boundary" (algorithm in
+ALDPAT 1.0 user manual (2007), Task 4 "Estimate strip boundary" (algorithm in
 :mod:`aldpat.core.boundary`). Output: ``x y z i`` of the boundary points, real data points, in
 ring order and closed (the first point repeated last), suffix ``_Bound``. The strip is read
 chunk by chunk; only the extreme cells of each row and column are kept.

@@ -1,10 +1,10 @@
 """``aldpat thin``: reduce point density, one point per cell.
 
-ALDPAT manual (003_*), Miscellaneous Tasks, "Reduce Point Density": Width and Height of the
+ALDPAT 1.0 user manual (2007), Miscellaneous Tasks, "Reduce Point Density": Width and Height of the
 window (cell), Method (Lowest, Median, Center) and XY Type ("If 'xy Type' is the 'Integer', the
 x and y coordinates of an output point is derived by rounding the coordinates of a selected point
 to nearest integers"); selection rules in :mod:`aldpat.core.cells`. Cells are aligned to whole
-multiples of the cell size (SPEC §2) unless ``--origin``. Rounding is half away from zero
+multiples of the cell size unless ``--origin``. Rounding is half away from zero
 (12.5 -> 13), as a C++ ``floor(x + 0.5)`` did for positive coordinates, not numpy's half-to-even.
 
 Memory: the points of one cell may be anywhere in the file, so large inputs are partitioned by

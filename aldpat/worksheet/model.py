@@ -1,4 +1,4 @@
-"""Loading and validating a worksheet (SPEC §5) before anything runs.
+"""Loading and validating a worksheet before anything runs.
 
 Every job is checked up front -- unknown keys (with a did-you-mean), wrong types, out-of-range
 values, missing inputs -- and each problem is reported with the job number and key. Paths in a

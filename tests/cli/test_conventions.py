@@ -1,4 +1,4 @@
-"""SPEC §2 conventions shared by every command: inputs, output place and name, -j, logs."""
+"""The conventions shared by every command: inputs, output place and name, -j, logs."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The grid-filter registry and the driver's point classification (issue 5 "Behaviour")."""
+"""The grid-filter registry and the driver's point classification."""
 
 from dataclasses import dataclass
 

@@ -1,7 +1,7 @@
 """Every registered grid filter on synthetic terrain with known ground.
 
 The tests loop over :data:`aldpat.filters.FILTERS`, so a filter is tested here the moment it
-is registered (STYLE rule 10).
+is registered.
 """
 
 import inspect
@@ -13,7 +13,7 @@ from aldpat.filters import FILTERS, MARK_INTERPOLATED, ground_filter
 from aldpat.params import specs, validate_instance
 
 ALL = sorted(FILTERS)
-#: Filters whose classes depend only on a bounded neighbourhood (issue 5): a tile filtered with
+#: Filters whose classes depend only on a bounded neighbourhood: a tile filtered with
 #: a buffer wider than that neighbourhood gets the classes of the whole area in its core.
 LOCAL = ("etew", "pm", "pm2d", "pmcircle")
 #: Filters meant to remove isolated outliers only (dissertation §4.1.1), not buildings or trees.
@@ -151,7 +151,7 @@ def _largest_window(name, p) -> int:
 
 @pytest.mark.parametrize("name", LOCAL)
 def test_tile_with_buffer_matches_whole_area(name):
-    """Issue 5: a tile filtered with a buffer wider than the largest window, cut to its core,
+    """A tile filtered with a buffer wider than the largest window, cut to its core,
     gets the classes of the whole area (the windows, the fill and the classification are local)."""
     x, y, z, _ = terrain(seed=1, size=140.0, spacing=0.8)
     kw = dict(loop_times=4) if name == "etew" else dict(window_series=(1, 2, 4, 8))

@@ -1,4 +1,4 @@
-"""``aldpat filter ALGO``: outputs, result modes, marks, data modes, LAS attributes (SPEC §4)."""
+"""``aldpat filter ALGO``: outputs, result modes, marks, data modes, LAS attributes."""
 
 import json
 import tomllib
