@@ -166,7 +166,7 @@ def specs(params_cls: type) -> list[Spec]:
         return cached
     hints = typing.get_type_hints(params_cls)
     out = []
-    for f in dataclasses.fields(params_cls):
+    for f in sorted(dataclasses.fields(params_cls), key=lambda f: _is_shared(params_cls, f.name)):
         meta = f.metadata.get("aldpat")
         if meta is None:
             raise TypeError(f"{params_cls.__name__}.{f.name} is not declared with param()")
@@ -177,6 +177,12 @@ def specs(params_cls: type) -> list[Spec]:
 
 
 _SPEC_CACHE: dict[type, list[Spec]] = {}
+
+
+def _is_shared(params_cls: type, name: str) -> bool:
+    """Whether ``name`` was first declared by a shared option (listed last; the sort is stable)."""
+    first = next(k for k in reversed(params_cls.__mro__) if name in k.__dict__.get("__annotations__", {}))
+    return SharedOption in first.__bases__
 
 
 def spec_map(params_cls: type) -> dict[str, Spec]:
@@ -359,21 +365,36 @@ def resolve(params_cls: type, layers: list[tuple[str, Mapping[str, Any]]], where
     for name, spec in smap.items():
         if spec.required and values[name] is None:
             raise ParamError(f"{where}{name}: required ({spec.option} on the command line)")
-    return Resolved(params_cls(**values), sources)
+    try:
+        obj = params_cls(**values)  # runs Checked.check
+    except ParamError as exc:
+        raise ParamError(f"{where}{exc.message}") from None
+    return Resolved(obj, sources)
+
+
+class Checked:
+    """Base of a params class with rules that relate several parameters or need more than a
+    bound (series that must fit together, a CRS or geoid that must exist): it overrides
+    :meth:`check`, calling ``super().check()``. The one hook runs whenever an instance is made --
+    by :func:`resolve` (which names the job in the error, so ``aldpat run --dry-run`` reports
+    it before any input is read) or in Python."""
+
+    def __post_init__(self) -> None:
+        self.check()
+
+    def check(self) -> None:
+        """Raise :class:`ParamError` naming the key when the values do not fit together."""
+
+
+class SharedOption:
+    """Direct base of an option several params classes take by inheritance (:mod:`aldpat.options`):
+    its fields are listed after the class's own in ``--help`` and logs."""
 
 
 def validate_instance(obj: Any) -> Any:
     """Re-check a params instance built directly in Python (keyword arguments)."""
     for s in specs(type(obj)):
         coerce(s, getattr(obj, s.name))
+    if isinstance(obj, Checked):
+        obj.check()
     return obj
-
-
-def merge_params(*classes: type, name: str = "Params") -> type:
-    """A frozen dataclass holding the fields of several params classes (shared options)."""
-    seen: dict[str, tuple] = {}
-    for cls in classes:
-        hints = typing.get_type_hints(cls)
-        for f in dataclasses.fields(cls):
-            seen.setdefault(f.name, (f.name, hints[f.name], f))
-    return dataclasses.make_dataclass(name, list(seen.values()), frozen=True)

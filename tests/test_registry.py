@@ -1,5 +1,7 @@
 """Every registered task: the CLI options, the TOML keys and the log record are one declaration."""
 
+from pathlib import Path
+
 import pytest
 
 from aldpat.cli.main import cli
@@ -8,6 +10,8 @@ from aldpat.tasks import TASKS
 from aldpat.tasks.base import resolve_run
 
 TASK_KEYS = sorted(TASKS)
+#: a real file for required file parameters (ortho-height opens its geoid grid when checked)
+REQUIRED_FILE = str(Path(__file__).resolve().parent / "data" / "egm96_15_nga1.gtx")
 
 
 def command_for(key):
@@ -39,7 +43,7 @@ def test_cli_options_are_derived_from_the_declaration(key):
 def test_toml_keys_and_log_record_match_the_declaration(key):
     task = TASKS[key]
     defaults = {s.name: s.default for s in task.all_specs() if s.default is not None}
-    given = {s.name: "some/file" for s in task.all_specs() if s.required}
+    given = {s.name: REQUIRED_FILE for s in task.all_specs() if s.required}
     run = resolve_run(task, [("worksheet", defaults), ("cli", given)])
     record = {name: (value, source) for name, value, source in run.record()}
     for spec in task.all_specs():
@@ -47,7 +51,7 @@ def test_toml_keys_and_log_record_match_the_declaration(key):
             continue  # how jobs run is not a task parameter
         assert spec.name in record, f"{key}: {spec.name} missing from the log record"
         if spec.required:
-            assert record[spec.name] == ("some/file", "cli")
+            assert record[spec.name] == (REQUIRED_FILE, "cli")
             continue
         assert record[spec.name][0] == format_value(spec.default)
         expected_source = "worksheet" if spec.default is not None else "default"

@@ -18,12 +18,12 @@ A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` n
 from __future__ import annotations
 
 import logging
-import re
 from pathlib import Path
 
 import numpy as np
 
 from aldpat._lazy import lazy_import
+from aldpat.core.crs import parse_crs
 from aldpat.errors import DataError, InputMissingError, UsageError
 
 pyproj = lazy_import("pyproj")
@@ -32,32 +32,6 @@ log = logging.getLogger(__name__)
 
 #: metres in one unit of z (``z_unit``); the geoid grid is in metres
 Z_UNITS = {"m": 1.0, "ft": 0.3048, "us-ft": 1200.0 / 3937.0}
-
-_UTM = re.compile(r"^\s*(?:utm)?\s*(?:zone)?\s*(\d{1,2})\s*(n|s|north|south)?\s*$", re.I)
-
-
-def parse_crs(text) -> pyproj.CRS:
-    """A horizontal CRS from an EPSG code (``EPSG:26917`` or ``26917``), a WGS 84 UTM zone
-    (``17N``, ``utm17s``, ``UTM zone 17``; north when no hemisphere is given) or anything
-    pyproj accepts (PROJ string, WKT, authority code)."""
-    if isinstance(text, pyproj.CRS):
-        return text
-    value = str(text).strip()
-    match = _UTM.match(value)
-    try:
-        if value.isdigit() and len(value) > 2:
-            return pyproj.CRS.from_epsg(int(value))
-        if match:
-            zone = int(match.group(1))
-            if not 1 <= zone <= 60:
-                raise UsageError(f"UTM zone must be 1..60, got {zone}")
-            south = (match.group(2) or "n").lower().startswith("s")
-            return pyproj.CRS.from_epsg((32700 if south else 32600) + zone)
-        return pyproj.CRS.from_user_input(value)
-    except pyproj.exceptions.CRSError:
-        raise UsageError(f"unknown CRS {value!r} (give an EPSG code such as EPSG:26917 or a UTM zone such as 17N)") \
-            from None
-
 
 def _vgridshift(grids: str) -> pyproj.Transformer:
     """lon, lat in degrees, z = 0 -> z = N (metres) from the grid(s)."""
@@ -101,7 +75,7 @@ class HeightConverter:
         if z_unit not in Z_UNITS:
             raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
         self.crs = parse_crs(crs)
-        self.to_crs = parse_crs(to_crs) if to_crs is not None else None
+        self.to_crs = parse_crs(to_crs, key="to_crs") if to_crs is not None else None
         self.reverse = reverse
         self.factor = 1.0 / Z_UNITS[z_unit]
         self._geoid, self.geoid_name = geoid_transformer(geoid)

@@ -3,6 +3,20 @@
 Importing this package imports every filter module so that :data:`FILTERS` is complete.
 """
 
+# one import per filter module; each registers itself
+from aldpat.filters import (
+    atin,  # noqa: E402,F401
+    cluster_pm,  # noqa: E402,F401
+    etew,  # noqa: E402,F401
+    gapm,  # noqa: E402,F401
+    multipass,  # noqa: E402,F401
+    outlier,  # noqa: E402,F401
+    pm,  # noqa: E402,F401
+    pm2d,  # noqa: E402,F401
+    pmcircle,  # noqa: E402,F401
+    polynomial,  # noqa: E402,F401
+    slope,  # noqa: E402,F401
+)
 from aldpat.filters.base import (  # noqa: F401
     FILTERS,
     MARK_GROUND,
@@ -15,16 +29,3 @@ from aldpat.filters.base import (  # noqa: F401
     ground_filter,
     register_filter,
 )
-
-# one import per filter module; each registers itself
-from aldpat.filters import etew  # noqa: E402,F401
-from aldpat.filters import pm  # noqa: E402,F401
-from aldpat.filters import pm2d  # noqa: E402,F401
-from aldpat.filters import pmcircle  # noqa: E402,F401
-from aldpat.filters import outlier  # noqa: E402,F401
-from aldpat.filters import cluster_pm  # noqa: E402,F401
-from aldpat.filters import gapm  # noqa: E402,F401
-from aldpat.filters import multipass  # noqa: E402,F401
-from aldpat.filters import slope  # noqa: E402,F401
-from aldpat.filters import polynomial  # noqa: E402,F401
-from aldpat.filters import atin  # noqa: E402,F401

@@ -30,7 +30,8 @@ import numpy as np
 
 from aldpat.core.lowest_grid import GridSpec, LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError, ParamError
-from aldpat.params import param, validate_instance
+from aldpat.options import OriginOption
+from aldpat.params import Checked, SharedOption, param, validate_instance
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +60,18 @@ _CHUNK = 1 << 21
 
 
 @dataclass(frozen=True)
-class GroundParams:
+class FilterOutputOption(SharedOption):
+    """What ``aldpat filter`` writes (the filter functions ignore these)."""
+
+    result: str = param("terrain", "what to write: terrain points, non-terrain points, both files, "
+                        "or every point classified (LAS class 2/1, text column class)",
+                        choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
+    marks: bool = param(False, "add each point's mark: 0 for ground, else the half window (cells) "
+                        "at which it was removed (column / LAS extra byte 'mark')")
+
+
+@dataclass(frozen=True)
+class GroundParams(FilterOutputOption, OriginOption, Checked):
     """Parameters every grid filter shares; each filter's params class subclasses it."""
 
     cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
@@ -74,10 +86,6 @@ class GroundParams:
         "a non-lowest point of a cell is ground within this height of the final ground surface",
         unit="m",
         ge=0,
-    )
-    origin: tuple[float, float] | None = param(
-        None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
-        metavar="X Y",
     )
     low_outliers: float | None = param(
         None,
@@ -116,7 +124,7 @@ class GroundParams:
 
 
 @dataclass(frozen=True)
-class PointFilterParams:
+class PointFilterParams(FilterOutputOption, Checked):
     """Parameters every point filter shares (``slope``, ``ipf``, ``poly2``, ``atin``): filters that
     test points against their neighbours or a fitted surface rather than a mark matrix.
 

@@ -58,7 +58,8 @@ class ClusterPmParams(GroundParams):
     )
     direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
+        super().check()
         check_series(self.window_series, self.threshold_series, ("window_series", "threshold_series"))
 
 

@@ -47,13 +47,16 @@ class ETEWParams(GroundParams):
     max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
                                 manual="Max Z")
 
+    def check(self) -> None:
+        super().check()
+        if self.min_z is not None and self.max_z is not None and self.min_z > self.max_z:
+            raise ParamError(f"min_z: {self.min_z:g} is above max_z {self.max_z:g}")
+
 
 @register_filter("etew", params=ETEWParams,
                  summary="elevation threshold with expanding window (manual appendix; Zhang and Whitman 2005)")
 def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams) -> np.ndarray:
     """Expanding-window elevation threshold (manual appendix ETEW, eqs. 1-3)."""
-    if params.min_z is not None and params.max_z is not None and params.min_z > params.max_z:
-        raise ParamError(f"min_z: {params.min_z:g} is above max_z {params.max_z:g}")
     marks = np.zeros(z.shape, np.int32)
     if params.min_z is not None:
         marks[z < params.min_z] = 1

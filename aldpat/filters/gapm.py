@@ -93,7 +93,8 @@ class GapmParams(GroundParams):
         choices=("sequential", "separate"),
     )
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
+        super().check()
         # series that do not fit together are a usage error, reported before any file is read
         check_series(self.window_series, self.cluster_thresholds, ("window_series", "cluster_thresholds"))
         if not _direction_series(self, "row")[0] and not _direction_series(self, "column")[0]:
@@ -271,7 +272,7 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
     Empty cells take part as interpolated ground candidates (mark -7777 of Table 5-1); the
     driver marks them interpolated afterwards.
     """
-    p = params  # series checked when the params were made (GapmParams.__post_init__)
+    p = params  # series checked when the params were made (GapmParams.check)
     rw, rt = _direction_series(p, "row")
     cw, ctc = _direction_series(p, "column")
     if p.directions == "sequential":

@@ -63,6 +63,10 @@ class ProgressiveParams(GroundParams):
     )
     min_window: int = param(1, "smallest half window used", unit="cells", ge=1, manual="Min WndSize")
 
+    def check(self) -> None:
+        super().check()
+        threshold_series(self, window_series(self))
+
 
 @dataclass(frozen=True)
 class PMParams(ProgressiveParams):

@@ -14,7 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.filters.base import register_filter
-from aldpat.filters.pm import ProgressiveParams, progressive_open, threshold_series, window_series
+from aldpat.filters.pm import (
+    ProgressiveParams,
+    progressive_open,
+    threshold_series,
+    window_series,
+)
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,8 @@ class IpfParams(PointFilterParams):
               "times)", unit="m", gt=0, manual="Window Series",
     )
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
+        super().check()
         series = self.windows()
         if any(b > a for a, b in itertools.pairwise(series)):
             raise ParamError(f"window_series: must not grow, got {list(series)}")

@@ -63,7 +63,8 @@ class SlopeParams(PointFilterParams):
     max_slope: float = param(0.8, "a point is non-ground when the slope from it down to a neighbour "
                                   "reaches this", unit="m/m", gt=0, manual="Max Slope")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
+        super().check()
         if self.min_z is not None and self.max_z is not None and self.min_z > self.max_z:
             raise ParamError(f"min_z: {self.min_z:g} is above max_z {self.max_z:g}")
         if self.min_distance >= self.search_radius:

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.crs import prj_wkt
 from aldpat.core.grid_extent import GridSpec
 from aldpat.errors import DataError, InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_outputs
@@ -56,13 +57,6 @@ def header_lines(spec: GridSpec, nodata: float, *, ascii: bool = False) -> list[
     return [f"{k:<14s}{v}" for k, v in rows] + [f"{'BYTEORDER':<14s}LSBFIRST"]
 
 
-def esri_wkt(crs) -> str:
-    """A CRS (pyproj.CRS or anything it accepts) as the ESRI WKT that ``.prj`` files hold."""
-    import pyproj
-
-    return pyproj.CRS.from_user_input(crs).to_wkt(pyproj.enums.WktVersion.WKT1_ESRI)
-
-
 def write_float_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, nodata: float = DEFAULT_NODATA,
                      crs=None, overwrite: bool = False) -> list[Path]:
     """Write ``path`` (.flt), its ``.hdr`` and, when ``crs`` is given, its ``.prj``; all or none."""
@@ -72,7 +66,7 @@ def write_float_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
     targets = [path, path.with_suffix(".hdr")]
     if crs is not None:
         targets.append(path.with_suffix(".prj"))
-        wkt = esri_wkt(crs)
+        wkt = prj_wkt(crs)
     with atomic_outputs(targets, overwrite=overwrite) as tmps:
         with open(tmps[0], "wb") as fh:
             for start in range(spec.ny, 0, -512):  # northern rows first
@@ -100,7 +94,7 @@ def write_ascii_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
             for row in filled[::-1]:
                 fh.write(" ".join([fmt(v) for v in row.tolist()]) + "\n")
         if crs is not None:
-            tmps[1].write_text(esri_wkt(crs), encoding="ascii")
+            tmps[1].write_text(prj_wkt(crs), encoding="ascii")
     return targets
 
 

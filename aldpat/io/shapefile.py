@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import shapefile
 
+from aldpat.core.crs import prj_wkt
 from aldpat.core.polygon import clean_ring, oriented, signed_area
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_outputs
@@ -36,28 +37,6 @@ class Polygon:
 
     rings: list[np.ndarray]
     attributes: tuple = ()
-
-
-def parse_crs(text: str | None):
-    """A pyproj CRS from user input (``EPSG:32617``, a WKT, a PROJ string); None stays None."""
-    if text is None:
-        return None
-    import pyproj
-
-    try:
-        return pyproj.CRS.from_user_input(text)
-    except pyproj.exceptions.CRSError as exc:
-        raise UsageError(f"--crs {text!r}: {exc}") from None
-
-
-def prj_text(crs) -> str:
-    """ESRI WKT1 for a .prj (what ArcGIS and GDAL expect), falling back to OGC WKT1."""
-    import pyproj
-
-    try:
-        return crs.to_wkt(pyproj.enums.WktVersion.WKT1_ESRI)
-    except Exception:  # a CRS ESRI WKT1 cannot express
-        return crs.to_wkt(pyproj.enums.WktVersion.WKT1_GDAL)
 
 
 def shapefile_rings(rings: list[np.ndarray]) -> list[list[list[float]]]:
@@ -103,7 +82,7 @@ def write_polygons(path: str | Path, polygons: list[Polygon], fields: list[Field
             w.close()
         tmps[3].write_text("UTF-8\n", encoding="ascii")
         if crs is not None:
-            tmps[4].write_text(prj_text(crs), encoding="ascii")
+            tmps[4].write_text(prj_wkt(crs), encoding="ascii")
     return files
 
 

@@ -18,7 +18,6 @@ import re
 
 import numpy as np
 
-
 _FMT = re.compile(r"^%(?:\.(\d+))?([df])$")
 #: rows formatted at a time (the byte matrix is about 40 bytes a row)
 BLOCK_ROWS = 500_000

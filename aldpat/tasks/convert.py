@@ -9,24 +9,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from aldpat.core.crs import parse_crs
 from aldpat.errors import UsageError
-from aldpat.params import param
+from aldpat.options import CrsOption, FieldsOption, point_names
 from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
-class ConvertParams:
-    fields: str = param("xyzi", "columns written to text outputs: x y z and intensity, or x y z only",
-                        choices=("xyzi", "xyz"), manual="Fields")
-    crs: str | None = param(None, "CRS written into LAS/LAZ outputs from text (e.g. EPSG:32617)")
-
-
-def output_names(reader, fields: str) -> tuple[str, ...]:
-    """Columns a point output carries: x y z, plus intensity when asked for and present."""
-    names = ("x", "y", "z")
-    if fields == "xyzi" and "intensity" in reader.names:
-        names += ("intensity",)
-    return names
+class ConvertParams(FieldsOption, CrsOption):
+    """Only the shared options: ``fields`` and ``crs``."""
 
 
 def convert_one(source: Path, params: ConvertParams, ctx: JobContext) -> None:
@@ -34,15 +25,8 @@ def convert_one(source: Path, params: ConvertParams, ctx: JobContext) -> None:
     out = ctx.output_path(source, "", reader=reader)
     if out.resolve() == source.resolve():
         raise UsageError("output would replace the input: give --out-format, --odir or --suffix", path=source)
-    crs = None
-    if params.crs:
-        import pyproj
-
-        try:
-            crs = pyproj.CRS.from_user_input(params.crs)
-        except pyproj.exceptions.CRSError as exc:
-            raise UsageError(f"--crs {params.crs!r}: {exc}") from None
-    names = reader.names if reader.format == "las" and out.suffix in (".las", ".laz") else output_names(reader, params.fields)
+    crs = parse_crs(params.crs) if params.crs else None
+    names = reader.names if reader.format == "las" and out.suffix in (".las", ".laz") else point_names(reader, params.fields)
     with ctx.write_points(out, names, like=reader, crs=crs) as writer:
         for chunk in reader.chunks():
             writer.write(chunk)

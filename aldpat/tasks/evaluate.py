@@ -20,12 +20,13 @@ import numpy as np
 from aldpat.core.accuracy import coordinate_keys, match_accuracy
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.registry import open_points
+from aldpat.options import JsonOption
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
-class EvaluateParams:
+class EvaluateParams(JsonOption):
     reference: str | None = param(None, "reference points with labels (ISPRS text x y z label, or LAS class 2 = ground)",
                                   path=True, metavar="REF", required=True)
     mode: str = param("auto", "how the result marks ground: terrain (every point is ground), classified "
@@ -35,7 +36,6 @@ class EvaluateParams:
     class_column: int | None = param(None, "1-based column holding the class in a classified text result "
                                      "(default: found as --mode says)", ge=1)
     tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0)
-    json: bool = param(False, "print a JSON object instead of a table")
 
 
 def class_column_of(reader, table) -> int | None:

@@ -1,8 +1,8 @@
 """``aldpat filter ALGO``: separate ground from non-ground points (ALDPAT 1.0 user manual (2007), task 8).
 
-One task per registered grid filter (:data:`aldpat.filters.FILTERS`): its parameters are the
-filter's own (``cell``, ``data_mode`` ... from :class:`~aldpat.filters.base.GroundParams`)
-plus the output options below, so ``aldpat filter gapm --help``, the worksheet keys and the
+One task per registered filter (:data:`aldpat.filters.FILTERS`): its parameters are the
+filter's own, with ``result`` and ``marks``
+(:class:`~aldpat.filters.base.FilterOutputOption`) shared by every filter, so ``aldpat filter gapm --help``, the worksheet keys and the
 ``--params`` file all come from the filter's declaration.
 
 Outputs (manual "Result Mode"): ``<stem>_<algo>`` holds the terrain points, ``<stem>_<algo>_nt``
@@ -15,7 +15,6 @@ writes ALDPAT's one point per cell: the cell's lowest point moved to the cell ce
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from pathlib import Path
 
@@ -23,7 +22,6 @@ import numpy as np
 
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.io.table import PointTable
-from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
@@ -31,27 +29,6 @@ log = logging.getLogger(__name__)
 #: LAS classification codes (ASPRS): 2 ground, 1 unclassified.
 CLASS_GROUND = 2
 CLASS_OTHER = 1
-
-#: Output options every ``filter`` subcommand adds to its filter's parameters.
-_OUTPUT_FIELDS = [
-    ("result", str, param("terrain", "what to write: terrain points, non-terrain points, both files, "
-                          "or every point classified (LAS class 2/1, text column class)",
-                          choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")),
-    ("marks", bool, param(False, "add each point's mark: 0 for ground, else the half window (cells) "
-                          "at which it was removed (column / LAS extra byte 'mark')")),
-]
-
-
-def task_params(filter_params: type) -> type:
-    """The filter's params class extended with the output options (a subclass, so the task's
-    params are accepted by :func:`aldpat.filters.ground_filter` as they are)."""
-    name = filter_params.__name__.replace("Params", "") + "FilterTaskParams"
-    fields = [(n, t, dataclasses.field(default=f.default, metadata=f.metadata)) for n, t, f in _OUTPUT_FIELDS]
-    cls = dataclasses.make_dataclass(name, fields, bases=(filter_params,), frozen=True)
-    cls.__module__ = __name__
-    globals()[name] = cls  # importable by name, so worker processes (-j N) can unpickle it
-    return cls
-
 
 def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarray, np.ndarray]:
     """Rows to write, their ground flags and marks (one per cell in ``center`` mode)."""
@@ -117,7 +94,7 @@ def _register_all() -> None:
         def run(source, params, ctx, _name=name):
             filter_one(source, params, ctx, algorithm=_name)
 
-        register_task(Task(name=name, group="filter", summary=spec.summary, params=task_params(spec.params),
+        register_task(Task(name=name, group="filter", summary=spec.summary, params=spec.params,
                            run_one=run))
 
 

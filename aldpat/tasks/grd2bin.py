@@ -11,27 +11,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from aldpat.core.heights import parse_crs
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
 from aldpat.io.surfer import read_surfer
+from aldpat.options import CrsOption
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
-class Grd2BinParams:
+class Grd2BinParams(CrsOption):
     to: str = param("flt", "output: ArcGIS binary float grid (.flt + .hdr) or ESRI ASCII grid (.asc)",
                     choices=("flt", "asc"))
-    crs: str | None = param(None, "CRS of the grid, written as a .prj (EPSG code, UTM zone such as 17N, or WKT)")
     nodata: float = param(-9999.0, "value written for blank nodes")
 
 
 def grd2bin_one(source: Path, params: Grd2BinParams, ctx: JobContext) -> None:
-    crs = parse_crs(params.crs) if params.crs else None  # checked before the grid is read
     values, spec = read_surfer(source)
     out = ctx.output_path(source, "", "." + params.to)
     writer = write_float_grid if params.to == "flt" else write_ascii_grid
-    for path in writer(out, values, spec, nodata=params.nodata, crs=crs, overwrite=ctx.overwrite):
+    for path in writer(out, values, spec, nodata=params.nodata, crs=params.crs, overwrite=ctx.overwrite):
         ctx.wrote(path)
 
 

@@ -16,20 +16,26 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.core.grid_extent import GridSpec, from_bounds, from_data, tile_row_for, whole_cells
+from aldpat.core.grid_extent import (
+    GridSpec,
+    from_bounds,
+    from_data,
+    tile_row_for,
+    whole_cells,
+)
 from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
-from aldpat.errors import DataError, UsageError
+from aldpat.errors import DataError, ParamError
 from aldpat.io.surfer import FORMATS, write_surfer
-from aldpat.params import param
-from aldpat.tasks._prep_options import OriginOption
+from aldpat.options import OriginOption
+from aldpat.params import Checked, param
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class GridParams(OriginOption):
+class GridParams(OriginOption, Checked):
     cell: float = param(1.0, "grid cell size: spacing of the nodes", unit="m", gt=0)
     method: str = param("linear", "interpolation: nearest point, Delaunay TIN, inverse distance, ordinary "
                         "kriging, or the min/max/mean of the points in each node's cell", choices=METHODS)
@@ -51,19 +57,26 @@ class GridParams(OriginOption):
     nugget: float = param(0.0, "variogram nugget (kriging)", unit="m^2", ge=0)
     drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS)
 
+    def check(self) -> None:
+        super().check()
+        if self.tile_params and self.bounds:
+            raise ParamError("bounds: give either --tile-params or --bounds, not both")
+        if self.bounds:
+            minx, miny, maxx, maxy = self.bounds
+            if maxx <= minx or maxy <= miny:
+                raise ParamError(f"bounds: maximum must exceed minimum (got {minx:g} {miny:g} {maxx:g} {maxy:g})")
+        if self.nodata is not None and self.grid_format != "surfer7":
+            raise ParamError("nodata: applies to surfer7 grids; Surfer 6 grids always use 1.70141e38")
+
 
 def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = None,
                   xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
     """The grid range from the tile row or the bounds; None when it must come from the data."""
-    if params.tile_params and params.bounds:
-        raise UsageError("give either --tile-params or --bounds, not both")
     if params.tile_params:
         row = tile_row_for(params.tile_params, source)
         lo_hi = (row.minx, row.maxx, row.miny, row.maxy)
     elif params.bounds:
         minx, miny, maxx, maxy = params.bounds
-        if maxx <= minx or maxy <= miny:
-            raise UsageError(f"--bounds: maximum must exceed minimum (got {minx:g} {miny:g} {maxx:g} {maxy:g})")
         lo_hi = (minx, maxx, miny, maxy)
     elif xy is not None:
         return from_data(*xy, params.cell, origin=params.origin or (0.0, 0.0))
@@ -95,8 +108,6 @@ def _check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> No
 
 
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
-    if params.nodata is not None and params.grid_format != "surfer7":
-        raise UsageError("--nodata applies to surfer7 grids; Surfer 6 grids always use 1.70141e38")
     if params.tile_params and Path(source).resolve() == Path(params.tile_params).resolve():
         # "tiles/tile_*.txt" also matches tile_parameter.txt, which is no tile
         ctx.warn(f"{source.name}: skipped, it is the tile parameter file")

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.params import param
+from aldpat.options import JsonOption
 from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
-class InfoParams:
-    json: bool = param(False, "print one JSON object per input")
+class InfoParams(JsonOption):
+    """Only the shared ``json``."""
 
 
 def crs_text(crs) -> str | None:

@@ -16,27 +16,36 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from aldpat.core.heights import Z_UNITS, HeightConverter
-from aldpat.errors import UsageError
+from aldpat.core.crs import parse_crs
+from aldpat.core.heights import Z_UNITS, HeightConverter, geoid_transformer
+from aldpat.errors import AldpatError, ParamError, UsageError
+from aldpat.options import CrsOption
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
-class OrthoHeightParams:
-    crs: str | None = param(None, "horizontal CRS of the input x, y: EPSG code, UTM zone such as 17N, or WKT "
-                            "(default: a LAS file's own CRS)")
+class OrthoHeightParams(CrsOption):
     geoid: str | None = param(None, "geoid grid: a GTX or GeoTIFF file (such as egm96_15.gtx) or a grid name "
-                              "PROJ knows", path=True, metavar="GRID")
+                              "PROJ knows", path=True, metavar="GRID", required=True)
     to_crs: str | None = param(None, "re-project x, y to this CRS (datum, UTM zone, State Plane...)")
     reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N)")
     z_unit: str = param("m", "unit of the input and output heights (the geoid is in metres)",
                         choices=tuple(Z_UNITS))
 
+    def check(self) -> None:
+        super().check()
+        if self.geoid is None:
+            return  # required: resolve() says so
+        try:
+            geoid_transformer(self.geoid)  # the grid opens, or the job stops before reading inputs
+        except AldpatError as exc:
+            raise ParamError(f"geoid: {exc}") from None
+        if self.to_crs is not None:
+            parse_crs(self.to_crs, key="to_crs")
+
 
 def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -> None:
-    if not params.geoid:
-        raise UsageError("--geoid is required (a GTX or GeoTIFF grid file, or a PROJ grid name)")
     reader = ctx.open_input(source)
     crs = params.crs or reader.crs
     if crs is None:

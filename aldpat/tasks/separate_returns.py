@@ -16,18 +16,18 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 from aldpat.errors import DataError, ParamError
 from aldpat.io.table import PointTable
-from aldpat.params import param
-from aldpat.tasks._prep_options import FieldsOption, OrderOption, with_shared
+from aldpat.options import FieldsOption, OrderOption
+from aldpat.params import Checked, param
 from aldpat.tasks.base import JobContext, Task, register_task
-from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class _SeparateReturnsOwn:
+class SeparateReturnsParams(FieldsOption, OrderOption, Checked):
     utm_zone: str = param("auto", "UTM zone prefixed to x and y: auto (detect by digit count), none, or the "
                           "zone number to strip", manual="UTM Zone", metavar="auto|none|N")
     stop_gap: float = param(5.0, "where first minus last return elevation is below this, the last return is "
@@ -35,10 +35,8 @@ class _SeparateReturnsOwn:
     last_odir: str | None = param(None, "folder for the last-return (_2) files, which the manual recommends "
                                   "keeping apart (default: with the first-return files)", path=True, metavar="DIR")
 
-
-@dataclass(frozen=True)
-class SeparateReturnsParams(with_shared(_SeparateReturnsOwn, FieldsOption, OrderOption)):
-    def __post_init__(self) -> None:
+    def check(self) -> None:
+        super().check()
         parse_zone(self.utm_zone)
 
 

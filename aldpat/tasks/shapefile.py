@@ -14,7 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.errors import UsageError
-from aldpat.io.shapefile import Polygon, parse_crs, write_polygons
+from aldpat.io.shapefile import Polygon, write_polygons
+from aldpat.options import CrsOption
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 from aldpat.tasks.merge_boundary import read_merged
@@ -23,17 +24,15 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ShapefileParams:
+class ShapefileParams(CrsOption):
     output: str | None = param(None, "shapefile to write (default: the input's name with .shp)", path=True,
                                metavar="FILE.shp")
-    crs: str | None = param(None, "CRS of the coordinates, written to the .prj (e.g. EPSG:32617)")
 
 
 FIELDS = [("strip", "N", 10, 0), ("file", "C", 254, 0)]
 
 
 def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext) -> None:
-    crs = parse_crs(params.crs)
     if params.output:
         out = Path(params.output)
         if ctx.output is not None and ctx.output.odir and not out.is_absolute():
@@ -51,7 +50,7 @@ def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext)
             polygons.append(Polygon([strip.xyz[:, :2]], (strip.index, strip.name)))
     if not polygons:
         raise UsageError("no strip with a usable boundary", path=sources[0])
-    files = write_polygons(out, polygons, FIELDS, crs=crs, overwrite=ctx.overwrite)
+    files = write_polygons(out, polygons, FIELDS, crs=params.crs, overwrite=ctx.overwrite)
     for f in files:
         ctx.wrote(f)
     log.info("%s: %d polygons", files[0], len(polygons))

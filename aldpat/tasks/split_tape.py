@@ -26,8 +26,8 @@ import numpy as np
 from aldpat.core.precision import above
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
+from aldpat.options import OrderOption
 from aldpat.params import param
-from aldpat.tasks._prep_options import OrderOption, with_shared
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -35,12 +35,10 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class _SplitTapeParams:
+class SplitTapeParams(OrderOption):
     interval: float = param(60.0, "a new strip starts where GPS time jumps by more than this", unit="s", gt=0,
                             manual="Interval")
 
-
-SplitTapeParams = with_shared(_SplitTapeParams, OrderOption)
 
 
 def strip_starts(t: np.ndarray, previous: float | None, interval: float,

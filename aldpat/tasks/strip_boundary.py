@@ -17,22 +17,20 @@ import numpy as np
 from aldpat.core.boundary import BoundaryScan
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
+from aldpat.options import OriginOption
 from aldpat.params import param
-from aldpat.tasks._prep_options import OriginOption, with_shared
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class _StripBoundaryParams:
+class StripBoundaryParams(OriginOption):
     cell_width: float = param(5.0, "cell width of the min-z mesh", unit="m", gt=0, manual="Width")
     cell_height: float = param(5.0, "cell height of the min-z mesh", unit="m", gt=0, manual="Height")
     scan: str = param("auto", "scan rows for min and max x (x), columns for min and max y (y), or rows when the "
                       "x extent is the longer (auto)", choices=("auto", "x", "y"), manual="Scan Direction")
 
-
-StripBoundaryParams = with_shared(_StripBoundaryParams, OriginOption)
 
 
 def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
+from aldpat.options import OriginOption, kept_names
 from aldpat.params import param
-from aldpat.tasks._prep_options import OriginOption, kept_names, with_shared
 from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -31,7 +31,7 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class _ThinParams:
+class ThinParams(OriginOption):
     cell_width: float = param(1.0, "cell (window) width", unit="m", gt=0, manual="Width")
     cell_height: float = param(1.0, "cell (window) height", unit="m", gt=0, manual="Height")
     method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
@@ -39,8 +39,6 @@ class _ThinParams:
     xy: str = param("float", "output x and y as read (float) or rounded to the nearest integer",
                     choices=("float", "integer"), manual="XY Type")
 
-
-ThinParams = with_shared(_ThinParams, OriginOption)
 
 
 def round_half_away(v: np.ndarray) -> np.ndarray:

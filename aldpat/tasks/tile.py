@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.tiles import DIRECTIONS, TileLayout
-from aldpat.errors import DataError, UsageError
+from aldpat.errors import DataError, ParamError, UsageError
 from aldpat.io.atomic import (
     atomic_output,
     check_writable,
@@ -40,8 +40,8 @@ from aldpat.io.atomic import (
 from aldpat.io.las import LasWriter
 from aldpat.io.registry import output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
-from aldpat.params import param
-from aldpat.tasks._prep_options import FieldsOption, point_names, with_shared
+from aldpat.options import FieldsOption, point_names
+from aldpat.params import Checked, format_value, param
 from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -51,7 +51,7 @@ PARAMETER_FILE = "tile_parameter.txt"
 
 
 @dataclass(frozen=True)
-class _TileParams:
+class TileParams(FieldsOption, Checked):
     width: float = param(2000.0, "tile width along x (ignored with --direction y)", unit="m", gt=0, manual="Width")
     height: float = param(2000.0, "tile height along y (ignored with --direction x)", unit="m", gt=0,
                           manual="Height")
@@ -63,8 +63,10 @@ class _TileParams:
         metavar="MINX MINY MAXX MAXY", manual="Min/Max X Y")
     append: bool = param(False, "append to existing tile files and tile_parameter.txt, as ALDPAT did")
 
-
-TileParams = with_shared(_TileParams, FieldsOption)
+    def check(self) -> None:
+        super().check()
+        if self.bounds is not None and (self.bounds[2] < self.bounds[0] or self.bounds[3] < self.bounds[1]):
+            raise ParamError(f"bounds: maximum below minimum (MINX MINY MAXX MAXY: {format_value(self.bounds)})")
 
 
 def number_text(v: float) -> str:

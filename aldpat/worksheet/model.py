@@ -182,8 +182,8 @@ def _check_settings(settings: dict, jobs: list[Job], wpath: Path) -> None:
     known = set()  # a setting may serve any task, not only those in this worksheet
     for task in TASKS.values():
         known |= {s.name for s in task.all_specs()}
-    from aldpat.tasks.base import RunParams
     from aldpat.params import specs as param_specs
+    from aldpat.tasks.base import RunParams
 
     known |= {s.name for s in param_specs(RunParams)}
     for key in settings:

@@ -29,7 +29,13 @@ from typing import Callable
 import aldpat
 from aldpat import interrupt
 from aldpat.io.atomic import atomic_output, remove_stale_temporaries_in
-from aldpat.tasks.base import JobResult, ResolvedRun, expand_inputs, resolve_run, run_task
+from aldpat.tasks.base import (
+    JobResult,
+    ResolvedRun,
+    expand_inputs,
+    resolve_run,
+    run_task,
+)
 from aldpat.worksheet.model import Job, Worksheet
 
 READY, RUNNING, DONE, FAILED, SKIPPED, BLOCKED = "Ready", "Running", "Done", "Failed", "Skipped", "Blocked"

@@ -306,7 +306,7 @@ def test_a_read_only_output_folder(tmp_path, corpus):
 @pytest.mark.parametrize("args, message", [
     (["filter", "pm", "{good}", "--window-series", "3,2"], "window_series: half windows must be strictly ascending"),
     (["filter", "pm", "{good}", "--cell", "0"], "cell"),
-    (["grid", "{good}", "--bounds", "10", "10", "0", "0"], "--bounds: maximum must exceed minimum"),
+    (["grid", "{good}", "--bounds", "10", "10", "0", "0"], "bounds: maximum must exceed minimum"),
     (["thin", "{good}", "--cell-width", "-1"], "cell_width"),
     (["tile", "{good}", "--width", "0"], "width"),
     (["separate-returns", "{good}", "--utm-zone", "99"], "utm_zone"),

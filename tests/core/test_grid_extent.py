@@ -6,7 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aldpat.core.grid_extent import GridSpec, from_bounds, from_data, read_tile_parameters, tile_row_for
+from aldpat.core.grid_extent import (
+    GridSpec,
+    from_bounds,
+    from_data,
+    read_tile_parameters,
+    tile_row_for,
+)
 from aldpat.errors import DataError, InputFormatError, InputMissingError
 
 TILES = (

@@ -8,7 +8,15 @@ import numpy as np
 import pytest
 
 from aldpat.core.grid_extent import GridSpec, from_bounds
-from aldpat.core.interpolate import METHODS, Binner, binned, idw, interpolate, linear, nearest
+from aldpat.core.interpolate import (
+    METHODS,
+    Binner,
+    binned,
+    idw,
+    interpolate,
+    linear,
+    nearest,
+)
 from aldpat.errors import DataError, UsageError
 
 SPEC = from_bounds(500000.0, 4000000.0, 500060.0, 4000050.0, 1.0)

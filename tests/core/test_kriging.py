@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 from aldpat.core.grid_extent import GridSpec, from_bounds
-from aldpat.core.kriging import MODELS, Variogram, experimental_variogram, fit_variogram, krige
+from aldpat.core.kriging import (
+    MODELS,
+    Variogram,
+    experimental_variogram,
+    fit_variogram,
+    krige,
+)
 
 LIN = Variogram("linear", 0.0, 1.0, 0.0)
 

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from aldpat.core.morphology import (
-    WINDOWS, closing, dilation, disk_footprint, disk_rectangles, erosion, opening,
+    WINDOWS,
+    closing,
+    dilation,
+    disk_footprint,
+    disk_rectangles,
+    erosion,
+    opening,
 )
 
 

@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 
-from aldpat.core.polygon import clean_ring, crossing_parity, oriented, points_in_polygons, signed_area
+from aldpat.core.polygon import (
+    clean_ring,
+    crossing_parity,
+    oriented,
+    points_in_polygons,
+    signed_area,
+)
 
 # a U shape (concave): the notch 2 < x < 4, 2 < y < 6 is outside
 U = np.array([[0, 0], [6, 0], [6, 6], [4, 6], [4, 2], [2, 2], [2, 6], [0, 6]], dtype=float)

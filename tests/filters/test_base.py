@@ -7,7 +7,13 @@ import pytest
 
 from aldpat.errors import DataError, ParamError
 from aldpat.filters.base import (
-    FILTERS, MARK_ABOVE_SURFACE, MARK_INTERPOLATED, GroundParams, get_filter, ground_filter, register_filter,
+    FILTERS,
+    MARK_ABOVE_SURFACE,
+    MARK_INTERPOLATED,
+    GroundParams,
+    get_filter,
+    ground_filter,
+    register_filter,
 )
 from aldpat.params import param
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from terrain_scenes import errors, scene
 
 from aldpat.errors import ParamError
 from aldpat.filters.cluster_pm import ClusterPmParams, cluster_pm, progressive_marks
-from terrain_scenes import errors, scene
 
 
 def ridge_scene():

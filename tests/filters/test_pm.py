@@ -5,7 +5,14 @@ import pytest
 
 from aldpat.errors import ParamError
 from aldpat.filters import ground_filter
-from aldpat.filters.pm import PMParams, pm, progressive_open, rotation_angles, threshold_series, window_series
+from aldpat.filters.pm import (
+    PMParams,
+    pm,
+    progressive_open,
+    rotation_angles,
+    threshold_series,
+    window_series,
+)
 
 
 def test_power_window_series_and_min_window():
@@ -30,10 +37,12 @@ def test_threshold_rule_of_the_manual():
     # cell 2 m doubles the slope term; a first window above 3 cells grows from w = 1
     p = PMParams(cell=2.0, slope=0.1, init_threshold=0.2, max_threshold=9999.0)
     assert threshold_series(p, (2, 3)) == pytest.approx((0.1 * 4 * 2 + 0.2, 0.1 * 2 * 2 + 0.2))
-    p = PMParams(threshold_series=(0.5, 1.0))
+    p = PMParams(window_series=(1, 2), threshold_series=(0.5, 1.0))
     assert threshold_series(p, (1, 2)) == (0.5, 1.0)
     with pytest.raises(ParamError, match="threshold_series"):
         threshold_series(p, (1, 2, 4))
+    with pytest.raises(ParamError, match="threshold_series: expected one value per window"):
+        PMParams(threshold_series=(0.5, 1.0))  # eight windows by default: refused when made
 
 
 def test_building_removed_at_the_first_window_wider_than_it():

@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import rasterio  # noqa: E402  (test-only dependency: GDAL as the real client)
 
 from aldpat.core.grid_extent import GridSpec
 from aldpat.errors import DataError
-from aldpat.io.esri_grid import read_ascii_grid, read_float_grid, write_ascii_grid, write_float_grid
-
-import rasterio  # noqa: E402  (test-only dependency: GDAL as the real client)
+from aldpat.io.esri_grid import (
+    read_ascii_grid,
+    read_float_grid,
+    write_ascii_grid,
+    write_float_grid,
+)
 
 SPEC = GridSpec(300000.0, 4100000.0, 0.5, 0.5, 6, 4)
 

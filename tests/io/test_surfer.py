@@ -7,12 +7,11 @@ import struct
 
 import numpy as np
 import pytest
+import rasterio  # noqa: E402  (test-only dependency: GDAL as the real client)
 
 from aldpat.core.grid_extent import GridSpec
 from aldpat.errors import DataError, InputFormatError, OutputExistsError, UsageError
 from aldpat.io.surfer import BLANK, FORMATS, read_surfer, surfer_format, write_surfer
-
-import rasterio  # noqa: E402  (test-only dependency: GDAL as the real client)
 
 DRIVERS = {"surfer7": "GS7BG", "surfer6": "GSBG", "surfer6-ascii": "GSAG"}
 SPEC = GridSpec(500000.0, 4200000.0, 2.0, 2.0, 7, 5)

@@ -97,7 +97,7 @@ def test_missing_crs_or_geoid_is_reported(tmp_path, runner, cli):
     res = runner.invoke(cli, ["ortho-height", str(src), "--geoid", str(GEOID)])
     assert res.exit_code != 0 and "--crs is required" in res.output
     res = runner.invoke(cli, ["ortho-height", str(src), "--crs", "15N"])
-    assert res.exit_code != 0 and "--geoid is required" in res.output
+    assert res.exit_code == 2 and "geoid: required (--geoid on the command line)" in res.output
     res = runner.invoke(cli, ["ortho-height", str(src), "--crs", "15N", "--geoid", str(tmp_path / "x" / "g.gtx")])
     assert res.exit_code != 0 and "g.gtx" in res.output
 

@@ -63,8 +63,9 @@ def test_bad_polygon_files(tmp_path, points):
 
 
 def test_streams_las_and_keeps_attributes(tmp_path):
-    import laspy
     from pathlib import Path
+
+    import laspy
 
     src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
     poly = tmp_path / "square.txt"

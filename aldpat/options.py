@@ -1,0 +1,71 @@
+"""Options shared by several tasks and filters, each declared once.
+
+A params class takes a shared option by plain inheritance (``class ThinParams(OriginOption)``).
+Shared options are listed after the class's own parameters in ``--help`` and logs
+(:class:`SharedOption`). The ALDPAT 1.0 user manual (2007, "4. Description of Tasks") names
+several of these choices in more than one task: "Fields" (XYZI or XYZ, tasks 2 and 7) and the
+column order of the 9-column tapes (task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" by default,
+"t, x1, y1, z1, i1, x2, y2, z2, i2" when REALM exported it the other way).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from aldpat.core.crs import parse_crs
+from aldpat.params import Checked, SharedOption, param
+
+
+@dataclass(frozen=True)
+class FieldsOption(SharedOption):
+    fields: str = param("xyzi", "columns written to text outputs: x y z and intensity, or x y z only",
+                        choices=("xyzi", "xyz"), manual="Fields")
+
+
+@dataclass(frozen=True)
+class OrderOption(SharedOption):
+    order: str = param("last-first", "column order of 9-column tapes: t x2 y2 z2 i2 x1 y1 z1 i1 (last return "
+                       "first, the manual's) or t x1 y1 z1 i1 x2 y2 z2 i2", choices=("last-first", "first-last"))
+
+
+@dataclass(frozen=True)
+class OriginOption(SharedOption):
+    origin: tuple[float, float] | None = param(
+        None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
+        metavar="X Y",
+    )
+
+
+@dataclass(frozen=True)
+class CrsOption(SharedOption, Checked):
+    crs: str | None = param(
+        None, "CRS of the x, y coordinates: an EPSG code (EPSG:32617 or 32617), a UTM zone such as 17N, or "
+        "WKT; written into LAS/LAZ headers and .prj files (default: a LAS input's own CRS)")
+
+    def check(self) -> None:
+        super().check()
+        if self.crs is not None:
+            parse_crs(self.crs)
+
+
+@dataclass(frozen=True)
+class JsonOption(SharedOption):
+    json: bool = param(False, "print JSON (one object per input) instead of a table")
+
+
+def point_names(reader, fields: str) -> tuple[str, ...]:
+    """Columns a point output carries: x y z, plus intensity when asked for and present."""
+    names = ("x", "y", "z")
+    if fields == "xyzi" and "intensity" in reader.names:
+        names += ("intensity",)
+    return names
+
+
+def kept_names(reader, out) -> tuple[str, ...]:
+    """Columns a task that keeps whole points writes: every column, except that LAS/LAZ going to
+    text keeps x y z and intensity (as ``convert`` does), not the LAS flags."""
+    if reader.format == "las" and str(out).lower().endswith((".las", ".laz")):
+        return reader.names
+    if reader.format == "las":
+        return point_names(reader, "xyzi")
+    return reader.names
