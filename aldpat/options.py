@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from aldpat.core.crs import parse_crs
+from aldpat.errors import ParamError
 from aldpat.params import Checked, SharedOption, param
 
 
@@ -46,6 +47,32 @@ class CrsOption(SharedOption, Checked):
         super().check()
         if self.crs is not None:
             parse_crs(self.crs)
+
+
+@dataclass(frozen=True)
+class CellHeightOption(SharedOption):
+    """Rectangular cells: ``cell`` (declared by the class taking this option) is the width."""
+
+    cell_height: float | None = param(None, "cell height (none: square cells of cell)", unit="m", gt=0,
+                                      manual="Height", renamed_from=("height",))
+
+    def cell_shape(self) -> tuple[float, float]:
+        """Width and height of the cells."""
+        width = float(getattr(self, "cell"))
+        return width, self.cell_height if self.cell_height is not None else width
+
+
+@dataclass(frozen=True)
+class ElevationLimitsOption(SharedOption, Checked):
+    max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
+                                manual="Max Z")
+    min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
+                                manual="Min Z")
+
+    def check(self) -> None:
+        super().check()
+        if self.min_z is not None and self.max_z is not None and self.min_z > self.max_z:
+            raise ParamError(f"min_z: {self.min_z:g} is above max_z {self.max_z:g}")
 
 
 @dataclass(frozen=True)

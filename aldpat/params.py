@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import logging
 import math
 import types
 import typing
@@ -28,6 +29,8 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from aldpat.errors import ParamError
+
+log = logging.getLogger(__name__)
 
 #: Where a resolved value came from, lowest priority first.
 SOURCES = ("default", "settings", "params file", "worksheet", "cli")
@@ -53,6 +56,8 @@ class Spec:
     metavar: str | None = None
     path: bool = False  # a file path: worksheets resolve it against the worksheet's folder
     required: bool = False  # no default: the user must give a value (a usage error otherwise)
+    renamed_from: tuple[str, ...] = ()  # earlier names, still accepted with a deprecation message
+    renamed_values: tuple[tuple[str, str], ...] = ()  # (earlier value, value) pairs, the same way
 
     @property
     def option(self) -> str:
@@ -97,6 +102,8 @@ def param(
     metavar: str | None = None,
     path: bool = False,
     required: bool = False,
+    renamed_from: typing.Iterable[str] = (),
+    renamed_values: Mapping[str, str] | None = None,
 ) -> Any:
     """Declare a parameter as a dataclass field (see module docstring).
 
@@ -116,6 +123,8 @@ def param(
         metavar=metavar,
         path=path,
         required=required,
+        renamed_from=tuple(renamed_from),
+        renamed_values=tuple((renamed_values or {}).items()),
     )
     return dataclasses.field(default=default, metadata={"aldpat": meta})
 
@@ -314,8 +323,41 @@ def coerce(spec: Spec, value: Any, where: str = "") -> Any:
             _check_bounds(spec, v, where)
         return out
     v = _scalar(spec.kind, value, spec, where)
+    if isinstance(v, str):
+        v = _renamed_value(spec, v, where)
     _check_bounds(spec, v, where)
     return v
+
+
+def _renamed_value(spec: Spec, value: str, where: str) -> str:
+    new = dict(spec.renamed_values).get(value)
+    if new is None:
+        return value
+    log.warning("%s%s: %r is now spelled %r; the old spelling will stop working in a later version",
+                where, spec.name, value, new)
+    return new
+
+
+def renamed_keys(all_specs: typing.Iterable[Spec]) -> dict[str, str]:
+    """Earlier parameter names -> their names now."""
+    return {old: s.name for s in all_specs for old in s.renamed_from}
+
+
+def with_current_names(mapping: Mapping[str, Any], renames: Mapping[str, str], where: str = "") -> dict[str, Any]:
+    """``mapping`` with earlier parameter names replaced by their names now (each with a
+    deprecation message); a value given under both names is a :class:`ParamError`."""
+    out: dict[str, Any] = {}
+    for raw_key, value in mapping.items():
+        key = raw_key.replace("-", "_")
+        new = renames.get(key)
+        if new is None:
+            out[raw_key] = value
+            continue
+        if new in out or new in mapping or new.replace("_", "-") in mapping:
+            raise ParamError(f"{where}{key} and {new} are one parameter; give {new} only")
+        log.warning("%s%s is now called %s; the old name will stop working in a later version", where, key, new)
+        out[new] = value
+    return out
 
 
 def unknown_key_error(key: str, known: typing.Iterable[str], where: str = "") -> ParamError:
@@ -350,6 +392,8 @@ def resolve(params_cls: type, layers: list[tuple[str, Mapping[str, Any]]], where
     Unknown keys raise :class:`ParamError` with a suggestion unless ``allow_unknown``.
     """
     smap = spec_map(params_cls)
+    renames = renamed_keys(smap.values())
+    layers = [(source, with_current_names(mapping, renames, where)) for source, mapping in layers]
     values = {name: s.default for name, s in smap.items()}
     sources = {name: "default" for name in smap}
     for source, mapping in layers:

@@ -131,7 +131,7 @@ def main() -> None:
             ("separate-returns", task_code("separate-returns", str(tape), odir=str(out))),
             ("tile 500 m, 20 m buffer", task_code("tile", str(pts), odir=str(out), width=500.0, height=500.0,
                                                    buffer=20.0)),
-            ("thin 1 m lowest", task_code("thin", str(pts), odir=str(out), cell_width=1.0, cell_height=1.0)),
+            ("thin 1 m lowest", task_code("thin", str(pts), odir=str(out), cell=1.0)),
             ("polygon-extract (comb)", task_code("polygon-extract", str(pts), odir=str(out), polygon=str(poly))),
         ]
         for name, code in runs:

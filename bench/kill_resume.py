@@ -53,8 +53,7 @@ result = "classified"
 task = "thin"
 inputs = ["raw/*.txt"]
 odir = "thin"
-cell_width = 2.0
-cell_height = 2.0
+cell = 2.0
 
 [[job]]
 task = "grid"

@@ -15,10 +15,11 @@ import click
 
 import aldpat
 from aldpat import interrupt
-from aldpat.cli.options import option_for, params_file_opt
+from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show
 from aldpat.errors import AldpatError, UsageError
+from aldpat.params import renamed_keys
 from aldpat.tasks import TASKS
 from aldpat.tasks.base import Task, run_task
 from aldpat.worksheet.toml import load_toml
@@ -45,8 +46,9 @@ def command_line(task: Task, inputs, given: dict, params_file: str | None) -> st
     """The command as it would be typed to repeat this run (recorded in the logs)."""
     words = ["aldpat"] + task.key.split(" ") + [str(i) for i in inputs]
     specs = {s.name: s for s in task.all_specs()}
+    renames = renamed_keys(specs.values())  # recorded under the names now, as the log replays them
     for name, value in given.items():
-        spec = specs[name]
+        spec = specs[renames.get(name, name)]
         if spec.kind == "bool":
             words.append(spec.option if value else f"--no-{spec.option[2:]}")
         elif isinstance(value, tuple):
@@ -100,6 +102,7 @@ def make_command(task: Task) -> click.Command:
     if task.inputs != "none":
         params.append(click.Argument(["inputs"], nargs=-1, metavar="INPUT..."))
     params += [option_for(s) for s in specs]
+    params += [renamed_option(s, old) for s in specs for old in s.renamed_from]
     params.append(params_file_opt)
     params.append(click.Option(["-v", "--verbose"], count=True, help="more detail on stderr"))
     params.append(click.Option(["-q", "--quiet"], count=True, help="only errors on stderr, no progress"))

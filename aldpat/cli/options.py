@@ -7,6 +7,8 @@ same messages for the same mistakes.
 
 from __future__ import annotations
 
+import dataclasses
+
 import click
 
 from aldpat.params import Spec
@@ -37,6 +39,14 @@ def option_for(spec: Spec) -> click.Option:
             if spec.path:
                 metavar = "FILE"
     return click.Option(names, type=str, default=None, help=help_text, metavar=metavar)
+
+
+def renamed_option(spec: Spec, old: str) -> click.Option:
+    """A hidden option under an earlier name of ``spec``; the value reaches
+    :func:`aldpat.params.with_current_names`, which says it was renamed."""
+    option = option_for(dataclasses.replace(spec, name=old, renamed_from=()))
+    option.hidden = True
+    return option
 
 
 params_file_opt = click.Option(["--params", "params_file"], type=str, default=None, metavar="FILE.toml",

@@ -31,7 +31,9 @@ log = logging.getLogger(__name__)
 _BLOCK = 256
 
 #: ``direction`` -> axes filtered at every window, in order (1: along x / rows, 0: along y).
-AXES = {"row": (1,), "column": (0,), "both": (1, 0)}
+AXES = {"x": (1,), "y": (0,), "xy": (1, 0)}
+#: the spellings of ``direction`` before it took the x / y / xy of ``pm`` and ``tile``
+OLD_DIRECTIONS = {"row": "x", "column": "y", "both": "xy"}
 
 
 @dataclass(frozen=True)
@@ -56,7 +58,8 @@ class ClusterPmParams(GroundParams):
         False, "let a removed run whose side is a cell removed earlier be recovered too (the "
         "printed UpdateMark); by default its sides must be cells still standing",
     )
-    direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
+    direction: str = param("xy", "filter along x (rows), y (columns) or both", choices=tuple(AXES),
+                           renamed_values=OLD_DIRECTIONS)
 
     def check(self) -> None:
         super().check()

@@ -29,28 +29,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
-from aldpat.errors import ParamError
 from aldpat.filters.base import MARK_GROUND, GroundParams, register_filter
+from aldpat.options import ElevationLimitsOption
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ETEWParams(GroundParams):
+class ETEWParams(ElevationLimitsOption, GroundParams):
     slope: float = param(0.4, "terrain slope: a point more than slope x window width above the window's "
                               "lowest point is removed", unit="m/m", gt=0, manual="Slope")
     loop_times: int = param(5, "number of iterations; the window doubles each time", ge=1, le=30,
                             manual="Loop Times")
-    min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
-                                manual="Min Z")
-    max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
-                                manual="Max Z")
-
-    def check(self) -> None:
-        super().check()
-        if self.min_z is not None and self.max_z is not None and self.min_z > self.max_z:
-            raise ParamError(f"min_z: {self.min_z:g} is above max_z {self.max_z:g}")
 
 
 @register_filter("etew", params=ETEWParams,

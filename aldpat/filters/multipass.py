@@ -32,7 +32,7 @@ from aldpat.core.lowest_grid import fill_nearest
 from aldpat.core.priority_fill import priority_fill
 from aldpat.errors import ParamError
 from aldpat.filters.base import GroundParams, register_filter
-from aldpat.filters.cluster_pm import AXES, progressive_marks
+from aldpat.filters.cluster_pm import AXES, OLD_DIRECTIONS, progressive_marks
 from aldpat.filters.gapm import check_series
 from aldpat.params import param
 
@@ -65,7 +65,8 @@ class MultipassParams(GroundParams):
         "cell; 0 floods every removed set at its lowest boundary, as the queue of §4.2.4 does",
         unit="m", ge=0,
     )
-    direction: str = param("both", "filter along rows (x), columns (y) or both", choices=tuple(AXES))
+    direction: str = param("xy", "filter along x (rows), y (columns) or both", choices=tuple(AXES),
+                           renamed_values=OLD_DIRECTIONS)
 
     def check(self) -> None:
         super().check()

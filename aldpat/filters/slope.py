@@ -37,6 +37,7 @@ from aldpat._lazy import lazy_import
 from aldpat.core.lowest_grid import LowestGrid
 from aldpat.errors import ParamError
 from aldpat.filters.base import PointFilterParams, register_filter
+from aldpat.options import CellHeightOption, ElevationLimitsOption
 from aldpat.params import param
 
 ndimage = lazy_import("scipy.ndimage")
@@ -48,14 +49,8 @@ MARK_STEEP = 1
 
 
 @dataclass(frozen=True)
-class SlopeParams(PointFilterParams):
+class SlopeParams(CellHeightOption, ElevationLimitsOption, PointFilterParams):
     cell: float = param(1.0, "cell width of the lowest-point mesh", unit="m", gt=0, manual="Width")
-    height: float | None = param(None, "cell height of the lowest-point mesh (none: square cells of cell)",
-                                 unit="m", gt=0, manual="Height")
-    max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
-                                manual="Max Z")
-    min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
-                                manual="Min Z")
     search_radius: float = param(8.0, "neighbours within this distance are compared", unit="m", gt=0,
                                  manual="Search Radius")
     min_distance: float = param(0.5, "pairs closer than this are not compared (a slope over a tiny "
@@ -65,14 +60,9 @@ class SlopeParams(PointFilterParams):
 
     def check(self) -> None:
         super().check()
-        if self.min_z is not None and self.max_z is not None and self.min_z > self.max_z:
-            raise ParamError(f"min_z: {self.min_z:g} is above max_z {self.max_z:g}")
         if self.min_distance >= self.search_radius:
             raise ParamError(f"min_distance: {self.min_distance:g} must be below search_radius "
                              f"{self.search_radius:g}")
-
-    def cell_shape(self) -> tuple[float, float]:
-        return self.cell, self.height if self.height is not None else self.cell
 
 
 def _offsets(width: float, height: float, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -30,7 +30,14 @@ import aldpat
 from aldpat import interrupt
 from aldpat.errors import AldpatError, InputMissingError, UsageError
 from aldpat.io.registry import EXTENSIONS, output_extension, write_points
-from aldpat.params import Resolved, param, resolve, specs
+from aldpat.params import (
+    Resolved,
+    param,
+    renamed_keys,
+    resolve,
+    specs,
+    with_current_names,
+)
 
 log = logging.getLogger(__name__)
 
@@ -310,6 +317,8 @@ class ResolvedRun:
 def resolve_run(task: Task, layers: list[tuple[str, Mapping[str, Any]]], where: str = "") -> ResolvedRun:
     """Split raw values among the task's params classes, validating each (unknown keys -> error)."""
     known = {s.name for s in task.all_specs()}
+    renames = renamed_keys(task.all_specs())
+    layers = [(source, with_current_names(mapping, renames, where)) for source, mapping in layers]
     for _, mapping in layers:
         for key in mapping:
             if key.replace("-", "_") not in known:

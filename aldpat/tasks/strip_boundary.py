@@ -17,7 +17,7 @@ import numpy as np
 from aldpat.core.boundary import BoundaryScan
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
-from aldpat.options import OriginOption
+from aldpat.options import CellHeightOption, OriginOption
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 
@@ -25,9 +25,9 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class StripBoundaryParams(OriginOption):
-    cell_width: float = param(5.0, "cell width of the min-z mesh", unit="m", gt=0, manual="Width")
-    cell_height: float = param(5.0, "cell height of the min-z mesh", unit="m", gt=0, manual="Height")
+class StripBoundaryParams(CellHeightOption, OriginOption):
+    cell: float = param(5.0, "cell width of the min-z mesh, and height unless cell_height is given", unit="m",
+                        gt=0, manual="Width", renamed_from=("cell_width",))
     scan: str = param("auto", "scan rows for min and max x (x), columns for min and max y (y), or rows when the "
                       "x extent is the longer (auto)", choices=("auto", "x", "y"), manual="Scan Direction")
 
@@ -35,7 +35,7 @@ class StripBoundaryParams(OriginOption):
 
 def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
     """The closed boundary ring of a strip (columns x y z intensity) and the scan used."""
-    scan = BoundaryScan(params.cell_width, params.cell_height, params.origin)
+    scan = BoundaryScan(params.cell, params.cell_shape()[1], params.origin)
     for chunk in reader.chunks():
         scan.add(chunk.x, chunk.y, chunk.z, chunk["intensity"] if "intensity" in chunk else None)
     return scan.ring(params.scan), scan.direction(params.scan)

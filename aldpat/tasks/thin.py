@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
-from aldpat.options import OriginOption, kept_names
+from aldpat.options import CellHeightOption, OriginOption, kept_names
 from aldpat.params import param
 from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
@@ -31,9 +31,9 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ThinParams(OriginOption):
-    cell_width: float = param(1.0, "cell (window) width", unit="m", gt=0, manual="Width")
-    cell_height: float = param(1.0, "cell (window) height", unit="m", gt=0, manual="Height")
+class ThinParams(CellHeightOption, OriginOption):
+    cell: float = param(1.0, "cell (window) width, and height unless cell_height is given", unit="m", gt=0,
+                        manual="Width", renamed_from=("cell_width",))
     method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
                         "nearest the cell centre", choices=METHODS, manual="Method")
     xy: str = param("float", "output x and y as read (float) or rounded to the nearest integer",
@@ -47,7 +47,7 @@ def round_half_away(v: np.ndarray) -> np.ndarray:
 
 def thin_table(table, params: ThinParams):
     """The points ``table`` keeps (one per occupied cell), x and y rounded if asked."""
-    keep = select_per_cell(table.x, table.y, table.z, params.cell_width, params.cell_height,
+    keep = select_per_cell(table.x, table.y, table.z, params.cell, params.cell_shape()[1],
                            method=params.method, origin=params.origin)
     out = table.take(keep)
     if params.xy == "integer":
@@ -74,7 +74,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
             spill = Spill(out.parent, k)
             try:
                 for chunk in reader.chunks():
-                    i, j = cell_of(chunk.x, chunk.y, params.cell_width, params.cell_height, params.origin)
+                    i, j = cell_of(chunk.x, chunk.y, params.cell, params.cell_shape()[1], params.origin)
                     spill.add(chunk, bucket_of(i, j, k))
                     total += len(chunk)
                 for bucket in spill.buckets():

@@ -307,7 +307,8 @@ def test_a_read_only_output_folder(tmp_path, corpus):
     (["filter", "pm", "{good}", "--window-series", "3,2"], "window_series: half windows must be strictly ascending"),
     (["filter", "pm", "{good}", "--cell", "0"], "cell"),
     (["grid", "{good}", "--bounds", "10", "10", "0", "0"], "bounds: maximum must exceed minimum"),
-    (["thin", "{good}", "--cell-width", "-1"], "cell_width"),
+    (["thin", "{good}", "--cell", "-1"], "cell: -1 is out of range"),
+    (["thin", "{good}", "--cell-width", "-1"], "cell: -1 is out of range"),  # the earlier name, renamed
     (["tile", "{good}", "--width", "0"], "width"),
     (["separate-returns", "{good}", "--utm-zone", "99"], "utm_zone"),
     (["convert", "{good}", "-j", "-1"], "jobs"),

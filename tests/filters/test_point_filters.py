@@ -60,7 +60,7 @@ def test_slope_rectangular_cells_compare_lowest_points_only():
     x = np.array([0.2, 1.7, 5.0])
     y = np.array([0.5, 0.5, 0.5])
     z = np.array([0.0, 1.0, 0.0])
-    res = ground_filter(x, y, z, "slope", SlopeParams(cell=2.0, height=1.0, max_slope=0.5, search_radius=4.0))
+    res = ground_filter(x, y, z, "slope", SlopeParams(cell=2.0, cell_height=1.0, max_slope=0.5, search_radius=4.0))
     assert res.is_ground.tolist() == [True, False, True]
     assert res.grid.spec.shape == (1, 3)  # 2 m cells along x
     c = res.center()

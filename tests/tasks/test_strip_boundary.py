@@ -14,7 +14,7 @@ STRIP = DATA / "fsite5_strip.laz"
 def test_real_strip_ring_encloses_the_strip(tmp_path):
     import laspy
 
-    report = get_task("strip-boundary")([STRIP], cell_width=3.0, cell_height=3.0, out_format="text",
+    report = get_task("strip-boundary")([STRIP], cell=3.0, out_format="text",
                                         odir=str(tmp_path))
     assert report.exit_code == 0, report.results[0].error
     out = tmp_path / "fsite5_strip_Bound.txt"
@@ -36,13 +36,13 @@ def test_scan_option_and_grid_alignment(tmp_path):
     pts = np.column_stack([xs.ravel(), ys.ravel(), np.arange(15.0), np.ones(15)])
     src = tmp_path / "s.txt"
     np.savetxt(src, pts, fmt="%.2f %.2f %.2f %d")
-    assert get_task("strip-boundary")([src], cell_width=2.0, cell_height=2.0, scan="x").exit_code == 0
+    assert get_task("strip-boundary")([src], cell=2.0, scan="x").exit_code == 0
     ring = np.loadtxt(tmp_path / "s_Bound.txt")
     # rows [0,2) and [2,4): row 0 holds y 1.5, row 1 holds y 2.5 and 3.5; each end cell keeps its lowest z
     # right ends going north: cell (2,0) -> (4.5,1.5) z 3; cell (2,1) -> (4.5,2.5) z 8
     # left ends going south: cell (0,1) -> (1.5,2.5) z 5; cell (0,0) -> (1.5,1.5) z 0
     assert ring[:, :3].tolist() == [[4.5, 1.5, 3], [4.5, 2.5, 8], [1.5, 2.5, 5], [1.5, 1.5, 0], [4.5, 1.5, 3]]
-    get_task("strip-boundary")([src], cell_width=2.0, cell_height=2.0, scan="x", origin=(1.0, 1.0),
+    get_task("strip-boundary")([src], cell=2.0, scan="x", origin=(1.0, 1.0),
                                overwrite=True)
     moved = np.loadtxt(tmp_path / "s_Bound.txt")
     assert moved[:, :2].tolist() != ring[:, :2].tolist()  # --origin moves the cells
@@ -51,5 +51,5 @@ def test_scan_option_and_grid_alignment(tmp_path):
 def test_too_few_cells_is_reported(tmp_path):
     src = tmp_path / "one.txt"
     np.savetxt(src, [[1.0, 1.0, 1.0], [1.1, 1.1, 1.0]], fmt="%.2f")
-    report = get_task("strip-boundary")([src], cell_width=5.0, cell_height=5.0)
+    report = get_task("strip-boundary")([src], cell=5.0)
     assert report.exit_code == 1 and "too few occupied cells" in report.results[0].error

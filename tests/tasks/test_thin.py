@@ -28,14 +28,14 @@ POINTS = np.array([
 def test_methods_by_hand(tmp_path, method, kept):
     src = tmp_path / "p.txt"
     np.savetxt(src, POINTS, fmt="%.2f %.2f %.2f %d")
-    assert get_task("thin")([src], cell_width=2.0, cell_height=2.0, method=method).exit_code == 0
+    assert get_task("thin")([src], cell=2.0, method=method).exit_code == 0
     assert np.array_equal(np.loadtxt(tmp_path / "p_thin.txt"), POINTS[kept])
 
 
 def test_integer_xy_rounds_half_away_from_zero(tmp_path):
     src = tmp_path / "p.txt"
     np.savetxt(src, [[10.5, 20.49, 1.0], [-3.5, 7.5, 2.0]], fmt="%.2f")
-    assert get_task("thin")([src], cell_width=100.0, cell_height=1.0, xy="integer").exit_code == 0
+    assert get_task("thin")([src], cell=100.0, cell_height=1.0, xy="integer").exit_code == 0
     lines = (tmp_path / "p_thin.txt").read_text().splitlines()
     assert lines == ["11 20 1.00", "-4 8 2.00"]  # input order kept
 
@@ -44,7 +44,7 @@ def test_cell_width_and_height_differ(tmp_path):
     src = tmp_path / "p.txt"
     np.savetxt(src, POINTS, fmt="%.2f %.2f %.2f %d")
     # 4 m wide, 1 m tall cells: row 0 (y < 1) holds points 0 1 4 6, row 1 holds 2 3 5
-    get_task("thin")([src], cell_width=4.0, cell_height=1.0)
+    get_task("thin")([src], cell=4.0, cell_height=1.0)
     assert np.array_equal(np.loadtxt(tmp_path / "p_thin.txt"), POINTS[[1, 2]])
 
 
@@ -56,7 +56,7 @@ def test_spilled_buckets_give_the_same_points(tmp_path, monkeypatch, method):
                            rng.integers(0, 255, n)])
     src = tmp_path / "big.txt"
     np.savetxt(src, pts, fmt="%.2f %.2f %.2f %d")
-    get_task("thin")([src], cell_width=1.5, cell_height=1.5, method=method, odir=str(tmp_path / "mem"))
+    get_task("thin")([src], cell=1.5, method=method, odir=str(tmp_path / "mem"))
     monkeypatch.setattr(spill, "BUCKET_POINTS", 3000)  # about 7 buckets
     made = []
 
@@ -71,7 +71,7 @@ def test_spilled_buckets_give_the_same_points(tmp_path, monkeypatch, method):
 
     whole = TextReader.chunks
     monkeypatch.setattr(TextReader, "chunks", lambda self, size=4000: whole(self, 4000))
-    get_task("thin")([src], cell_width=1.5, cell_height=1.5, method=method, odir=str(tmp_path / "disk"))
+    get_task("thin")([src], cell=1.5, method=method, odir=str(tmp_path / "disk"))
     a = np.loadtxt(tmp_path / "mem" / "big_thin.txt")
     b = np.loadtxt(tmp_path / "disk" / "big_thin.txt")
     assert made and made[0] >= 5  # the bucket files were used
@@ -84,7 +84,7 @@ def test_las_input_keeps_its_attributes(tmp_path):
     import laspy
 
     src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
-    assert get_task("thin")([src], cell_width=10.0, cell_height=10.0, odir=str(tmp_path)).exit_code == 0
+    assert get_task("thin")([src], cell=10.0, odir=str(tmp_path)).exit_code == 0
     out = laspy.read(tmp_path / "fsite5_strip_thin.laz")
     full = laspy.read(src)
     assert 0 < len(out.points) < len(full.points)
@@ -104,9 +104,9 @@ def test_las_through_bucket_files_keeps_records(tmp_path, monkeypatch):
     import laspy
 
     src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
-    get_task("thin")([src], cell_width=4.0, cell_height=4.0, odir=str(tmp_path / "mem"))
+    get_task("thin")([src], cell=4.0, odir=str(tmp_path / "mem"))
     monkeypatch.setattr(spill, "BUCKET_POINTS", 4000)  # about 6 buckets
-    get_task("thin")([src], cell_width=4.0, cell_height=4.0, odir=str(tmp_path / "disk"))
+    get_task("thin")([src], cell=4.0, odir=str(tmp_path / "disk"))
     a = laspy.read(tmp_path / "mem" / "fsite5_strip_thin.laz")
     b = laspy.read(tmp_path / "disk" / "fsite5_strip_thin.laz")
     key = lambda las: sorted(zip(np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z),  # noqa: E731
@@ -116,6 +116,6 @@ def test_las_through_bucket_files_keeps_records(tmp_path, monkeypatch):
 
 def test_las_to_text_writes_x_y_z_intensity(tmp_path):
     src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
-    assert get_task("thin")([src], cell_width=20.0, cell_height=20.0, out_format="text",
+    assert get_task("thin")([src], cell=20.0, out_format="text",
                             odir=str(tmp_path)).exit_code == 0
     assert np.loadtxt(tmp_path / "fsite5_strip_thin.txt").shape[1] == 4
