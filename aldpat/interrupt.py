@@ -20,7 +20,7 @@ import contextlib
 import os
 import signal
 import sys
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 _activity: list[str | Callable[[], str]] = []
 _interrupted_during: str | None = None

@@ -11,6 +11,7 @@ column order of the 9-column tapes (task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from aldpat.core.crs import parse_crs
 from aldpat.errors import ParamError
@@ -53,12 +54,15 @@ class CrsOption(SharedOption, Checked):
 class CellHeightOption(SharedOption):
     """Rectangular cells: ``cell`` (declared by the class taking this option) is the width."""
 
+    if TYPE_CHECKING:
+        cell: float  # declared, with its default and help, by each class taking this option
+
     cell_height: float | None = param(None, "cell height (none: square cells of cell)", unit="m", gt=0,
                                       manual="Height", renamed_from=("height",))
 
     def cell_shape(self) -> tuple[float, float]:
         """Width and height of the cells."""
-        width = float(getattr(self, "cell"))
+        width = float(self.cell)
         return width, self.cell_height if self.cell_height is not None else width
 
 
@@ -82,7 +86,7 @@ class JsonOption(SharedOption):
 
 def point_names(reader, fields: str) -> tuple[str, ...]:
     """Columns a point output carries: x y z, plus intensity when asked for and present."""
-    names = ("x", "y", "z")
+    names: tuple[str, ...] = ("x", "y", "z")
     if fields == "xyzi" and "intensity" in reader.names:
         names += ("intensity",)
     return names

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import inspect
 import logging
 import math
 import types
 import typing
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 from aldpat.errors import ParamError
 
@@ -110,29 +112,29 @@ def param(
     Sequence defaults are given as tuples so that parameter objects stay immutable.
     """
     if isinstance(default, list):
-        default = tuple(default)
-    meta = dict(
-        help=help,
-        unit=unit,
-        choices=tuple(choices) if choices is not None else None,
-        gt=gt,
-        ge=ge,
-        lt=lt,
-        le=le,
-        manual=manual,
-        metavar=metavar,
-        path=path,
-        required=required,
-        renamed_from=tuple(renamed_from),
-        renamed_values=tuple((renamed_values or {}).items()),
-    )
+        default = tuple(default)  # parameter objects stay immutable
+    meta = {
+        "help": help,
+        "unit": unit,
+        "choices": tuple(choices) if choices is not None else None,
+        "gt": gt,
+        "ge": ge,
+        "lt": lt,
+        "le": le,
+        "manual": manual,
+        "metavar": metavar,
+        "path": path,
+        "required": required,
+        "renamed_from": tuple(renamed_from),
+        "renamed_values": tuple((renamed_values or {}).items()),
+    }
     return dataclasses.field(default=default, metadata={"aldpat": meta})
 
 
 def default_of(base: type, name: str, default: Any) -> Any:
     """Redeclare the parameter ``name`` of ``base`` in a subclass with another default only:
     help, unit and bounds stay declared once, in ``base``."""
-    field = base.__dataclass_fields__[name]
+    field = {f.name: f for f in dataclasses.fields(base)}[name]
     if isinstance(default, list):
         default = tuple(default)
     return dataclasses.field(default=default, metadata=field.metadata)
@@ -143,11 +145,11 @@ def _kind_of(annotation: Any) -> tuple[str, bool, int | None]:
     optional = False
     origin = typing.get_origin(annotation)
     if origin in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(annotation) if a is not type(None)]
-        optional = len(args) < len(typing.get_args(annotation))
-        if len(args) != 1:
+        members = [a for a in typing.get_args(annotation) if a is not type(None)]
+        optional = len(members) < len(typing.get_args(annotation))
+        if len(members) != 1:
             raise TypeError(f"unsupported parameter annotation {annotation!r}")
-        annotation = args[0]
+        annotation = members[0]
         origin = typing.get_origin(annotation)
     if annotation is bool:
         return "bool", optional, None
@@ -190,7 +192,7 @@ _SPEC_CACHE: dict[type, list[Spec]] = {}
 
 def _is_shared(params_cls: type, name: str) -> bool:
     """Whether ``name`` was first declared by a shared option (listed last; the sort is stable)."""
-    first = next(k for k in reversed(params_cls.__mro__) if name in k.__dict__.get("__annotations__", {}))
+    first = next(k for k in reversed(params_cls.__mro__) if name in inspect.get_annotations(k))
     return SharedOption in first.__bases__
 
 
@@ -384,7 +386,7 @@ class Resolved:
         ]
 
 
-def resolve(params_cls: type, layers: list[tuple[str, Mapping[str, Any]]], where: str = "",
+def resolve(params_cls: type, layers: Sequence[tuple[str, Mapping[str, Any]]], where: str = "",
             allow_unknown: bool = False) -> Resolved:
     """Merge layers of raw values (lowest priority first) into a validated params instance.
 

@@ -22,7 +22,7 @@ def measure(code: str, *, cwd: str | None = None) -> dict:
         "peak = next(int(l.split()[1]) * 1024 for l in open('/proc/self/status') if l.startswith('VmHWM'))\n"
         "print('@@' + json.dumps(dict(result, seconds=seconds, peak_bytes=peak)))\n"
     )
-    proc = subprocess.run([sys.executable, "-c", wrapper], capture_output=True, text=True, cwd=cwd)
+    proc = subprocess.run([sys.executable, "-c", wrapper], check=False, capture_output=True, text=True, cwd=cwd)
     if proc.returncode != 0:
         raise RuntimeError(proc.stderr)
     line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("@@"))

@@ -36,9 +36,9 @@ REPO = BENCH.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(BENCH))
 
-from _measure import measure, mib  # noqa: E402
-from data_paths import ISPRS_SITES  # noqa: E402
-from isprs import PUBLISHED_GAPM_SET01, SAMPLES, Sample, load_samples, score  # noqa: E402
+from _measure import measure, mib
+from data_paths import ISPRS_SITES
+from isprs import PUBLISHED_GAPM_SET01, SAMPLES, Sample, load_samples, score
 
 WORK = BENCH / "_work"
 SITES = ISPRS_SITES
@@ -100,7 +100,7 @@ def run_isprs(algos, params, samples: list[Sample]) -> dict:
             res = ground_filter(s.x, s.y, s.z, algo, p)
             seconds += time.perf_counter() - t0
             scores[s.name] = score(s.ground, res.is_ground)
-        table[algo] = dict(scores=scores, seconds=seconds, source=source)
+        table[algo] = {"scores": scores, "seconds": seconds, "source": source}
     return table
 
 
@@ -164,7 +164,7 @@ def run_peers(samples: list[Sample]) -> dict:
         except ImportError as exc:
             print(f"# {name}: not installed ({exc.name})")
             continue
-        table[name] = dict(scores=scores, seconds=seconds, source="peer")
+        table[name] = {"scores": scores, "seconds": seconds, "source": "peer"}
     return table
 
 
@@ -211,8 +211,8 @@ def build_sites(n_target: int) -> Path:
     parts = []
     for k in range(copies):
         a = src.points.array.copy()
-        a["X"] = X + int(round((k % side) * width / h.scales[0]))
-        a["Y"] = Y + int(round((k // side) * height / h.scales[1]))
+        a["X"] = X + round((k % side) * width / h.scales[0])
+        a["Y"] = Y + round((k // side) * height / h.scales[1])
         parts.append(a)
     out = laspy.LasData(laspy.LasHeader(point_format=h.point_format, version=h.version))
     out.header.scales, out.header.offsets = h.scales, h.offsets

@@ -38,12 +38,12 @@ REPO = HERE.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
-from _measure import measure, mib  # noqa: E402
-from data_paths import FSITE5  # noqa: E402
-from isprs import PUBLISHED_GAPM_SET01, SAMPLES, load_samples, score  # noqa: E402
+from _measure import measure, mib
+from data_paths import FSITE5
+from isprs import PUBLISHED_GAPM_SET01, SAMPLES, load_samples, score
 
-from aldpat.filters import FILTERS, ground_filter  # noqa: E402
-from aldpat.params import resolve  # noqa: E402
+from aldpat.filters import FILTERS, ground_filter
+from aldpat.params import resolve
 
 PARAMS = REPO / "jobs" / "params"
 WORK = HERE / "_work"

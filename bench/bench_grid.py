@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib  # noqa: E402
+from _measure import measure, mib
 
 WORK = Path(__file__).resolve().parent / "_work"
 REPO = Path(__file__).resolve().parents[1]

@@ -14,9 +14,8 @@ import argparse
 import sys
 from pathlib import Path
 
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib, write_synthetic_points  # noqa: E402
+from _measure import measure, mib, write_synthetic_points
 
 WORK = Path(__file__).resolve().parent / "_work"
 REPO = Path(__file__).resolve().parents[1]

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import measure, mib, write_synthetic_points  # noqa: E402
+from _measure import measure, mib, write_synthetic_points
 
 REPO = Path(__file__).resolve().parents[1]
 WORK = Path(__file__).resolve().parent / "_work" / "prep"

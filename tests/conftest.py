@@ -34,6 +34,5 @@ def write_xyz(path: Path, xyz: np.ndarray, fmt: str = "%.2f", delimiter: str = "
     with open(path, "w", newline="") as fh:
         if header:
             fh.write(header + newline)
-        for row in xyz:
-            fh.write(delimiter.join(fmt % v for v in row) + newline)
+        fh.writelines(delimiter.join(fmt % v for v in row) + newline for row in xyz)
     return path

@@ -152,7 +152,7 @@ def _register_commands() -> None:
 
 _register_commands()
 
-from aldpat.cli.run import run_command  # noqa: E402  (needs the group defined above)
+from aldpat.cli.run import run_command
 
 cli.add_command(run_command)
 

@@ -55,7 +55,7 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, verbose,
     except UsageError as exc:
         click.echo(f"aldpat: error: {exc}", err=True)
         sys.exit(2)
-    except Exception as exc:  # e.g. a missing worksheet file
+    except Exception as exc:  # noqa: BLE001  (e.g. a missing worksheet file: one line, exit 2)
         click.echo(f"aldpat: error: {exc}", err=True)
         sys.exit(2)
     if dry_run:

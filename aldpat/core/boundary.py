@@ -62,7 +62,7 @@ class _Candidates:
         self.side = np.concatenate([np.zeros(len(lo), np.int8), np.ones(len(hi), np.int8)])
         self.values = {k: v[keep] for k, v in vals.items()}
 
-    def ring(self) -> np.ndarray:
+    def ring(self) -> tuple[np.ndarray, np.ndarray]:
         """Indices of the low-end and of the high-end candidates, each sorted by line."""
         low = np.flatnonzero(self.side == 0)
         high = np.flatnonzero(self.side == 1)

@@ -50,7 +50,7 @@ def next_index(mask: np.ndarray, *, strict: bool = False) -> np.ndarray:
     return idx
 
 
-def take_rows(values: np.ndarray, cols: np.ndarray, fill: float | int) -> np.ndarray:
+def take_rows(values: np.ndarray, cols: np.ndarray, fill: float) -> np.ndarray:
     """``values[r, cols[r, c]]`` for every cell, ``fill`` where ``cols`` is out of the row."""
     n = values.shape[1]
     ok = (cols >= 0) & (cols < n)
@@ -119,7 +119,7 @@ def make_clusters(z: np.ndarray, unfiltered: np.ndarray, threshold: float,
     threshold : cluster threshold, height per cell.
     gap_threshold : slope threshold between unfiltered cells separated by filtered ones.
     """
-    rows, n = z.shape
+    _rows, n = z.shape
     prev = prev_index(unfiltered, strict=True)
     zprev = take_rows(z, prev, np.nan)
     gap = np.arange(n, dtype=np.int64)[None, :] - prev
@@ -151,7 +151,7 @@ def recover_runs(removed: np.ndarray, ids: np.ndarray, candidates: np.ndarray | 
 
     Returns the bool mask of cells to reset to ground.
     """
-    rows, n = removed.shape
+    _rows, n = removed.shape
     flat = removed.ravel()
     pos = np.flatnonzero(flat)
     out = np.zeros(removed.shape, dtype=bool)

@@ -18,7 +18,7 @@ from aldpat.errors import ParamError
 
 pyproj = lazy_import("pyproj")
 
-_UTM = re.compile(r"^\s*(?:utm)?\s*(?:zone)?\s*(\d{1,2})\s*(n|s|north|south)?\s*$", re.I)
+_UTM = re.compile(r"^\s*(?:utm)?\s*(?:zone)?\s*(\d{1,2})\s*(n|s|north|south)?\s*$", re.IGNORECASE)
 
 
 def parse_crs(text: Any, key: str = "crs") -> Any:

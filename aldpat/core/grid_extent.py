@@ -100,10 +100,10 @@ def _count(lo: float, hi: float, cell: float, what: str) -> int:
         raise UsageError(f"{what}: maximum {hi:g} is below minimum {lo:g}")
     steps = (hi - lo) / cell
     if whole_cells(lo, hi, cell):
-        return int(round(steps)) + 1
+        return round(steps) + 1
     log.warning("%s range %g..%g is not a whole number of %g cells; grid extended to %g",
                 what, lo, hi, cell, lo + math.ceil(steps) * cell)
-    return int(math.ceil(steps)) + 1
+    return math.ceil(steps) + 1
 
 
 def from_bounds(minx: float, miny: float, maxx: float, maxy: float, cell: float) -> GridSpec:
@@ -122,8 +122,8 @@ def from_data(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     ox, oy = origin
     lo_x = ox + math.floor((float(np.min(x)) - ox) / cell) * cell
     lo_y = oy + math.floor((float(np.min(y)) - oy) / cell) * cell
-    nx = int(math.ceil((float(np.max(x)) - lo_x) / cell - _WHOLE)) + 1
-    ny = int(math.ceil((float(np.max(y)) - lo_y) / cell - _WHOLE)) + 1
+    nx = math.ceil((float(np.max(x)) - lo_x) / cell - _WHOLE) + 1
+    ny = math.ceil((float(np.max(y)) - lo_y) / cell - _WHOLE) + 1
     # Surfer grids need two nodes a side to define a spacing.
     return GridSpec(lo_x, lo_y, cell, cell, max(nx, 2), max(ny, 2))
 

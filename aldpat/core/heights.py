@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,7 +27,10 @@ from aldpat._lazy import lazy_import
 from aldpat.core.crs import parse_crs
 from aldpat.errors import DataError, InputMissingError, UsageError
 
-pyproj = lazy_import("pyproj")
+if TYPE_CHECKING:
+    import pyproj
+else:
+    pyproj = lazy_import("pyproj")
 
 log = logging.getLogger(__name__)
 
@@ -133,5 +137,5 @@ class HeightConverter:
         x2, y2 = np.asarray(x2, dtype=np.float64), np.asarray(y2, dtype=np.float64)
         bad = ~(np.isfinite(x2) & np.isfinite(y2))
         if bad.any():
-            raise self._outside(bad, x, y, first, path, f"cannot be projected to {self.to_crs.name}")
+            raise self._outside(bad, x, y, first, path, f"cannot be projected to {self._xy.target_crs}")
         return x2, y2

@@ -21,6 +21,7 @@ import logging
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,7 +29,10 @@ from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
 from aldpat.errors import DataError, UsageError
 
-spatial = lazy_import("scipy.spatial")
+if TYPE_CHECKING:
+    from scipy import spatial
+else:
+    spatial = lazy_import("scipy.spatial")
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +82,7 @@ def _nodes(spec: GridSpec, r0: int, r1: int, origin: tuple[float, float]) -> np.
     return out
 
 
-def _tree(x: np.ndarray, y: np.ndarray) -> tuple["spatial.cKDTree", tuple[float, float]]:
+def _tree(x: np.ndarray, y: np.ndarray) -> tuple[spatial.cKDTree, tuple[float, float]]:
     """A KD-tree on coordinates relative to the data's corner (keeps full precision)."""
     origin = (float(x.min()), float(y.min()))
     return spatial.cKDTree(np.column_stack([x - origin[0], y - origin[1]]), balanced_tree=False), origin
@@ -294,8 +298,8 @@ def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, worker
     order = np.argsort(key, kind="stable")
     x, y, z, key = x[order], y[order], z[order], key[order]
     bounds = np.searchsorted(key, np.arange(nbx * nby + 1))
-    reach_x = int(math.ceil(buffer / (bcols * spec.dx)))
-    reach_y = int(math.ceil(buffer / (brows * spec.dy)))
+    reach_x = math.ceil(buffer / (bcols * spec.dx))
+    reach_y = math.ceil(buffer / (brows * spec.dy))
 
     def run(block: tuple[int, int]) -> None:
         i, j = block

@@ -153,7 +153,7 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     np.minimum.at(zmin, flat, z)
     hit = np.flatnonzero(z == zmin[flat])
     # int32 halves the largest per-cell array; MAX_CELLS keeps cell counts far below 2**31
-    lowest = np.full(spec.size, -1, np.int32 if len(x) < 2**31 else np.int64)
+    lowest: np.ndarray = np.full(spec.size, -1, np.int32 if len(x) < 2**31 else np.int64)
     # several points may share the minimum: assigning in reverse order leaves the smallest index
     lowest[flat[hit[::-1]]] = hit[::-1]
     zmin[lowest < 0] = np.nan

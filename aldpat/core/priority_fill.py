@@ -147,7 +147,7 @@ def _segment_envelope(v: np.ndarray, offsets: tuple[np.ndarray, np.ndarray], ris
     earlier ones by a per-stretch offset larger than any value (``offsets``, from
     :func:`_stretch_offsets`), so one running minimum per direction serves the whole row.
     """
-    rows, n = v.shape
+    _rows, n = v.shape
     ramp = np.arange(n, dtype=np.float64)[None, :] * rise
     out = np.full(v.shape, np.inf)
     for sign, offset in zip((1, -1), offsets):

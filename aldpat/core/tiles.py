@@ -16,8 +16,8 @@ reach beyond Max X and Max Y, and points there belong to them. A point also goes
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
 
 import numpy as np
 
@@ -38,7 +38,7 @@ class TileLayout:
 
     @classmethod
     def build(cls, bounds: tuple[float, float, float, float], width: float, height: float, buffer: float,
-              direction: str = "xy") -> "TileLayout":
+              direction: str = "xy") -> TileLayout:
         minx, miny, maxx, maxy = (float(v) for v in bounds)
         if not (maxx >= minx and maxy >= miny):
             raise ValueError(f"bounds must be MINX MINY MAXX MAXY with max >= min, got {bounds!r}")
@@ -96,7 +96,7 @@ class TileLayout:
         if size <= 0:  # one tile of zero extent
             return [(np.zeros(len(v), np.int64), (u >= -b) & (u <= b))]
         base = np.floor(u / size).astype(np.int64)
-        reach = int(math.ceil(b / size)) + 1
+        reach = math.ceil(b / size) + 1
         out = []
         for off in range(-reach, reach + 1):
             k = base + off

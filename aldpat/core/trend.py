@@ -87,7 +87,7 @@ def threshold_array(
 
     A row without minima gets ``cluster_threshold``.
     """
-    rows, n = z.shape
+    _rows, n = z.shape
     k = int(half_window)
     col = np.arange(n, dtype=np.int64)
     left_bound = np.maximum(col - k, 0)

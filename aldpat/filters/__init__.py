@@ -5,17 +5,17 @@ Importing this package imports every filter module so that :data:`FILTERS` is co
 
 # one import per filter module; each registers itself
 from aldpat.filters import (
-    atin,  # noqa: E402,F401
-    cluster_pm,  # noqa: E402,F401
-    etew,  # noqa: E402,F401
-    gapm,  # noqa: E402,F401
-    multipass,  # noqa: E402,F401
-    outlier,  # noqa: E402,F401
-    pm,  # noqa: E402,F401
-    pm2d,  # noqa: E402,F401
-    pmcircle,  # noqa: E402,F401
-    polynomial,  # noqa: E402,F401
-    slope,  # noqa: E402,F401
+    atin,  # noqa: F401
+    cluster_pm,  # noqa: F401
+    etew,  # noqa: F401
+    gapm,  # noqa: F401
+    multipass,  # noqa: F401
+    outlier,  # noqa: F401
+    pm,  # noqa: F401
+    pm2d,  # noqa: F401
+    pmcircle,  # noqa: F401
+    polynomial,  # noqa: F401
+    slope,  # noqa: F401
 )
 from aldpat.filters.base import (  # noqa: F401
     FILTERS,

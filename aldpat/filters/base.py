@@ -23,8 +23,9 @@ from __future__ import annotations
 import difflib
 import logging
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -158,10 +159,10 @@ class FilterSpec:
     name: str
     summary: str
     params: type
-    fn: FilterFn | PointFilterFn
+    fn: Callable[..., np.ndarray]  # a FilterFn, or a PointFilterFn when on_points
     #: params -> rotation angles in degrees (the manual's Rotate Angle / Rotate Times);
     #: ``None``: the data are filtered once, unrotated.
-    rotations: Callable[[object], Sequence[float]] | None = None
+    rotations: Callable[[Any], Sequence[float]] | None = None
     on_points: bool = False
 
 
@@ -170,7 +171,7 @@ FILTERS: dict[str, FilterSpec] = {}
 
 
 def register_filter(name: str, *, params: type, summary: str,
-                    rotations: Callable[[object], Sequence[float]] | None = None, on_points: bool = False):
+                    rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
@@ -480,8 +481,8 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
                             np.full(base.z.shape, MARK_INTERPOLATED, np.int32), angles, algorithm, params)
-    point_marks = None
-    is_ground = None
+    point_marks: np.ndarray | None = None
+    is_ground: np.ndarray | None = None
     for angle in angles:
         if angle % 360.0 == 0.0:
             grid, xr, yr = base, x, y
@@ -500,6 +501,7 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
         log.debug("%s at %g deg: %d of %d points ground", algorithm, angle, int(ig.sum()), len(ig))
         del marks, pm, ig
 
+    assert point_marks is not None and is_ground is not None  # one angle at least
     if set_aside is not None:
         is_ground[set_aside] = False
         point_marks[set_aside] = MARK_LOW_OUTLIER

@@ -18,9 +18,11 @@ removed where its height above the opened surface exceeds the threshold. In set 
 
 from __future__ import annotations
 
+import itertools
 import logging
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -106,7 +108,7 @@ def check_series(windows: tuple[int, ...], values: tuple[float, ...], names: tup
     if len(windows) != len(values):
         raise ParamError(f"{names[1]}: expected one value per window of {names[0]} "
                          f"({len(windows)}), got {len(values)}")
-    if any(b <= a for a, b in zip(windows, windows[1:])):
+    if any(b <= a for a, b in itertools.pairwise(windows)):
         raise ParamError(f"{names[0]}: half windows must be strictly ascending, got {windows}")
 
 
@@ -196,7 +198,7 @@ def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, ax
     return removed, zo
 
 
-def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> np.ndarray:
+def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int = 2) -> np.ndarray:
     """``AdaptiveMorphFilter`` as printed (§6.2.4 lines 2-21): at every window of the series the
     rows (if the window is a row window) and then the columns (if a column window) are opened,
     each on the surface the previous pass left, marking into one mark matrix.
@@ -237,13 +239,14 @@ def adaptive_sequential(z: np.ndarray, p: "GapmParams", *, workers: int = 2) -> 
             for block, use, lines, step in ((row_block, rows, nr, BLOCK_ROWS),
                                             (column_block, cols, nc, BLOCK_COLUMNS)):
                 if k in use:
-                    list(pool.map(lambda a: block(a, k, ct), range(0, lines, step)))
+                    list(pool.map(lambda a, block=block, k=k, ct=ct: block(a, k, ct), range(0, lines, step)))
     return mark
 
 
 def combine_directions(row_marks: np.ndarray | None, column_marks: np.ndarray | None) -> np.ndarray:
     """Non-ground when either direction removed the cell (§6.2.5); the row's window wins."""
     if row_marks is None:
+        assert column_marks is not None, "one direction at least"
         return column_marks
     if column_marks is None:
         return row_marks
@@ -279,8 +282,8 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
         marks = adaptive_sequential(z, p)
         log.debug("gapm: %d of %d cells removed", int((marks > 0).sum()), marks.size)
         return marks
-    opts = dict(init_thresh_bin=p.init_thresh_bin, max_threshold_divisor=p.max_threshold_divisor,
-                use_cluster_diff=p.use_cluster_diff)
+    opts: dict[str, Any] = {"init_thresh_bin": p.init_thresh_bin, "max_threshold_divisor": p.max_threshold_divisor,
+                            "use_cluster_diff": p.use_cluster_diff}
     row_fn = (lambda a: adaptive_rows(a, rw, rt, axis=1, **opts)) if rw else None
     col_fn = (lambda a: adaptive_rows(a, cw, ctc, axis=0, **opts)) if cw else None
     marks = run_directions(z, row_fn, col_fn)

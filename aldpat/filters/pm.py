@@ -21,6 +21,7 @@ For the first window ``w_{k-1}`` is 1 (the unfiltered grid is a one-cell window)
 
 from __future__ import annotations
 
+import itertools
 import logging
 from dataclasses import dataclass
 
@@ -86,10 +87,10 @@ def window_series(p: ProgressiveParams) -> tuple[int, ...]:
     ``min_window`` dropped."""
     if p.window_series is not None:
         ks = tuple(int(k) for k in p.window_series)
-        if any(b <= a for a, b in zip(ks, ks[1:])):
+        if any(b <= a for a, b in itertools.pairwise(ks)):
             raise ParamError(f"window_series: half windows must be strictly ascending, got {ks}")
     else:
-        raw = [int(round(p.window_base ** (i * p.power_increment))) for i in range(p.window_series_length)]
+        raw = [round(p.window_base ** (i * p.power_increment)) for i in range(p.window_series_length)]
         ks = tuple(sorted(set(raw)))
     ks = tuple(k for k in ks if k >= p.min_window)
     if not ks:

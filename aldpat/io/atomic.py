@@ -22,8 +22,8 @@ import itertools
 import os
 import re
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 from aldpat.errors import AldpatError, OutputError, OutputExistsError
 

@@ -69,8 +69,9 @@ def write_float_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
         wkt = prj_wkt(crs)
     with atomic_outputs(targets, overwrite=overwrite) as tmps:
         with open(tmps[0], "wb") as fh:
-            for start in range(spec.ny, 0, -512):  # northern rows first
-                fh.write(filled[max(0, start - 512):start][::-1].astype("<f4").tobytes())
+            # northern rows first, 512 rows at a time
+            fh.writelines(filled[max(0, start - 512):start][::-1].astype("<f4").tobytes()
+                          for start in range(spec.ny, 0, -512))
         tmps[1].write_text("\n".join(header_lines(spec, nodata)) + "\n", encoding="ascii")
         if crs is not None:
             tmps[2].write_text(wkt, encoding="ascii")
@@ -91,8 +92,7 @@ def write_ascii_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
     with atomic_outputs(targets, overwrite=overwrite) as tmps:
         with open(tmps[0], "w", encoding="ascii", newline="\n") as fh:
             fh.write("\n".join(header_lines(spec, nodata, ascii=True)) + "\n")
-            for row in filled[::-1]:
-                fh.write(" ".join([fmt(v) for v in row.tolist()]) + "\n")
+            fh.writelines(" ".join([fmt(v) for v in row.tolist()]) + "\n" for row in filled[::-1])
         if crs is not None:
             tmps[1].write_text(prj_wkt(crs), encoding="ascii")
     return targets

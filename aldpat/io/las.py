@@ -8,8 +8,9 @@ the source's point format, scale, offset and VLRs (CRS included).
 from __future__ import annotations
 
 import copy
+from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,18 +44,18 @@ class LasReader:
         try:
             with laspy.open(self.path) as fh:
                 self.header = fh.header
-        except Exception as exc:  # laspy raises several unrelated types for bad files
+        except Exception as exc:  # noqa: BLE001  (laspy raises several unrelated types for bad files)
             raise _corrupt(self.path, exc) from None
         self.count = int(self.header.point_count)
         self._check_record_count()
         self.scales = tuple(float(s) for s in self.header.scales)
         try:
             self.crs = self.header.parse_crs()
-        except Exception:
+        except Exception:  # noqa: BLE001  (a CRS record PROJ cannot read: the points are still usable)
             self.crs = None
         dims = set(self.header.point_format.dimension_names)
         self.names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
-        self.decimals = {n: max(0, int(round(-np.log10(s)))) for n, s in zip("xyz", self.scales)}
+        self.decimals = {n: max(0, round(-np.log10(s))) for n, s in zip("xyz", self.scales)}
 
     def _check_record_count(self) -> None:
         """An uncompressed LAS whose header counts fewer records than it holds would lose the
@@ -88,7 +89,7 @@ class LasReader:
                                      meta={"decimals": self.decimals, "in_record": frozenset(cols)})
         except InputFormatError:
             raise
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001  (laspy/lazrs raise several types for damaged data)
             raise _corrupt(self.path, exc) from None
         if done < self.count:
             raise InputFormatError(f"truncated: header says {self.count} points, file holds {done}",
@@ -130,7 +131,7 @@ class LasWriter:
         self.crs = crs
         self.compress = self.path.suffix.lower() == ".laz" if compress is None else compress
         self.count = 0
-        self._fh = None
+        self._fh: laspy.LasWriter | None = None
         self._extra: list[str] = []
 
     def _open(self, table: PointTable) -> None:
@@ -155,7 +156,7 @@ class LasWriter:
         n = len(table)
         if n == 0:
             return
-        same = frozenset()
+        same: frozenset[str] = frozenset()
         if table.record is not None and self.template is not None and not self._extra:
             # the source's own records: write them as they are, then only what changed (on a copy,
             # so the caller's table is never modified)
@@ -179,6 +180,7 @@ class LasWriter:
                 points[dim] = values
         for name in self._extra:
             points[name] = table.columns[name]
+        assert self._fh is not None  # opened above
         self._fh.write_points(points)
         self.count += n
 
@@ -186,4 +188,5 @@ class LasWriter:
         if self._fh is None:
             # an empty output still gets a valid header
             self._open(PointTable({n: np.zeros(0) for n in ("x", "y", "z")}))
+        assert self._fh is not None
         self._fh.close()

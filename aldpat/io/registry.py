@@ -8,8 +8,8 @@ atomic writer that takes chunks and renames the finished file into place.
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
@@ -69,6 +69,7 @@ def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = 
     """
     path = Path(path)
     fmt = detect_format(path)
+    writer: LasWriter | TextWriter
     with atomic_output(path, overwrite=overwrite) as tmp:
         if fmt == "las":
             template = getattr(like, "header", None) if getattr(like, "format", None) == "las" else None

@@ -13,6 +13,7 @@ All files of the set are written under temporary names and renamed together
 
 from __future__ import annotations
 
+import itertools
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,7 +94,7 @@ def read_polygons(path: str | Path) -> list[list[np.ndarray]]:
         raise InputMissingError("no such file", path=path)
     try:
         reader = shapefile.Reader(str(path))
-    except Exception as exc:  # pyshp raises several types for damaged sets
+    except Exception as exc:  # noqa: BLE001  (pyshp raises several types for damaged sets)
         raise InputFormatError(f"cannot read the shapefile ({exc})", path=path) from None
     with reader:
         if reader.shapeType not in (shapefile.POLYGON, shapefile.POLYGONZ, shapefile.POLYGONM, shapefile.NULL):
@@ -104,7 +105,7 @@ def read_polygons(path: str | Path) -> list[list[np.ndarray]]:
                 continue
             pts = np.asarray(shape.points, dtype=np.float64)[:, :2]
             bounds = list(shape.parts) + [len(pts)]
-            polygons.append([pts[a:b] for a, b in zip(bounds[:-1], bounds[1:])])
+            polygons.append([pts[a:b] for a, b in itertools.pairwise(bounds)])
     if not polygons:
         raise InputFormatError("the shapefile holds no polygon", path=path)
     return polygons

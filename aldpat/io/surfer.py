@@ -78,14 +78,13 @@ def write_surfer(path: str | Path, values: np.ndarray, spec: GridSpec, *, fmt: s
         raise DataError(
             f"Surfer 6 binary grids hold at most {DSBB_MAX} nodes a side; this grid is "
             f"{spec.nx} x {spec.ny} (use surfer7)", path=path)
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        with open(tmp, "wb") as fh:
-            if fmt == "surfer7":
-                _write_dsrb(fh, values, spec, BLANK if blank is None else blank)
-            elif fmt == "surfer6":
-                _write_dsbb(fh, values, spec)
-            else:
-                _write_dsaa(fh, values, spec)
+    with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "wb") as fh:
+        if fmt == "surfer7":
+            _write_dsrb(fh, values, spec, BLANK if blank is None else blank)
+        elif fmt == "surfer6":
+            _write_dsbb(fh, values, spec)
+        else:
+            _write_dsaa(fh, values, spec)
     log.debug("wrote %s grid %s (%d x %d nodes)", fmt, path, spec.nx, spec.ny)
     return path
 
@@ -196,7 +195,7 @@ def _read_dsaa(path: Path) -> tuple[np.ndarray, GridSpec]:
 
 def _read_dsbb(path: Path) -> tuple[np.ndarray, GridSpec]:
     with open(path, "rb") as fh:
-        magic, nx, ny, xlo, xhi, ylo, yhi, _, _ = _DSBB_HEAD.unpack(fh.read(_DSBB_HEAD.size))
+        _magic, nx, ny, xlo, xhi, ylo, yhi, _, _ = _DSBB_HEAD.unpack(fh.read(_DSBB_HEAD.size))
         spec = _spec_from_range(path, nx, ny, xlo, xhi, ylo, yhi)
         values = np.fromfile(fh, dtype="<f4", count=nx * ny)
     if values.size != nx * ny:

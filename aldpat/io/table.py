@@ -16,8 +16,9 @@ those straight from the record instead of converting them again. Change columns 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -60,13 +61,13 @@ class PointTable:
     def z(self) -> np.ndarray:
         return self.columns["z"]
 
-    def take(self, index: np.ndarray) -> "PointTable":
+    def take(self, index: np.ndarray | slice) -> PointTable:
         """Rows selected by a boolean mask or an integer index (record included)."""
         cols = {k: v[index] for k, v in self.columns.items()}
         rec = None if self.record is None else self.record[index]
         return PointTable(cols, rec, dict(self.meta))
 
-    def with_columns(self, **new: np.ndarray) -> "PointTable":
+    def with_columns(self, **new: np.ndarray) -> PointTable:
         """A table with columns added or replaced (same rows)."""
         cols = dict(self.columns)
         meta = dict(self.meta)
@@ -79,15 +80,15 @@ class PointTable:
             cols[k] = v
         return PointTable(cols, self.record, meta)
 
-    def select(self, names: Iterable[str]) -> "PointTable":
+    def select(self, names: Iterable[str]) -> PointTable:
         """A table with only the named columns, in that order."""
         return PointTable({n: self.columns[n] for n in names}, self.record, dict(self.meta))
 
-    def rename(self, mapping: dict[str, str]) -> "PointTable":
+    def rename(self, mapping: dict[str, str]) -> PointTable:
         return PointTable({mapping.get(k, k): v for k, v in self.columns.items()}, self.record, dict(self.meta))
 
     @staticmethod
-    def concat(tables: list["PointTable"]) -> "PointTable":
+    def concat(tables: list[PointTable]) -> PointTable:
         if not tables:
             return PointTable({})
         names = tables[0].names

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import itertools
 import re
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -34,7 +34,7 @@ DEFAULT_CHUNK = 2_000_000
 MAX_COORDINATE = 1e12
 COORDINATE_COLUMNS = frozenset({"x", "y", "z", "x1", "y1", "z1", "x2", "y2", "z2"})
 _SNIFF_BYTES = 1 << 16
-_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.I)
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE)
 _DELIMS = {"comma": ",", "tab": "\t", "space": " "}
 #: A UTF-8 byte-order mark, which some Windows editors put at the start of a text file.
 UTF8_BOM = b"\xef\xbb\xbf"
@@ -287,7 +287,7 @@ class TextWriter:
         self.delimiter = _DELIMS.get(delimiter, delimiter)
         self.decimals = decimals
         self.count = 0
-        self._fh = open(self.path, "wb", buffering=1 << 20)
+        self._fh = open(self.path, "wb", buffering=1 << 20)  # noqa: SIM115  (closed by close())
 
     def write(self, table: PointTable) -> None:
         from aldpat.io.textfmt import BLOCK_ROWS, format_block
@@ -295,7 +295,7 @@ class TextWriter:
         n = len(table)
         for start in range(0, n, BLOCK_ROWS):
             part = table.take(slice(start, start + BLOCK_ROWS)) if n > BLOCK_ROWS else table
-            self._fh.write(memoryview(format_block(part, self.names, self.delimiter, self.decimals)))
+            self._fh.write(format_block(part, self.names, self.delimiter, self.decimals).data)
         self.count += n
 
     def close(self) -> None:

@@ -70,6 +70,7 @@ def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: 
     sep = np.frombuffer(delimiter.encode("ascii"), dtype=np.uint8)
     for k, (name, fmt) in enumerate(zip(names, column_formats(table, names, decimals))):
         m = _FMT.match(fmt)
+        assert m is not None, fmt  # column_formats writes only these
         places = int(m.group(1) or 0)
         parts.append(_column_bytes(table.columns[name], places, m.group(2) == "d"))
         end = sep if k < len(names) - 1 else np.array([10], np.uint8)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections import deque
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -178,7 +179,7 @@ class RawLines:
     """
 
     def __init__(self, path: str | Path, header_lines: int):
-        self._fh = open(path, "rb")
+        self._fh = open(path, "rb")  # noqa: SIM115  (closed by close() / the with block)
         if self._fh.read(len(UTF8_BOM)) != UTF8_BOM:  # a byte-order mark is not part of line 1
             self._fh.seek(0)
         for _ in range(header_lines):
@@ -224,7 +225,7 @@ class RawLines:
     def close(self) -> None:
         self._fh.close()
 
-    def __enter__(self) -> "RawLines":
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -16,8 +16,8 @@ import math
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -56,10 +56,10 @@ class Spill:
     def __init__(self, folder: Path, k: int):
         self.dir = Path(tempfile.mkdtemp(prefix=".aldpat-spill-", dir=folder))
         self.k = k
-        self.dtype = None
+        self.dtype: np.dtype | None = None
         self.point_format = None
         self.meta: dict = {}
-        self._files = [open(self.dir / f"{b}.bin", "wb") for b in range(k)]
+        self._files = [open(self.dir / f"{b}.bin", "wb") for b in range(k)]  # noqa: SIM115  (closed by close())
 
     def add(self, table: PointTable, bucket: np.ndarray) -> None:
         if self.dtype is None:
@@ -90,7 +90,7 @@ class Spill:
             rows = np.fromfile(self.dir / f"{b}.bin", dtype=self.dtype)
             if len(rows) == 0:
                 continue
-            cols = {n: np.ascontiguousarray(rows[n]) for n in self.dtype.names if n != _REC}
+            cols = {n: np.ascontiguousarray(rows[n]) for n in self.dtype.names or () if n != _REC}
             record = None
             if self.point_format is not None:
                 import laspy

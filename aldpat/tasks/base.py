@@ -21,10 +21,11 @@ import os
 import sys
 import time
 import traceback
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 import aldpat
 from aldpat import interrupt
@@ -103,7 +104,7 @@ class Task:
                 seen.setdefault(s.name, s)
         return list(seen.values())
 
-    def __call__(self, inputs: Iterable[str | Path] = (), **kwargs) -> "RunReport":
+    def __call__(self, inputs: Iterable[str | Path] = (), **kwargs) -> RunReport:
         """Run from Python with the same parameter names as the CLI and worksheets."""
         return run_task(self, list(inputs), [("python", kwargs)])
 
@@ -314,7 +315,7 @@ class ResolvedRun:
         return rows
 
 
-def resolve_run(task: Task, layers: list[tuple[str, Mapping[str, Any]]], where: str = "") -> ResolvedRun:
+def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], where: str = "") -> ResolvedRun:
     """Split raw values among the task's params classes, validating each (unknown keys -> error)."""
     known = {s.name for s in task.all_specs()}
     renames = renamed_keys(task.all_specs())
@@ -367,6 +368,7 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
             if task.run_one is not None:
                 task.run_one(Path(sources[0]), run.params.values, ctx)
             else:
+                assert task.run_all is not None  # a task has one of the two
                 task.run_all([Path(s) for s in sources], run.params.values, ctx)
     except AldpatError as exc:
         result.error = str(exc)
@@ -377,7 +379,7 @@ def _execute(task_key: str, sources: list[str], run: ResolvedRun, command: str) 
         where = exc.filename if exc.filename is not None else _names(sources)
         result.error = f"{where}: {(exc.strerror or str(exc)).lower()}"
         result.detail = traceback.format_exc()
-    except Exception as exc:  # an unexpected failure still may not end the other jobs
+    except Exception as exc:  # noqa: BLE001  (an unexpected failure still may not end the other jobs)
         result.error = f"{_names(sources)}: internal error: {type(exc).__name__}: {exc}"
         result.detail = traceback.format_exc()
     result.seconds = time.perf_counter() - start
@@ -448,7 +450,7 @@ def plan_jobs(task: Task, sources: list[Path]) -> list[list[str]]:
     return [[str(s) for s in sources]]
 
 
-def run_task(task: Task, inputs: list[str | Path], layers: list[tuple[str, Mapping[str, Any]]], *,
+def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
              command: str | None = None, base: Path | None = None, progress=None,
              resolved: ResolvedRun | None = None) -> RunReport:
     """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
@@ -502,7 +504,7 @@ def _run_in_pool(task: Task, jobs: list[list[str]], run: ResolvedRun, command: s
             with interrupt.doing(state):
                 try:
                     results.append(fut.result())
-                except Exception as exc:  # a worker died (killed, out of memory): that job failed
+                except Exception as exc:  # noqa: BLE001  (a worker died, killed or out of memory: that job failed)
                     results.append(JobResult(inputs=job, error=f"{_names(job)}: worker process "
                                                                f"failed: {type(exc).__name__}: {exc}"))
             _report(results[-1], progress)
@@ -531,6 +533,17 @@ def _report(result: JobResult, progress) -> None:
 
 
 __all__ = [
-    "Task", "TASKS", "register_task", "get_task", "JobContext", "JobResult", "RunReport",
-    "OutputParams", "InputParams", "RunParams", "run_task", "resolve_run", "expand_inputs",
+    "TASKS",
+    "InputParams",
+    "JobContext",
+    "JobResult",
+    "OutputParams",
+    "RunParams",
+    "RunReport",
+    "Task",
+    "expand_inputs",
+    "get_task",
+    "register_task",
+    "resolve_run",
+    "run_task",
 ]

@@ -60,11 +60,12 @@ def _result_ground(reader, table, params: EvaluateParams) -> np.ndarray:
     elif params.mode == "terrain":
         return np.ones(len(table), dtype=bool)
     else:
-        k = class_column_of(reader, table)
-        if k is None:
+        found = class_column_of(reader, table)
+        if found is None:
             if params.mode == "classified":
                 raise UsageError("no class column (values 1 and 2) found; give --class-column", path=reader.path)
             return np.ones(len(table), dtype=bool)  # auto: a terrain file
+        k = found
     cls = table[reader.names[k]]
     return (cls == 2) | (cls == 0)
 
@@ -93,6 +94,7 @@ def _reference_labels(path: str, tolerance: float, size: int, mtime_ns: int) -> 
 
 def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     tol = params.tolerance
+    assert params.reference is not None  # required
     ref_path = Path(params.reference)
     if not ref_path.exists():
         raise InputMissingError("no such file", path=ref_path)
@@ -103,7 +105,7 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     acc, unmatched = match_accuracy(ref_keys, ref_ground, coordinate_keys(table.x, table.y, table.z, tol), res_ground)
     if unmatched:
         ctx.warn(f"{source}: {unmatched} result points match no reference point (not counted)")
-    record = {"path": str(source), "reference": str(ref_path)}
+    record: dict[str, object] = {"path": str(source), "reference": str(ref_path)}
     record.update(acc.as_dict())
     record["unmatched"] = unmatched
     ctx.emit(record)

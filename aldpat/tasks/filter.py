@@ -52,7 +52,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     res = ground_filter(table.x, table.y, table.z, algorithm, params)
     rows, ground, marks = _output_table(table, res, params)
     names = tuple(reader.names)
-    extra = {}
+    extra: dict[str, np.ndarray] = {}
     if params.marks:
         extra["mark"] = marks.astype(np.int32)
         names += ("mark",)
@@ -73,6 +73,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     n_ground = int(ground.sum())
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
+    writes: list[tuple[Path, np.ndarray | slice]]
     if params.result == "classified":
         writes = [(terrain_path, slice(None))]
     else:

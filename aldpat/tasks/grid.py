@@ -134,6 +134,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
             raise DataError("no points to grid", path=source)
         if spec is None:
             spec = grid_spec_for(source, params, ctx, xy=(x, y))
+        assert spec is not None  # from the points when neither tile parameters nor bounds give it
         if params.method in SURFACE_METHODS:
             _check_spread(x, y, params.method, source)
         values = interpolate(x, y, z, spec, method=params.method, power=params.power, radius=params.radius,

@@ -45,7 +45,7 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
         "density": count / area if area > 0 else None,
         "fields": list(reader.names),
         "format": reader.format if reader.format != "las" else source.suffix.lower().lstrip("."),
-        "delimiter": {" ": "space", ",": "comma", "\t": "tab"}.get(getattr(reader, "delimiter", None)),
+        "delimiter": {" ": "space", ",": "comma", "\t": "tab"}.get(getattr(reader, "delimiter", "")),
         "crs": crs_text(reader.crs),
     })
 

@@ -42,24 +42,24 @@ class Strip:
 
 
 def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:
+    assert params.output is not None  # required
     out = Path(params.output)
     if ctx.output is not None and ctx.output.odir and not out.is_absolute():
         out = Path(ctx.output.odir) / out
     delim = "," if ctx.delimiter == "comma" else " "
     count = 0
-    with atomic_output(out, overwrite=ctx.overwrite) as tmp:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            for index, source in enumerate(sources, start=1):
-                if index > 1:
-                    fh.write(SEPARATOR + "\n")
-                reader = ctx.open_input(source)
-                tail = f"{delim}{source.name}\n"
-                for chunk in reader.chunks():
-                    table = chunk.select(("x", "y", "z")).with_columns(
-                        strip_index=np.full(len(chunk), index, dtype=np.int64))
-                    text = format_rows(table, ("x", "y", "z", "strip_index"), delim)
-                    fh.write(text.replace("\n", tail))
-                    count += len(chunk)
+    with atomic_output(out, overwrite=ctx.overwrite) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+        for index, source in enumerate(sources, start=1):
+            if index > 1:
+                fh.write(SEPARATOR + "\n")
+            reader = ctx.open_input(source)
+            tail = f"{delim}{source.name}\n"
+            for chunk in reader.chunks():
+                table = chunk.select(("x", "y", "z")).with_columns(
+                    strip_index=np.full(len(chunk), index, dtype=np.int64))
+                text = format_rows(table, ("x", "y", "z", "strip_index"), delim)
+                fh.write(text.replace("\n", tail))
+                count += len(chunk)
     ctx.wrote(out, count)
     log.info("%s: %d boundary points of %d strips", out, count, len(sources))
 
@@ -68,7 +68,7 @@ def read_merged(path: str | Path) -> list[Strip]:
     """The strips of a merged boundary file, in file order."""
     path = Path(path)
     try:
-        fh = open(path, "r", encoding="utf-8", errors="replace", newline=None)
+        fh = open(path, encoding="utf-8", errors="replace", newline=None)  # noqa: SIM115  (the with block below)
     except OSError as exc:
         raise InputMissingError(f"cannot read: {exc.strerror or exc}", path=path) from None
     strips: list[Strip] = []
@@ -76,7 +76,7 @@ def read_merged(path: str | Path) -> list[Strip]:
     key: tuple[int, str] | None = None
 
     def close() -> None:
-        if rows:
+        if rows and key is not None:
             strips.append(Strip(key[0], key[1], np.asarray(rows, dtype=np.float64)))
 
     # a boundary file holds hundreds of points, not millions: a line loop is fine here

@@ -50,6 +50,7 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
     crs = params.crs or reader.crs
     if crs is None:
         raise UsageError("--crs is required: the input does not say which CRS its x, y are in", path=source)
+    assert params.geoid is not None  # required
     convert = HeightConverter(crs, params.geoid, to_crs=params.to_crs, reverse=params.reverse,
                               z_unit=params.z_unit)
     out = ctx.output_path(source, "_Ortho", reader=reader)
@@ -75,6 +76,7 @@ def _reprojected_template(reader, convert: HeightConverter) -> SimpleNamespace:
     """The LAS source's header (point format, VLRs, every attribute kept) with the target CRS
     and an x, y scale and offset that suit the new coordinates (1e-7 for degrees)."""
     header = copy.deepcopy(reader.header)
+    assert convert.to_crs is not None  # called only when re-projecting
     x0, y0 = (float(v[0]) for v in convert.horizontal([header.mins[0]], [header.mins[1]], path=reader.path))
     if convert.to_crs.is_geographic:
         header.scales = np.array([1e-7, 1e-7, header.scales[2]])

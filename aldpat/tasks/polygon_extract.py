@@ -43,7 +43,7 @@ def read_polygon_text(path: Path) -> list[list[np.ndarray]]:
         lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError as exc:
         raise InputMissingError(f"cannot read: {exc.strerror or exc}", path=path) from None
-    vertices = []
+    vertices: list[tuple[float, float]] = []
     for number, line in enumerate(lines, start=1):
         tokens = [t for t in _SPLIT.split(line.strip()) if t]
         if not tokens:
@@ -57,7 +57,7 @@ def read_polygon_text(path: Path) -> list[list[np.ndarray]]:
             continue  # a header line before the vertices
         if len(values) < 2 or not np.all(np.isfinite(values[:2])):
             raise InputFormatError("expected x,y", path=path, line=number)
-        vertices.append(values[:2])
+        vertices.append((values[0], values[1]))
     ring = clean_ring(np.asarray(vertices, dtype=np.float64).reshape(-1, 2))
     if len(ring) < 3:
         raise InputFormatError(f"a polygon needs at least 3 distinct vertices, found {len(ring)}", path=path)
@@ -76,6 +76,7 @@ def read_polygon(path: str | Path) -> list[list[np.ndarray]]:
 
 
 def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobContext) -> None:
+    assert params.polygon is not None  # required
     polygons = read_polygon(params.polygon)
     reader = ctx.open_input(source)
     out = ctx.output_path(source, "_poly", reader=reader)

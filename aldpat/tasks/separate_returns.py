@@ -80,7 +80,7 @@ class ZoneStripper:
             k = int(wrong[0])
             what = "no zone prefix" if self.zone == 0 else f"zone {self.zone}"
             self._bad(row0 + k, f"x {x[k]:.3f}, y {y[k]:.3f} do not carry {what} like the other points")
-        return (x, y) if self.zone == 0 else strip_zone(x, y, self.zone)
+        return (x, y) if self.zone == 0 else strip_zone(x, y, int(self.zone))
 
     def _bad(self, row: int, message: str) -> None:
         raise DataError(message, path=self.source, line=self.first_line + row)

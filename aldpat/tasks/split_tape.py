@@ -20,6 +20,7 @@ import contextlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -77,7 +78,7 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
     raw = passthrough_ok(reader, reader.names, ctx.delimiter, probe.suffix)
 
     with contextlib.ExitStack() as stack:
-        written: list[tuple[Path, object]] = []
+        written: list[tuple[Path, Any]] = []  # (output, its writer)
         lines_of = stack.enter_context(RawLines(source, reader.header_lines)) if raw else None
 
         def open_strip():
@@ -104,7 +105,7 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
         for chunk in reader.chunks():
             t = chunk["t"]
             lines = None
-            if raw:
+            if lines_of is not None:
                 lines = lines_of.take(len(chunk))
                 if not lines.in_step_with(t):
                     raise RuntimeError(f"{source}: raw line copy out of step with the parser")

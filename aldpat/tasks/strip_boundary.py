@@ -37,7 +37,8 @@ def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
     """The closed boundary ring of a strip (columns x y z intensity) and the scan used."""
     scan = BoundaryScan(params.cell, params.cell_shape()[1], params.origin)
     for chunk in reader.chunks():
-        scan.add(chunk.x, chunk.y, chunk.z, chunk["intensity"] if "intensity" in chunk else None)
+        intensity = chunk["intensity"] if "intensity" in chunk else None  # noqa: SIM401  (a PointTable, no .get)
+        scan.add(chunk.x, chunk.y, chunk.z, intensity)
     return scan.ring(params.scan), scan.direction(params.scan)
 
 

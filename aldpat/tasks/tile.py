@@ -149,9 +149,8 @@ class TileSink:
             entry["writer"].write(table)
         else:
             with open(entry["tmp"], "ab") as fh:
-                for a in range(0, len(table), BLOCK_ROWS):
-                    fh.write(memoryview(format_block(table.take(slice(a, a + BLOCK_ROWS)), self.names,
-                                                     self.delimiter)))
+                fh.writelines(format_block(table.take(slice(a, a + BLOCK_ROWS)), self.names, self.delimiter).data
+                              for a in range(0, len(table), BLOCK_ROWS))
         entry["count"] += len(table)
 
     def write_raw(self, layout: TileLayout, key: tuple[int, int], lines, rows: np.ndarray) -> None:
@@ -176,7 +175,7 @@ class TileSink:
             try:
                 if entry["writer"] is not None:
                     entry["writer"].close()
-            except Exception:  # already failing: removing the temporary file is what matters
+            except Exception:  # noqa: BLE001, S110  (already failing: removing the temporary file is what matters)
                 pass
             try:
                 entry["tmp"].unlink()
@@ -208,10 +207,8 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> tuple[int, i
 
 def write_parameter_file(path: Path, rows: dict[str, tuple], *, delimiter: str, overwrite: bool) -> None:
     delim = " " if delimiter == "space" else ","
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            for name in sorted(rows, key=lambda p: (rows[p][2], rows[p][0], p)):
-                fh.write(delim.join([name] + [number_text(v) for v in rows[name]]) + "\n")
+    with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+        fh.writelines(delim.join([name] + [number_text(v) for v in rows[name]]) + "\n" for name in sorted(rows, key=lambda p: (rows[p][2], rows[p][0], p)))
 
 
 def read_parameter_file(path: Path) -> dict[str, tuple]:

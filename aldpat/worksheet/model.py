@@ -67,7 +67,7 @@ class Worksheet:
 
 def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None, str, Any]]:
     """``--set job.2.cell=2.0`` / ``--set settings.jobs=2`` -> (scope, job, key, value)."""
-    out = []
+    out: list[tuple[str, int | None, str, Any]] = []
     for item in items:
         if "=" not in item:
             raise UsageError(f"--set {item!r}: expected job.N.key=value or settings.key=value")
@@ -109,7 +109,7 @@ def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = ()
         raise UsageError("a worksheet needs at least one [[job]] table", path=path)
     raw_jobs = [dict(j) for j in raw_jobs]
     for scope, number, key, value in parse_set(overrides):
-        if scope == "settings":
+        if scope == "settings" or number is None:
             settings[key] = value
         elif not 1 <= number <= len(raw_jobs):
             raise UsageError(f"--set job.{number}: the worksheet has {len(raw_jobs)} jobs")

@@ -22,9 +22,9 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import aldpat
 from aldpat import interrupt
@@ -128,14 +128,14 @@ def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool =
             _notify(on_status, status)
             continue
         entry = state.get(str(job.number))
-        if resume and _unchanged(entry, job):
+        if resume and entry is not None and _unchanged(entry, job):
             status.state, status.message = SKIPPED, "unchanged since it last finished (--resume)"
             status.outputs = [sig[0] for sig in entry.get("outputs", [])]
             _notify(on_status, status)
             continue
         rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
         run = job.run
-        layers_override = {}
+        layers_override: dict[str, object] = {}
         if rerun_after_kill:
             _remove_stray_temporaries(job)
             layers_override["overwrite"] = True
@@ -159,7 +159,7 @@ def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool =
         if report is not None:
             status.results = report.results
             status.outputs = [w.path for w in report.outputs]
-            problems = report.input_errors + [r.error for r in report.results if not r.ok]
+            problems = report.input_errors + [str(r.error) for r in report.results if not r.ok]
             if problems:
                 status.state = FAILED
                 status.message = problems[0] + (f" (and {len(problems) - 1} more)" if len(problems) > 1 else "")
@@ -226,7 +226,7 @@ def job_table(job: Job) -> list[str]:
 
 def write_worksheet_log(ws: Worksheet, statuses: list[JobStatus], command: str) -> Path:
     """``<worksheet-stem>.log``: a TOML worksheet that replays the run, with statuses as comments."""
-    out = [
+    out: list[str] = [
         f"# aldpat {aldpat.__version__} worksheet log, written {time.strftime('%Y-%m-%d %H:%M:%S')}",
         f"# command: {command}",
         f"# worksheet: {ws.path}",
@@ -241,11 +241,20 @@ def write_worksheet_log(ws: Worksheet, statuses: list[JobStatus], command: str) 
             out.append(f"#   wrote {path}")
         out += job_table(st.job)
         out.append("")
-    path = log_path(ws)
-    with atomic_output(path, overwrite=True) as tmp:
+    log_file = log_path(ws)
+    with atomic_output(log_file, overwrite=True) as tmp:
         tmp.write_text("\n".join(out), encoding="utf-8")
-    return path
+    return log_file
 
 
-__all__ = ["run_worksheet", "JobStatus", "write_worksheet_log", "READY", "RUNNING", "DONE",
-           "FAILED", "SKIPPED", "BLOCKED"]
+__all__ = [
+    "BLOCKED",
+    "DONE",
+    "FAILED",
+    "READY",
+    "RUNNING",
+    "SKIPPED",
+    "JobStatus",
+    "run_worksheet",
+    "write_worksheet_log",
+]

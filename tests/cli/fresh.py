@@ -35,7 +35,7 @@ class Done:
     stdout: str
     stderr: str
 
-    def ok(self) -> "Done":
+    def ok(self) -> Done:
         assert self.returncode == 0, f"aldpat {' '.join(self.args)} -> {self.returncode}\n{self.stderr}"
         return self
 
@@ -45,7 +45,7 @@ def aldpat(*args, cwd: Path | None = None, env: dict | None = None, timeout: flo
     words = [str(a) for a in args]
     full_env = dict(os.environ, **(env or {}))
     full_env.pop("COLUMNS", None)
-    proc = subprocess.run(aldpat_command() + words, capture_output=True, text=True, cwd=cwd, env=full_env,
+    proc = subprocess.run(aldpat_command() + words, check=False, capture_output=True, text=True, cwd=cwd, env=full_env,
                           timeout=timeout, stdin=subprocess.DEVNULL)
     for stream in (proc.stdout, proc.stderr):
         assert "Traceback" not in stream, f"aldpat {' '.join(words)}:\n{proc.stderr}"

@@ -85,6 +85,6 @@ def test_bad_rows_name_the_line(tmp_path):
 
 def test_nearest_node_cells_are_centred_on_nodes():
     spec = GridSpec(0.0, 0.0, 1.0, 1.0, 3, 3)
-    col, row, inside = spec.nearest_node(np.array([-0.5, -0.51, 0.49, 2.49, 2.5]), np.array([0.0, 0, 1, 2, 2]))
+    col, _row, inside = spec.nearest_node(np.array([-0.5, -0.51, 0.49, 2.49, 2.5]), np.array([0.0, 0, 1, 2, 2]))
     np.testing.assert_array_equal(col, [0, -1, 0, 2, 3])
     np.testing.assert_array_equal(inside, [True, False, True, True, False])

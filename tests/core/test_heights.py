@@ -64,7 +64,7 @@ def test_geotiff_grid_gives_the_same_undulations(tmp_path):
     with rasterio.open(tif, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="float32",
                        crs="EPSG:4326", transform=transform) as ds:
         ds.write(vals[::-1].astype("float32"), 1)
-    lat, lon, n = NGA[2]
+    lat, lon, _n = NGA[2]
     gtx = HeightConverter("EPSG:4326", window(3)).undulation([lon], [lat])[0]
     assert HeightConverter("EPSG:4326", tif).undulation([lon], [lat])[0] == pytest.approx(gtx, abs=1e-4)
 

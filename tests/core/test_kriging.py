@@ -56,7 +56,7 @@ def test_fitted_linear_variogram_of_a_ramp():
     # fitted through the origin lies between the smallest and largest h/4 of the lags.
     rng = np.random.default_rng(1)
     x, y = rng.uniform(0, 100, (2, 20000))
-    h, g, n = experimental_variogram(x, y, x)
+    h, g, _n = experimental_variogram(x, y, x)
     # each bin averages d^2/4 over its pairs, which equals (mean d)^2/4 once bins are narrow
     # relative to their distance: all but the first bin
     np.testing.assert_allclose(g[1:], h[1:] ** 2 / 4, rtol=0.05)

@@ -49,7 +49,7 @@ def test_erosion_dilation_match_brute_force(window, axis, k):
     assert np.array_equal(closing(z, k, window=window, axis=axis), _brute(d, fp, False))
 
 
-@pytest.mark.parametrize("k", range(0, 25))
+@pytest.mark.parametrize("k", range(25))
 def test_disk_rectangles_cover_the_disk_exactly(k):
     cover = np.zeros((2 * k + 1, 2 * k + 1), bool)
     for hr, hc in disk_rectangles(k):
@@ -91,7 +91,7 @@ def test_does_not_modify_input_and_k0_is_identity():
     assert np.array_equal(z, np.arange(12.0).reshape(3, 4))
 
 
-@pytest.mark.parametrize("kwargs", [dict(k=-1), dict(k=1.5), dict(k=1, window="hex"), dict(k=1, window="line", axis=2)])
+@pytest.mark.parametrize("kwargs", [{"k": -1}, {"k": 1.5}, {"k": 1, "window": "hex"}, {"k": 1, "window": "line", "axis": 2}])
 def test_bad_arguments(kwargs):
     k = kwargs.pop("k")
     with pytest.raises(ValueError):

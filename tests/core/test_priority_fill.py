@@ -35,7 +35,7 @@ def test_remnant_is_not_widened_as_nearest_neighbour_widens_it():
     empty[6:9, 6:9] = False
     near = fill_nearest(np.where(empty, np.nan, z), empty)
     prio = priority_fill(z, empty, connectivity=8)
-    high = lambda a: int((a > 5).sum())  # noqa: E731
+    high = lambda a: int((a > 5).sum())
     assert high(near) > 9 * 4           # nearest neighbour spreads the remnant
     assert high(prio) == 9              # priority interpolation leaves it its own size
     assert prio[empty].max() < 10.0 * 3 / 8 + 1e-9  # rim cells see at most 3 remnant cells of 8

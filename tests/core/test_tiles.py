@@ -21,7 +21,7 @@ def test_xy_layout_cores_and_buffers_by_hand():
     assert layout.core(1, 0) == (100.0, 200.0, 0.0, 100.0)
     x = np.array([50.0, 95.0, 105.0, 200.0, 0.0, -5.0, 215.0])
     y = np.array([50.0, 50.0, 50.0, 100.0, 0.0, 50.0, 50.0])
-    ci, cj = layout.core_index(x, y)
+    ci, _cj = layout.core_index(x, y)
     assert ci.tolist() == [0, 0, 1, 1, 0, -1, -1]
     got = members(layout, x, y)
     assert got[0] == {(0, 0)}

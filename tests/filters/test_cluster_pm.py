@@ -12,7 +12,7 @@ from aldpat.filters.cluster_pm import ClusterPmParams, cluster_pm, progressive_m
 
 def ridge_scene():
     """A smooth ridge (slope below 0.8 m per cell) next to a flat-roofed building."""
-    r, c = np.mgrid[0:60, 0:200].astype(float)
+    _r, c = np.mgrid[0:60, 0:200].astype(float)
     z = 12.0 * np.exp(-((c - 60.0) / 18.0) ** 2)
     obj = np.zeros(z.shape, bool)
     obj[20:40, 140:160] = True
@@ -31,7 +31,7 @@ def test_plain_progressive_filter_by_hand():
 def test_cluster_recovery_saves_the_ridge_and_still_removes_the_building():
     z, obj = ridge_scene()
     empty = np.zeros(z.shape, bool)
-    base = dict(window_series=(1, 2, 4, 8, 16, 24), threshold_series=(0.3, 0.5, 0.8, 1.0, 1.5, 2.0))
+    base = {"window_series": (1, 2, 4, 8, 16, 24), "threshold_series": (0.3, 0.5, 0.8, 1.0, 1.5, 2.0)}
     plain = cluster_pm(z, empty, ClusterPmParams(cluster_window_size=None, **base))
     clustered = cluster_pm(z, empty, ClusterPmParams(cluster_window_size=4, cluster_threshold=1.0, **base))
     t1_plain, t2_plain = errors(plain, obj)

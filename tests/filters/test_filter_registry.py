@@ -154,7 +154,7 @@ def test_tile_with_buffer_matches_whole_area(name):
     """A tile filtered with a buffer wider than the largest window, cut to its core,
     gets the classes of the whole area (the windows, the fill and the classification are local)."""
     x, y, z, _ = terrain(seed=1, size=140.0, spacing=0.8)
-    kw = dict(loop_times=4) if name == "etew" else dict(window_series=(1, 2, 4, 8))
+    kw = {"loop_times": 4} if name == "etew" else {"window_series": (1, 2, 4, 8)}
     p = FILTERS[name].params(**kw)
     whole = ground_filter(x, y, z, name, p)
     core = (x >= 50) & (x < 90) & (y >= 50) & (y < 90)

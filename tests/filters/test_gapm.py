@@ -57,10 +57,10 @@ def test_marks_are_the_first_window_that_removed_a_cell():
 
 
 @pytest.mark.parametrize("kw, key", [
-    (dict(cluster_thresholds=(0.3, 0.5)), "cluster_thresholds"),
-    (dict(row_windows=(1, 3)), "row_windows"),
-    (dict(window_series=(1, 4, 2, 8, 12, 16, 20)), "window_series"),
-    (dict(row_windows=None, column_windows=None), "row_windows"),
+    ({"cluster_thresholds": (0.3, 0.5)}, "cluster_thresholds"),
+    ({"row_windows": (1, 3)}, "row_windows"),
+    ({"window_series": (1, 4, 2, 8, 12, 16, 20)}, "window_series"),
+    ({"row_windows": None, "column_windows": None}, "row_windows"),
 ])
 def test_bad_series_are_reported(kw, key):
     with pytest.raises(ParamError, match=key):
@@ -112,8 +112,8 @@ def test_printed_order_and_separate_directions():
     z[20:32, 20:80] = 10.0
     z[20:80, 20:32] = 10.0
     empty = np.zeros(z.shape, bool)
-    kw = dict(window_series=(1, 2, 4, 8), cluster_thresholds=(0.3, 0.5, 1.0, 1.0),
-              row_windows=(1, 2, 4, 8), column_windows=(1, 2, 4, 8))
+    kw = {"window_series": (1, 2, 4, 8), "cluster_thresholds": (0.3, 0.5, 1.0, 1.0),
+              "row_windows": (1, 2, 4, 8), "column_windows": (1, 2, 4, 8)}
     printed = gapm(z, empty, GapmParams(**kw))
     separate = gapm(z, empty, GapmParams(directions="separate", **kw))
     roof = z > 0

@@ -24,7 +24,7 @@ def test_thresholds_can_be_switched_off():
     z[1, 1] = -10.0
     assert outlier_marks(z, high_threshold=None)[4, 4] == 0
     assert outlier_marks(z, low_threshold=None)[1, 1] == 0
-    assert outlier_marks(z, window=2, shape="disk").tolist() == (2 * ((z != 0))).tolist()
+    assert outlier_marks(z, window=2, shape="disk").tolist() == (2 * (z != 0)).tolist()
 
 
 def test_points_end_to_end():

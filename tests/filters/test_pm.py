@@ -92,7 +92,7 @@ def _dike(angle_deg):
 def test_rotation_lines_windows_up_with_a_linear_feature():
     """Rotating the data onto the dike keeps it with windows along x (manual, Rotate Angle)."""
     x, y, z, on, inner = _dike(45.0)
-    base = dict(cell=1.0, direction="x", window_series=(1, 2, 4, 8), threshold_series=(0.3, 0.5, 0.5, 0.5))
+    base = {"cell": 1.0, "direction": "x", "window_series": (1, 2, 4, 8), "threshold_series": (0.3, 0.5, 0.5, 0.5)}
     plain = ground_filter(x, y, z, "pm", PMParams(**base))
     assert not plain.is_ground[on].any()  # the 45-degree dike crosses the x windows: removed
     rotated = ground_filter(x, y, z, "pm", PMParams(**base, rotate_angle=-45.0, rotate_times=1))

@@ -16,19 +16,17 @@ def test_output_appears_only_when_complete(tmp_path):
 
 def test_failure_leaves_neither_file_nor_temporary(tmp_path):
     target = tmp_path / "out.txt"
-    with pytest.raises(RuntimeError):
-        with atomic_output(target) as tmp:
-            tmp.write_text("half")
-            raise RuntimeError("boom")
+    with pytest.raises(RuntimeError), atomic_output(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("boom")
     assert os.listdir(tmp_path) == []
 
 
 def test_existing_output_is_kept_without_overwrite(tmp_path):
     target = tmp_path / "out.txt"
     target.write_text("precious")
-    with pytest.raises(OutputExistsError, match="use --overwrite"):
-        with atomic_output(target):
-            pass
+    with pytest.raises(OutputExistsError, match="use --overwrite"), atomic_output(target):
+        pass
     assert target.read_text() == "precious"
     with atomic_output(target, overwrite=True) as tmp:
         tmp.write_text("new")
@@ -39,9 +37,8 @@ def test_output_folder_that_cannot_be_created(tmp_path):
     # a plain file where the folder should be: fails for every user, root included
     blocker = tmp_path / "taken"
     blocker.write_text("")
-    with pytest.raises(OutputError, match="cannot create output folder"):
-        with atomic_output(blocker / "sub" / "x.txt"):
-            pass
+    with pytest.raises(OutputError, match="cannot create output folder"), atomic_output(blocker / "sub" / "x.txt"):
+        pass
 
 
 def test_two_writers_of_one_output_one_wins_whole(tmp_path):

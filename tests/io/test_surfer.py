@@ -7,7 +7,7 @@ import struct
 
 import numpy as np
 import pytest
-import rasterio  # noqa: E402  (test-only dependency: GDAL as the real client)
+import rasterio
 
 from aldpat.core.grid_extent import GridSpec
 from aldpat.errors import DataError, InputFormatError, OutputExistsError, UsageError

@@ -54,7 +54,7 @@ def test_points_to_arcgis_end_to_end(tmp_path):
     np.savetxt(tmp_path / "p.txt", np.column_stack([x.ravel(), y.ravel(), z.ravel()]), fmt="%.4f")
     assert get_task("grid")([tmp_path / "p.txt"], cell=1.0, method="linear", odir=str(tmp_path)).exit_code == 0
     assert get_task("grd2bin")([tmp_path / "p.grd"], crs="EPSG:32633", odir=str(tmp_path)).exit_code == 0
-    grid, spec = read_surfer(tmp_path / "p.grd")
+    _grid, _spec = read_surfer(tmp_path / "p.grd")
     with rasterio.open(tmp_path / "p.flt") as ds:
         for px, py in [(300000.0, 5000000.0), (300004.0, 5000003.0), (300010.0, 5000008.0)]:
             row, col = ds.index(px, py)

@@ -1,5 +1,7 @@
 """merge-boundary (manual task 5) and shapefile (task 6): the 5-column file, polygons, .prj, OGR."""
 
+import itertools
+
 import numpy as np
 import pytest
 import shapefile as pyshp
@@ -73,7 +75,7 @@ def test_shapefile_opens_in_ogr_with_its_crs(tmp_path, bounds):
     assert info["crs"] == "EPSG:32617"
     assert list(info["fields"]) == ["strip", "file"]
     assert list(info["total_bounds"]) == [0.0, 0.0, 150.0, 70.0]
-    meta, _, geometry, fields = pyogrio.raw.read(tmp_path / "strips.shp")
+    _meta, _, _geometry, fields = pyogrio.raw.read(tmp_path / "strips.shp")
     assert fields[0].tolist() == [1, 2] and fields[1].tolist() == ["s1_1_Bound.txt", "s2_1_Bound.txt"]
 
 
@@ -84,7 +86,7 @@ def test_holes_are_counter_clockwise_and_read_back(tmp_path):
     with pyshp.Reader(str(tmp_path / "h.shp")) as r:
         shape = r.shape(0)
         parts = list(shape.parts) + [len(shape.points)]
-        rings = [shape.points[a:b] for a, b in zip(parts[:-1], parts[1:])]
+        rings = [shape.points[a:b] for a, b in itertools.pairwise(parts)]
     assert pyshp.signed_area(rings[0]) < 0 and pyshp.signed_area(rings[1]) > 0
     polys = read_polygons(tmp_path / "h.shp")
     assert len(polys) == 1 and len(polys[0]) == 2

@@ -50,7 +50,7 @@ def test_utm_zone_prefix_is_stripped(tmp_path, setting):
     assert get_task("separate-returns")([tape], utm_zone=setting).exit_code == 0
     first = np.loadtxt(tmp_path / "z_1.txt")
     assert np.allclose(first[:, :2], ROWS[:, 5:7], atol=1e-6, rtol=0)
-    assert open(tmp_path / "z_1.txt").readline().split()[0] == "500001.10"  # decimals kept
+    assert (tmp_path / "z_1.txt").read_text().split()[0] == "500001.10"  # decimals kept
 
 
 def test_utm_zone_none_and_auto_without_prefix_leave_coordinates(tmp_path):

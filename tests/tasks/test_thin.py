@@ -109,7 +109,7 @@ def test_las_through_bucket_files_keeps_records(tmp_path, monkeypatch):
     get_task("thin")([src], cell=4.0, odir=str(tmp_path / "disk"))
     a = laspy.read(tmp_path / "mem" / "fsite5_strip_thin.laz")
     b = laspy.read(tmp_path / "disk" / "fsite5_strip_thin.laz")
-    key = lambda las: sorted(zip(np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z),  # noqa: E731
+    key = lambda las: sorted(zip(np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z),
                                  np.asarray(las.intensity), np.asarray(las.return_number)))
     assert len(a.points) == len(b.points) and key(a) == key(b)
 

@@ -63,7 +63,7 @@ def test_every_point_in_one_core_and_the_buffers_it_falls_in(tmp_path, direction
 def test_rerun_does_not_double_points(tmp_path):
     strips = make_strips(tmp_path)
     out = tmp_path / "tiles"
-    kwargs = dict(width=200, height=200, buffer=5, bounds=(1000, 2000, 1400, 2200), odir=str(out))
+    kwargs = {"width": 200, "height": 200, "buffer": 5, "bounds": (1000, 2000, 1400, 2200), "odir": str(out)}
     assert get_task("tile")(strips, **kwargs).exit_code == 0
     first = {k: len(v) for k, v in read_tiles(out).items()}
     again = get_task("tile")(strips, **kwargs)
