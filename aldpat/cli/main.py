@@ -15,9 +15,11 @@ import click
 
 import aldpat
 from aldpat import interrupt
+from aldpat.cli.logs import setup_logging
 from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show
+from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError
 from aldpat.params import renamed_keys
 from aldpat.tasks import TASKS
@@ -25,16 +27,6 @@ from aldpat.tasks.base import Task, run_task
 from aldpat.worksheet.toml import load_toml
 
 log = logging.getLogger("aldpat")
-
-
-def setup_logging(verbose: int, quiet: int) -> None:
-    level = logging.WARNING - 10 * verbose + 10 * quiet
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("aldpat: %(levelname)s: %(message)s" if verbose else "aldpat: %(message)s"))
-    root = logging.getLogger("aldpat")
-    root.handlers[:] = [handler]
-    root.setLevel(max(logging.DEBUG, min(level, logging.CRITICAL)))
-    root.propagate = False
 
 
 def fail_usage(message: str) -> None:
@@ -151,9 +143,6 @@ def _register_commands() -> None:
 
 
 _register_commands()
-
-from aldpat.cli.run import run_command
-
 cli.add_command(run_command)
 
 

@@ -6,6 +6,7 @@ import sys
 
 import click
 
+from aldpat.cli.logs import setup_logging
 from aldpat.cli.render import show
 from aldpat.errors import UsageError
 from aldpat.tasks.base import RunReport
@@ -41,8 +42,6 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
 @click.pass_context
 def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, verbose, quiet):
     """Run a worksheet: jobs in order, each Ready -> Running -> Done or Failed."""
-    from aldpat.cli.main import setup_logging
-
     root = ctx.find_root().params
     quiet += root.get("quiet", 0)
     if verbose or quiet:

@@ -18,11 +18,10 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
+from aldpat.errors import DataError, UsageError
 
 log = logging.getLogger(__name__)
 
@@ -126,99 +125,3 @@ def from_data(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     ny = math.ceil((float(np.max(y)) - lo_y) / cell - _WHOLE) + 1
     # Surfer grids need two nodes a side to define a spacing.
     return GridSpec(lo_x, lo_y, cell, cell, max(nx, 2), max(ny, 2))
-
-
-# ------------------------------------------------------------------ tile_parameter.txt
-
-
-@dataclass(frozen=True)
-class TileRow:
-    """One row of ``tile_parameter.txt`` (manual task 7, Fig. 8)."""
-
-    path: Path
-    minx: float
-    maxx: float
-    miny: float
-    maxy: float
-    width: float
-    height: float
-    buffer: float
-    line: int
-
-    def grid(self, cell: float) -> GridSpec:
-        return from_bounds(self.minx, self.miny, self.maxx, self.maxy, cell)
-
-
-def _parse_row(text: str) -> tuple[str, list[float]] | None:
-    """Split a row into its path and seven numbers; None for a header line.
-
-    The path may hold spaces: comma- or tab-separated rows split on that delimiter, others on
-    the last seven runs of white space.
-    """
-    if "," in text:
-        parts = [p.strip() for p in text.rsplit(",", 7)]
-    elif "\t" in text:
-        parts = [p.strip() for p in text.rsplit("\t", 7)]
-    else:
-        parts = text.rsplit(None, 7)
-    if len(parts) != 8:
-        return None
-    try:
-        numbers = [float(p) for p in parts[1:]]
-    except ValueError:
-        return None
-    return parts[0].strip().strip('"'), numbers
-
-
-def read_tile_parameters(path: str | Path) -> list[TileRow]:
-    """All tile rows; relative tile paths are taken from the parameter file's folder."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputMissingError("no such tile parameter file", path=path)
-    rows: list[TileRow] = []
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for number, raw in enumerate(fh, start=1):
-            text = raw.strip()
-            if not text or text.startswith("#"):
-                continue
-            parsed = _parse_row(text)
-            if parsed is None:
-                if rows:
-                    raise InputFormatError(
-                        "expected: path, min x, max x, min y, max y, width, height, buffer", path=path, line=number)
-                continue  # header line
-            name, (minx, maxx, miny, maxy, width, height, buffer) = parsed
-            if maxx <= minx or maxy <= miny:
-                raise InputFormatError(f"tile range is empty ({minx:g}..{maxx:g}, {miny:g}..{maxy:g})",
-                                       path=path, line=number)
-            tile = Path(name.replace("\\", "/"))
-            if not tile.is_absolute():
-                tile = path.parent / tile
-            rows.append(TileRow(tile, minx, maxx, miny, maxy, width, height, buffer, number))
-    if not rows:
-        raise InputFormatError("no tile rows", path=path)
-    return rows
-
-
-def tile_row_for(params_path: str | Path, input_path: str | Path) -> TileRow:
-    """The row of ``params_path`` describing ``input_path``.
-
-    Matched by path, then by file name, then by stem; a filtered tile (``tile_1_2_gapm.txt``)
-    matches its tile (``tile_1_2.txt``) through the longest row stem it starts with followed by
-    ``_``, because task 9 grids the filter's output of task 8.
-    """
-    rows = read_tile_parameters(params_path)
-    input_path = Path(input_path)
-    target = input_path.resolve()
-    for row in rows:
-        if row.path.resolve() == target:
-            return row
-    for key in (lambda p: p.name.lower(), lambda p: p.stem.lower()):
-        hits = [r for r in rows if key(r.path) == key(input_path)]
-        if hits:
-            return hits[0]
-    stem = input_path.stem.lower()
-    prefixed = [r for r in rows if stem.startswith(r.path.stem.lower() + "_")]
-    if prefixed:
-        return max(prefixed, key=lambda r: len(r.path.stem))
-    raise DataError(f"no row for {input_path.name} in tile parameter file {params_path}", path=input_path)

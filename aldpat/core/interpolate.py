@@ -19,15 +19,18 @@ from __future__ import annotations
 
 import logging
 import math
-import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
-from aldpat.errors import DataError, UsageError
+from aldpat.core.grid_nodes import NODE_BLOCK, grid_points, node_coordinates, row_blocks, worker_count
+from aldpat.core.kriging import krige
+from aldpat.errors import UsageError
 
 if TYPE_CHECKING:
     from scipy import spatial
@@ -40,46 +43,11 @@ log = logging.getLogger(__name__)
 METHODS = ("nearest", "linear", "idw", "kriging", "min", "max", "mean")
 BINNING = ("min", "max", "mean")
 
-#: nodes queried at once by the KD-tree methods (bounds the neighbour arrays)
-_NODE_BLOCK = 262_144
 #: points a TIN block aims at: qhull's cost per point grows with the block (about 3 us at 10k
 #: points, 8 us at 250k, 12 us at 1M), and the buffer's share grows as blocks shrink
 _TIN_POINTS = 12_000
 #: (triangle, node) candidate pairs rasterised at once
 _PAIR_BATCH = 4_000_000
-
-
-def _workers(workers: int | None) -> int:
-    return max(1, os.cpu_count() or 1) if not workers else int(workers)
-
-
-def _as_points(x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    x, y, z = (np.asarray(a, dtype=np.float64).ravel() for a in (x, y, z))
-    if not (len(x) == len(y) == len(z)):
-        raise ValueError("x, y and z differ in length")
-    good = np.isfinite(x) & np.isfinite(y) & np.isfinite(z)
-    if not good.all():
-        x, y, z = x[good], y[good], z[good]
-    if len(x) == 0:
-        raise DataError("no points to grid")
-    return x, y, z
-
-
-def _row_blocks(spec: GridSpec, nodes: int = _NODE_BLOCK):
-    """Slices of whole rows holding about ``nodes`` nodes each."""
-    step = max(1, nodes // spec.nx)
-    for r0 in range(0, spec.ny, step):
-        yield r0, min(spec.ny, r0 + step)
-
-
-def _nodes(spec: GridSpec, r0: int, r1: int, origin: tuple[float, float]) -> np.ndarray:
-    """Node coordinates of rows r0..r1 (relative to ``origin``), row-major."""
-    gx = spec.x_nodes() - origin[0]
-    gy = spec.y_nodes()[r0:r1] - origin[1]
-    out = np.empty(((r1 - r0) * spec.nx, 2))
-    out[:, 0] = np.tile(gx, r1 - r0)
-    out[:, 1] = np.repeat(gy, spec.nx)
-    return out
 
 
 def _tree(x: np.ndarray, y: np.ndarray) -> tuple[spatial.cKDTree, tuple[float, float]]:
@@ -93,13 +61,13 @@ def _tree(x: np.ndarray, y: np.ndarray) -> tuple[spatial.cKDTree, tuple[float, f
 
 def nearest(x, y, z, spec: GridSpec, *, max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
     """Each node takes the elevation of its nearest point (dissertation (Cui 2013) §4.2)."""
-    x, y, z = _as_points(x, y, z)
+    x, y, z = grid_points(x, y, z)
     tree, origin = _tree(x, y)
     out = np.full(spec.shape, np.nan)
     bound = np.inf if max_distance is None else max_distance
-    for r0, r1 in _row_blocks(spec):
-        dist, idx = tree.query(_nodes(spec, r0, r1, origin), k=1, distance_upper_bound=bound,
-                               workers=_workers(workers))
+    for r0, r1 in row_blocks(spec):
+        dist, idx = tree.query(node_coordinates(spec, r0, r1, origin), k=1, distance_upper_bound=bound,
+                               workers=worker_count(workers))
         hit = np.isfinite(dist)
         vals = np.full(len(dist), np.nan)
         vals[hit] = z[idx[hit]]
@@ -121,15 +89,15 @@ def idw(x, y, z, spec: GridSpec, *, power: float = 2.0, radius: float | None = N
         raise UsageError(f"power must be positive, got {power:g}")
     if max_points < 1:
         raise UsageError(f"max_points must be at least 1, got {max_points}")
-    x, y, z = _as_points(x, y, z)
+    x, y, z = grid_points(x, y, z)
     tree, origin = _tree(x, y)
     k = min(max_points, len(x))
     out = np.full(spec.shape, np.nan)
     bound = np.inf if radius is None else radius
     zpad = np.append(z, 0.0)  # index len(z) marks "no neighbour"
-    for r0, r1 in _row_blocks(spec, _NODE_BLOCK // max(1, k // 4)):
-        dist, idx = tree.query(_nodes(spec, r0, r1, origin), k=[*range(1, k + 1)], distance_upper_bound=bound,
-                               workers=_workers(workers))
+    for r0, r1 in row_blocks(spec, NODE_BLOCK // max(1, k // 4)):
+        dist, idx = tree.query(node_coordinates(spec, r0, r1, origin), k=[*range(1, k + 1)], distance_upper_bound=bound,
+                               workers=worker_count(workers))
         found = np.isfinite(dist)
         exact = found & (dist == 0)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -191,7 +159,7 @@ class Binner:
 def binned(x, y, z, spec: GridSpec, *, statistic: str) -> np.ndarray:
     """Binning of all points at once (see :class:`Binner`)."""
     binner = Binner(spec, statistic)
-    binner.add(*_as_points(x, y, z))
+    binner.add(*grid_points(x, y, z))
     return binner.result()
 
 
@@ -274,7 +242,7 @@ def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, worker
     across wider gaps, which ``max_distance`` blanks anyway, a block may choose another valid
     triangulation). Planes are reproduced exactly.
     """
-    x, y, z = _as_points(x, y, z)
+    x, y, z = grid_points(x, y, z)
     out = np.full(spec.shape, np.nan)
     area = max((x.max() - x.min()) * (y.max() - y.min()), spec.dx * spec.dy)
     spacing = math.sqrt(area / len(x))
@@ -319,31 +287,58 @@ def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, worker
         _tin_block(x[sel], y[sel], z[sel], spec, cols, rows, max_distance, out)
 
     blocks = [(i, j) for j in range(nby) for i in range(nbx)]
-    with ThreadPoolExecutor(_workers(workers)) as pool:  # qhull releases the GIL
+    with ThreadPoolExecutor(worker_count(workers)) as pool:  # qhull releases the GIL
         list(pool.map(run, blocks))
     return out
 
 
-# ---------------------------------------------------------------------------- dispatch
+# ---------------------------------------------------------------------------- the methods
 
 
-def interpolate(x, y, z, spec: GridSpec, *, method: str = "linear", power: float = 2.0,
-                radius: float | None = None, max_points: int = 16, max_distance: float | None = None,
-                variogram: str = "linear", nugget: float = 0.0, drift: str = "none",
-                workers: int | None = None) -> np.ndarray:
-    """Grid the points with one of :data:`METHODS` (see the module docstring)."""
-    if method == "nearest":
-        return nearest(x, y, z, spec, max_distance=max_distance, workers=workers)
-    if method == "linear":
-        return linear(x, y, z, spec, max_distance=max_distance, workers=workers)
-    if method == "idw":
-        return idw(x, y, z, spec, power=power, radius=radius, max_points=max_points, max_distance=max_distance,
-                   workers=workers)
-    if method == "kriging":
-        from aldpat.core.kriging import krige
+@dataclass(frozen=True)
+class GridOptions:
+    """The options of ``aldpat grid`` a method may use (each takes what applies to it)."""
 
-        return krige(x, y, z, spec, model=variogram, nugget=nugget, drift=drift, max_points=max_points,
-                     radius=radius, max_distance=max_distance, workers=workers)
-    if method in BINNING:
-        return binned(x, y, z, spec, statistic=method)
-    raise UsageError(f"unknown gridding method {method!r} (use {', '.join(METHODS)})")
+    power: float = 2.0
+    radius: float | None = None
+    max_points: int = 16
+    max_distance: float | None = None
+    variogram: str = "linear"
+    nugget: float = 0.0
+    drift: str = "none"
+    workers: int | None = None
+
+
+def _kriging(x, y, z, spec: GridSpec, o: GridOptions) -> np.ndarray:
+    return krige(x, y, z, spec, model=o.variogram, nugget=o.nugget, drift=o.drift, max_points=o.max_points,
+                 radius=o.radius, max_distance=o.max_distance, workers=o.workers)
+
+
+def _binning(statistic: str) -> Callable[[Any, Any, Any, GridSpec, GridOptions], np.ndarray]:
+    def grid(x, y, z, spec: GridSpec, o: GridOptions) -> np.ndarray:
+        return binned(x, y, z, spec, statistic=statistic)
+
+    return grid
+
+
+#: ``aldpat grid --method`` name -> gridder ``fn(x, y, z, spec, options)``, in the order ``--help``
+#: lists them.
+GRIDDERS: dict[str, Callable[[Any, Any, Any, GridSpec, GridOptions], np.ndarray]] = {
+    "nearest": lambda x, y, z, spec, o: nearest(x, y, z, spec, max_distance=o.max_distance, workers=o.workers),
+    "linear": lambda x, y, z, spec, o: linear(x, y, z, spec, max_distance=o.max_distance, workers=o.workers),
+    "idw": lambda x, y, z, spec, o: idw(x, y, z, spec, power=o.power, radius=o.radius, max_points=o.max_points,
+                                        max_distance=o.max_distance, workers=o.workers),
+    "kriging": _kriging,
+    **{stat: _binning(stat) for stat in BINNING},
+}
+assert tuple(GRIDDERS) == METHODS
+
+
+def interpolate(x, y, z, spec: GridSpec, *, method: str = "linear", workers: int | None = None,
+                **options: Any) -> np.ndarray:
+    """Grid the points with one of :data:`METHODS` (see the module docstring); ``options`` are
+    those of :class:`GridOptions`."""
+    gridder = GRIDDERS.get(method)
+    if gridder is None:
+        raise UsageError(f"unknown gridding method {method!r} (use {', '.join(METHODS)})")
+    return gridder(x, y, z, spec, GridOptions(workers=workers, **options))

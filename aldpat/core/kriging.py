@@ -30,7 +30,7 @@ import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
-from aldpat.core.interpolate import _as_points, _nodes, _row_blocks, _workers
+from aldpat.core.grid_nodes import grid_points, node_coordinates, row_blocks, worker_count
 from aldpat.errors import UsageError
 
 optimize = lazy_import("scipy.optimize")
@@ -77,7 +77,7 @@ def _model(model: str, h: np.ndarray, nugget: float, sill: float, rng: float) ->
 def experimental_variogram(x, y, z, *, neighbours: int = 32, sample: int = _SAMPLE, lags: int = _LAGS,
                            seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lag centres, mean semivariances and pair counts from local neighbourhoods."""
-    x, y, z = _as_points(x, y, z)
+    x, y, z = grid_points(x, y, z)
     ox, oy = float(x.min()), float(y.min())
     tree = spatial.cKDTree(np.column_stack([x - ox, y - oy]))
     rng = np.random.default_rng(seed)
@@ -144,7 +144,7 @@ def krige(x, y, z, spec: GridSpec, *, model: str = "linear", nugget: float = 0.0
         raise UsageError(f"max_points must be at least 1, got {max_points}")
     if nugget < 0:
         raise UsageError(f"nugget must not be negative, got {nugget:g}")
-    x, y, z = _as_points(x, y, z)
+    x, y, z = grid_points(x, y, z)
     vg = variogram or fit_variogram(x, y, z, model=model, nugget=nugget, neighbours=2 * max_points)
     origin = (float(x.min()), float(y.min()))
     pts = np.column_stack([x - origin[0], y - origin[1]])
@@ -156,15 +156,15 @@ def krige(x, y, z, spec: GridSpec, *, model: str = "linear", nugget: float = 0.0
 
     def run(rows: tuple[int, int]) -> None:
         r0, r1 = rows
-        nodes = _nodes(spec, r0, r1, origin)
+        nodes = node_coordinates(spec, r0, r1, origin)
         dist, idx = tree.query(nodes, k=[*range(1, k + 1)], distance_upper_bound=bound)
         vals = _estimate(nodes, dist, idx, pts, z, vg, nd)
         if max_distance is not None:
             vals[dist[:, 0] > max_distance] = np.nan
         out[r0:r1] = vals.reshape(r1 - r0, spec.nx)
 
-    with ThreadPoolExecutor(_workers(workers)) as pool:  # LAPACK and the KD-tree release the GIL
-        list(pool.map(run, list(_row_blocks(spec, _BLOCK))))
+    with ThreadPoolExecutor(worker_count(workers)) as pool:  # LAPACK and the KD-tree release the GIL
+        list(pool.map(run, list(row_blocks(spec, _BLOCK))))
     return out
 
 

@@ -22,7 +22,7 @@ from math import comb
 import numpy as np
 
 from aldpat._lazy import lazy_import
-from aldpat.core.lowest_grid import GridSpec, fill_nearest
+from aldpat.core.lowest_grid import CellGridSpec, fill_nearest
 
 ndimage = lazy_import("scipy.ndimage")
 
@@ -55,7 +55,7 @@ class PointSums:
     sums of a band of rows are formed when it is solved -- four grids instead of nine).
     """
 
-    def __init__(self, spec: GridSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, degree: int):
+    def __init__(self, spec: CellGridSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, degree: int):
         self._start(spec, degree)
         rows, cols = spec.shape
         u = (x - spec.x0) / spec.cell - 0.5 - self.u0
@@ -73,7 +73,7 @@ class PointSums:
                 self.z_moments[i, j] = np.bincount(flat, weights=w * z, minlength=size).reshape(rows, cols)
         self._cells: tuple[np.ndarray, ...] | None = None
 
-    def _start(self, spec: GridSpec, degree: int) -> None:
+    def _start(self, spec: CellGridSpec, degree: int) -> None:
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree}")
         self.spec = spec
@@ -83,7 +83,7 @@ class PointSums:
         self.u0, self.v0 = cols / 2.0, rows / 2.0
 
     @classmethod
-    def one_per_cell(cls, spec: GridSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray,
+    def one_per_cell(cls, spec: CellGridSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray,
                      degree: int) -> PointSums:
         """Sums of the points ``x[r, c], y[r, c], z[r, c]`` of the cells where ``has``."""
         self = cls.__new__(cls)

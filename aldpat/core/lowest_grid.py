@@ -32,8 +32,10 @@ MAX_CELLS = 400_000_000
 
 
 @dataclass(frozen=True)
-class GridSpec:
-    """Where a grid lies: lower-left corner, square cell size and shape."""
+class CellGridSpec:
+    """Where a grid of cells lies: lower-left corner, square cell size and shape (cells, each
+    holding its lowest point; :class:`aldpat.core.grid_extent.GridSpec` is the grid of *nodes*
+    that ``aldpat grid`` writes)."""
 
     x0: float
     y0: float
@@ -62,7 +64,7 @@ class LowestGrid:
 
     Attributes
     ----------
-    spec : GridSpec
+    spec : CellGridSpec
     z : float64 array (rows, cols)
         elevation of the lowest point; NaN where the cell is empty.
     lowest : int32 array (rows, cols) (int64 beyond 2**31 points)
@@ -72,7 +74,7 @@ class LowestGrid:
         flat cell index ``row * cols + col`` of every input point.
     """
 
-    spec: GridSpec
+    spec: CellGridSpec
     z: np.ndarray
     lowest: np.ndarray
     cell_index: np.ndarray
@@ -83,13 +85,13 @@ class LowestGrid:
         return self.lowest < 0
 
 
-def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float, float] | None = None) -> GridSpec:
+def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float, float] | None = None) -> CellGridSpec:
     """The smallest aligned grid covering the points."""
     if not cell > 0:
         raise ValueError(f"cell must be > 0, got {cell!r}")
     ox, oy = origin if origin is not None else (0.0, 0.0)
     if len(x) == 0:
-        return GridSpec(ox, oy, float(cell), 0, 0)
+        return CellGridSpec(ox, oy, float(cell), 0, 0)
     c0 = math.floor((float(np.min(x)) - ox) / cell)
     c1 = math.floor((float(np.max(x)) - ox) / cell)
     r0 = math.floor((float(np.min(y)) - oy) / cell)
@@ -99,7 +101,7 @@ def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
         raise DataError(
             f"a {rows} x {cols} grid of {cell:g} m cells is too large; use a larger cell or tile the data"
         )
-    return GridSpec(ox + c0 * cell, oy + r0 * cell, float(cell), rows, cols)
+    return CellGridSpec(ox + c0 * cell, oy + r0 * cell, float(cell), rows, cols)
 
 
 def _floor_index(v: np.ndarray, origin: float, cell: float) -> np.ndarray:
@@ -110,7 +112,7 @@ def _floor_index(v: np.ndarray, origin: float, cell: float) -> np.ndarray:
     return t.astype(np.int64)
 
 
-def cell_indices(x: np.ndarray, y: np.ndarray, spec: GridSpec, *, origin: tuple[float, float] | None = None
+def cell_indices(x: np.ndarray, y: np.ndarray, spec: CellGridSpec, *, origin: tuple[float, float] | None = None
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Row and column of every point.
 

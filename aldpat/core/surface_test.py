@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from aldpat.core.lowest_grid import GridSpec
+from aldpat.core.lowest_grid import CellGridSpec
 
 #: Points tested at once (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
@@ -25,7 +25,7 @@ _CHUNK = 1 << 21
 SWEEPS = 4
 
 
-def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: GridSpec) -> np.ndarray:
+def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: CellGridSpec) -> np.ndarray:
     """Ground cells' heights, every other cell filled smoothly from them; NaN only when nothing
     is ground.
 
@@ -100,12 +100,12 @@ def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
     return np.hypot(gx, gy, out=gx).astype(np.float32)
 
 
-def bilinear(grid: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def bilinear(grid: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``grid`` (values at cell centres) at points x, y, bilinearly; edges held constant."""
     return _blend(grid, _corners(grid.shape, spec, x, y))
 
 
-def _corners(shape: tuple[int, int], spec: GridSpec, x: np.ndarray, y: np.ndarray) -> tuple:
+def _corners(shape: tuple[int, int], spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> tuple:
     """The four cell centres around each point and its place between them (row, column)."""
     rows, cols = shape
     fc = np.clip((np.asarray(x) - spec.x0) / spec.cell - 0.5, 0.0, cols - 1.0)
@@ -121,7 +121,7 @@ def _blend(grid: np.ndarray, corners: tuple) -> np.ndarray:
             + (grid[r1, c0] * (1 - tc) + grid[r1, c1] * tc) * tr)
 
 
-def within_surface(x: np.ndarray, y: np.ndarray, z: np.ndarray, surface: np.ndarray, spec: GridSpec, *,
+def within_surface(x: np.ndarray, y: np.ndarray, z: np.ndarray, surface: np.ndarray, spec: CellGridSpec, *,
                    threshold: float, slope_scalar: float) -> np.ndarray:
     """True where ``|z - surface| <= threshold + slope_scalar * slope`` at the point (a fixed
     tolerance when ``slope_scalar`` is 0)."""

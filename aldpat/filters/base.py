@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from aldpat.core.lowest_grid import GridSpec, LowestGrid, fill_nearest, lowest_grid
+from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError, ParamError
 from aldpat.options import OriginOption
 from aldpat.params import Checked, SharedOption, param, validate_instance
@@ -276,7 +276,7 @@ def ground_surface(z: np.ndarray, ground: np.ndarray) -> np.ndarray:
     return fill_nearest(np.where(ground, z, np.nan), ~ground)
 
 
-def _ground_height(ground_z: np.ndarray, ground: np.ndarray, spec: GridSpec, x: np.ndarray, y: np.ndarray
+def _ground_height(ground_z: np.ndarray, ground: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray
                    ) -> np.ndarray:
     """Ground surface at points x, y: bilinear between the centres of the four cells around
     each point, over those that are ground, weights renormalised.

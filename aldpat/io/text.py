@@ -20,12 +20,12 @@ import numpy as np
 
 from aldpat.errors import InputFormatError
 from aldpat.io.table import PointTable
+from aldpat.io.textfmt import BLOCK_ROWS, column_formats, format_block
 
 #: The ALTM tape / strip layout in the manual's default order (last return first).
 ALTM_LAST_FIRST = ("t", "x2", "y2", "z2", "i2", "x1", "y1", "z1", "i1")
 ALTM_FIRST_LAST = ("t", "x1", "y1", "z1", "i1", "x2", "y2", "z2", "i2")
 POINT_NAMES = ("x", "y", "z", "intensity")
-INTEGER_COLUMNS = {"intensity", "i1", "i2", "class", "mark", "label", "strip_index", "classification"}
 
 DEFAULT_CHUNK = 2_000_000
 #: Largest magnitude accepted for a coordinate (x, y, z of any return). Real coordinates in any
@@ -242,22 +242,6 @@ class TextReader:
 # ------------------------------------------------------------------------------ writing
 
 
-def column_formats(table: PointTable, names: tuple[str, ...], decimals: dict | None = None) -> list[str]:
-    """printf formats per column: integers for integer columns, the input's decimals otherwise."""
-    decimals = decimals if decimals is not None else table.meta.get("decimals", {})
-    fmts = []
-    for n in names:
-        col = table.columns[n]
-        if n in INTEGER_COLUMNS or np.issubdtype(col.dtype, np.integer) or col.dtype == bool:
-            fmts.append("%d")
-        else:
-            d = decimals.get(n)
-            if d is None:
-                d = 3 if n in ("x", "y", "z") or n[:1] in "xyz" else 6
-            fmts.append(f"%.{d}f")
-    return fmts
-
-
 def format_rows(table: PointTable, names: tuple[str, ...], delimiter: str = " ",
                 decimals: dict | None = None) -> str:
     """The rows of ``table`` as text lines (one C-level formatting call per chunk)."""
@@ -290,8 +274,6 @@ class TextWriter:
         self._fh = open(self.path, "wb", buffering=1 << 20)  # noqa: SIM115  (closed by close())
 
     def write(self, table: PointTable) -> None:
-        from aldpat.io.textfmt import BLOCK_ROWS, format_block
-
         n = len(table)
         for start in range(0, n, BLOCK_ROWS):
             part = table.take(slice(start, start + BLOCK_ROWS)) if n > BLOCK_ROWS else table

@@ -18,9 +18,13 @@ import re
 
 import numpy as np
 
+from aldpat.io.table import PointTable
+
 _FMT = re.compile(r"^%(?:\.(\d+))?([df])$")
 #: rows formatted at a time (the byte matrix is about 40 bytes a row)
 BLOCK_ROWS = 500_000
+#: columns always written as whole numbers
+INTEGER_COLUMNS = {"intensity", "i1", "i2", "class", "mark", "label", "strip_index", "classification"}
 
 
 def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarray:
@@ -58,13 +62,28 @@ def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarra
     return out
 
 
+def column_formats(table: PointTable, names: tuple[str, ...], decimals: dict | None = None) -> list[str]:
+    """printf formats per column: integers for integer columns, the input's decimals otherwise."""
+    decimals = decimals if decimals is not None else table.meta.get("decimals", {})
+    fmts = []
+    for n in names:
+        col = table.columns[n]
+        if n in INTEGER_COLUMNS or np.issubdtype(col.dtype, np.integer) or col.dtype == bool:
+            fmts.append("%d")
+        else:
+            d = decimals.get(n)
+            if d is None:
+                d = 3 if n in ("x", "y", "z") or n[:1] in "xyz" else 6
+            fmts.append(f"%.{d}f")
+    return fmts
+
+
 def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: dict | None = None) -> np.ndarray:
-    """The rows of ``table`` as text lines (a uint8 array), with the columns and decimals
-    :func:`aldpat.io.text.format_rows` would use."""
+    """The rows of ``table`` as text lines (a uint8 array), with the columns and decimals of
+    :func:`column_formats` (those :func:`aldpat.io.text.format_rows` uses too)."""
     n = len(table)
     if n == 0:
         return np.zeros(0, dtype=np.uint8)
-    from aldpat.io.text import column_formats  # (text.py imports this module)
 
     parts = []
     sep = np.frombuffer(delimiter.encode("ascii"), dtype=np.uint8)

@@ -20,13 +20,13 @@ from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
     from_data,
-    tile_row_for,
     whole_cells,
 )
 from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
 from aldpat.io.surfer import FORMATS, write_surfer
+from aldpat.io.tile_parameters import tile_row_for
 from aldpat.options import OriginOption
 from aldpat.params import Checked, param
 from aldpat.tasks.base import JobContext, Task, register_task

@@ -6,8 +6,8 @@ file. Note that '-1111' separates the strips." The output is named explicitly (`
 
 Each line is ``x y z strip_index file_name`` (strips numbered from 1 in input order, the file
 name without its folder); a line holding ``-1111`` stands between two strips. Inputs are
-streamed, so memory does not depend on their size. :func:`read_merged` reads the file back
-(the shapefile task uses it); a file name may hold the delimiter, as it is the last column.
+streamed, so memory does not depend on their size. :func:`aldpat.io.merged_boundary.read_merged` reads
+the file back (the shapefile task uses it).
 """
 
 from __future__ import annotations
@@ -18,27 +18,18 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
+from aldpat.io.merged_boundary import SEPARATOR
 from aldpat.io.text import format_rows
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 
-SEPARATOR = "-1111"
-
 
 @dataclass(frozen=True)
 class MergeBoundaryParams:
     output: str | None = param(None, "merged boundary file to write", path=True, metavar="FILE", required=True)
-
-
-@dataclass
-class Strip:
-    index: int
-    name: str
-    xyz: np.ndarray  # (n, 3)
 
 
 def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:
@@ -62,53 +53,6 @@ def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: Jo
                 count += len(chunk)
     ctx.wrote(out, count)
     log.info("%s: %d boundary points of %d strips", out, count, len(sources))
-
-
-def read_merged(path: str | Path) -> list[Strip]:
-    """The strips of a merged boundary file, in file order."""
-    path = Path(path)
-    try:
-        fh = open(path, encoding="utf-8", errors="replace", newline=None)  # noqa: SIM115  (the with block below)
-    except OSError as exc:
-        raise InputMissingError(f"cannot read: {exc.strerror or exc}", path=path) from None
-    strips: list[Strip] = []
-    rows: list[tuple[float, float, float]] = []
-    key: tuple[int, str] | None = None
-
-    def close() -> None:
-        if rows and key is not None:
-            strips.append(Strip(key[0], key[1], np.asarray(rows, dtype=np.float64)))
-
-    # a boundary file holds hundreds of points, not millions: a line loop is fine here
-    with fh:
-        for number, line in enumerate(fh, start=1):
-            text = line.strip()
-            if not text:
-                continue
-            delim = "," if "," in text else None
-            parts = [p.strip() for p in text.split(delim, 4)] if delim else text.split(None, 4)
-            if parts[0] == SEPARATOR and len(parts) == 1:
-                close()
-                rows, key = [], None
-                continue
-            if len(parts) < 5:
-                raise InputFormatError(f"expected 5 columns (x y z strip_index file_name), found {len(parts)}",
-                                       path=path, line=number)
-            try:
-                x, y, z = float(parts[0]), float(parts[1]), float(parts[2])
-                index = int(float(parts[3]))
-            except ValueError:
-                raise InputFormatError("x, y, z and strip_index must be numbers", path=path, line=number) from None
-            this = (index, parts[4])
-            if key is not None and this != key:  # a new strip without a separator line
-                close()
-                rows = []
-            key = this
-            rows.append((x, y, z))
-    close()
-    if not strips:
-        raise InputFormatError("no boundary points in file", path=path)
-    return strips
 
 
 register_task(Task(

@@ -20,9 +20,9 @@ import numpy as np
 from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
+from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.options import kept_names
 from aldpat.params import param
-from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)

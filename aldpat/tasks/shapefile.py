@@ -14,11 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.errors import UsageError
+from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import Polygon, write_polygons
 from aldpat.options import CrsOption
 from aldpat.params import param
 from aldpat.tasks.base import JobContext, Task, register_task
-from aldpat.tasks.merge_boundary import read_merged
 
 log = logging.getLogger(__name__)
 

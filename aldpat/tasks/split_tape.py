@@ -6,7 +6,7 @@ records ... is used to determine the separation of strips. If the time interval 
 a given threshold value (i.e., 60 seconds), a new strip file is generated. The output format of
 the strip file is the same as the input file."
 
-Records are copied byte for byte (:mod:`aldpat.tasks._rawtext`) unless ``--delimiter`` asks for
+Records are copied byte for byte (:mod:`aldpat.io.rawtext`) unless ``--delimiter`` asks for
 another delimiter than the tape's, in which case they are written again with the tape's decimals.
 Streamed chunk by chunk (memory does not grow with the tape); strips are consecutive in time,
 so each chunk splits at the positions where t jumps by more than Interval, the last time of a
@@ -27,9 +27,9 @@ import numpy as np
 from aldpat.core.precision import above
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
+from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.options import OrderOption
 from aldpat.params import param
-from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)

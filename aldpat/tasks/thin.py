@@ -8,7 +8,7 @@ multiples of the cell size unless ``--origin``. Rounding is half away from zero
 (12.5 -> 13), as a C++ ``floor(x + 0.5)`` did for positive coordinates, not numpy's half-to-even.
 
 Memory: the points of one cell may be anywhere in the file, so large inputs are partitioned by
-cell block into temporary bucket files first (:mod:`aldpat.tasks._spill`) and each bucket is
+cell block into temporary bucket files first (:mod:`aldpat.io.spill`) and each bucket is
 thinned in memory; the output lists bucket after bucket, each in input order. Inputs of up to
 one chunk (2 million points) are thinned in memory and keep their input order.
 """
@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
+from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.options import CellHeightOption, OriginOption, kept_names
 from aldpat.params import param
-from aldpat.tasks._spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)

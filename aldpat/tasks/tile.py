@@ -31,24 +31,21 @@ import numpy as np
 from aldpat.core.tiles import DIRECTIONS, TileLayout
 from aldpat.errors import DataError, ParamError, UsageError
 from aldpat.io.atomic import (
-    atomic_output,
     check_writable,
     publish,
     remove_stale_temporaries,
     temp_name,
 )
 from aldpat.io.las import LasWriter
+from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
+from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
 from aldpat.options import FieldsOption, point_names
 from aldpat.params import Checked, format_value, param
-from aldpat.tasks._rawtext import RawLines, passthrough_ok
 from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
-
-PARAMETER_FILE = "tile_parameter.txt"
-
 
 @dataclass(frozen=True)
 class TileParams(FieldsOption, Checked):
@@ -67,12 +64,6 @@ class TileParams(FieldsOption, Checked):
         super().check()
         if self.bounds is not None and (self.bounds[2] < self.bounds[0] or self.bounds[3] < self.bounds[1]):
             raise ParamError(f"bounds: maximum below minimum (MINX MINY MAXX MAXY: {format_value(self.bounds)})")
-
-
-def number_text(v: float) -> str:
-    """A coordinate for a file name or the parameter file: no trailing zeros (512000, 512000.5)."""
-    text = f"{v:.3f}".rstrip("0").rstrip(".")
-    return "0" if text in ("-0", "") else text
 
 
 def data_bounds(readers) -> tuple[float, float, float, float]:
@@ -205,25 +196,6 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> tuple[int, i
     return in_core, int((~placed).sum())
 
 
-def write_parameter_file(path: Path, rows: dict[str, tuple], *, delimiter: str, overwrite: bool) -> None:
-    delim = " " if delimiter == "space" else ","
-    with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-        fh.writelines(delim.join([name] + [number_text(v) for v in rows[name]]) + "\n" for name in sorted(rows, key=lambda p: (rows[p][2], rows[p][0], p)))
-
-
-def read_parameter_file(path: Path) -> dict[str, tuple]:
-    """Rows of an existing tile_parameter.txt: path -> (min x, max x, min y, max y, width, height, buffer)."""
-    rows = {}
-    for line in path.read_text(encoding="utf-8").splitlines():
-        parts = line.rsplit(",", 7) if "," in line else line.rsplit(None, 7)
-        if len(parts) == 8:
-            try:
-                rows[parts[0].strip()] = tuple(float(v) for v in parts[1:])
-            except ValueError:
-                continue
-    return rows
-
-
 def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     readers = [ctx.open_input(s) for s in sources]
     first = readers[0]
@@ -279,7 +251,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     except BaseException:
         sink.discard()
         raise
-    rows = read_parameter_file(param_path) if params.append and param_path.exists() else {}
+    rows = read_parameter_rows(param_path) if params.append and param_path.exists() else {}
     for (i, j), entry in sink.tiles.items():
         x0, x1, y0, y1 = layout.core(i, j)
         rows[str(entry["path"].resolve())] = (x0, x1, y0, y1, x1 - x0, y1 - y0, layout.buffer)

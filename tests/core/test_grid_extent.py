@@ -6,14 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aldpat.core.grid_extent import (
-    GridSpec,
-    from_bounds,
-    from_data,
-    read_tile_parameters,
-    tile_row_for,
-)
+from aldpat.core.grid_extent import GridSpec, from_bounds, from_data
 from aldpat.errors import DataError, InputFormatError, InputMissingError
+from aldpat.io.tile_parameters import read_tile_parameters, tile_row_for
 
 TILES = (
     "tiles/tile_500000_4000000.txt 500000 502000 4000000 4002000 2000 2000 50\n"

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from aldpat.core.local_poly import PointSums, fit_surface
-from aldpat.core.lowest_grid import GridSpec
+from aldpat.core.lowest_grid import CellGridSpec
 
-SPEC = GridSpec(100.0, 200.0, 2.0, 20, 25)  # 50 x 40 m of 2 m nodes, not at the origin
+SPEC = CellGridSpec(100.0, 200.0, 2.0, 20, 25)  # 50 x 40 m of 2 m nodes, not at the origin
 
 
 def _points(n=3000, seed=0):
@@ -57,7 +57,7 @@ def test_no_points_is_all_nan():
 def test_bands_of_rows_give_the_answer_of_one_band(monkeypatch, degree):
     from aldpat.core import local_poly
 
-    spec = GridSpec(0.0, 0.0, 1.0, 150, 40)
+    spec = CellGridSpec(0.0, 0.0, 1.0, 150, 40)
     rng = np.random.default_rng(3)
     x, y = rng.uniform(0, 40, 4000), rng.uniform(0, 150, 4000)
     z = np.sin(x / 7.0) + np.cos(y / 11.0) + rng.normal(0, 0.1, x.size)
@@ -70,7 +70,7 @@ def test_bands_of_rows_give_the_answer_of_one_band(monkeypatch, degree):
 
 @pytest.mark.parametrize("degree", [1, 2])
 def test_one_point_per_cell_gives_the_sums_of_those_points(degree):
-    spec = GridSpec(0.0, 0.0, 1.0, 90, 30)
+    spec = CellGridSpec(0.0, 0.0, 1.0, 90, 30)
     rng = np.random.default_rng(4)
     rows, cols = spec.shape
     has = rng.random((rows, cols)) < 0.6

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from aldpat.core.lowest_grid import GridSpec
+from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.surface_test import (
     bilinear,
     provisional_surface,
@@ -13,13 +13,13 @@ from aldpat.core.surface_test import (
 )
 
 
-def plane(spec: GridSpec, a=0.3, b=-0.1, c=50.0):
+def plane(spec: CellGridSpec, a=0.3, b=-0.1, c=50.0):
     xc, yc = spec.centers()
     return c + a * xc[None, :] + b * yc[:, None]
 
 
 def test_a_building_footprint_is_spanned_from_the_ground_around_it():
-    spec = GridSpec(0.0, 0.0, 1.0, 40, 50)
+    spec = CellGridSpec(0.0, 0.0, 1.0, 40, 50)
     truth = plane(spec)
     ground = np.ones(truth.shape, bool)
     ground[10:30, 15:35] = False  # the building's 20 x 20 cells
@@ -34,7 +34,7 @@ def test_a_building_footprint_is_spanned_from_the_ground_around_it():
 
 
 def test_isolated_ground_cells_of_sparse_data_fill_every_cell():
-    spec = GridSpec(0.0, 0.0, 1.0, 30, 30)
+    spec = CellGridSpec(0.0, 0.0, 1.0, 30, 30)
     truth = plane(spec, a=0.0, b=0.0, c=12.0)
     ground = np.zeros(truth.shape, bool)
     ground[::5, ::5] = True  # one cell in 25 holds ground, as in 0.2 points/m2 on 1 m cells
@@ -44,7 +44,7 @@ def test_isolated_ground_cells_of_sparse_data_fill_every_cell():
 
 
 def test_points_within_threshold_plus_slope_term():
-    spec = GridSpec(0.0, 0.0, 1.0, 20, 20)
+    spec = CellGridSpec(0.0, 0.0, 1.0, 20, 20)
     surface = plane(spec, a=0.5, b=0.0)  # slope 0.5
     x = np.array([5.5, 5.5, 5.5, 5.5, 10.0])
     y = np.array([5.5, 5.5, 5.5, 5.5, 10.0])

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import shapefile as pyshp
 
+from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import Polygon, read_polygons, write_polygons
 from aldpat.tasks import get_task
-from aldpat.tasks.merge_boundary import read_merged
 
 # two counter-clockwise boundary rings as strip-boundary writes them (closed, x y z i)
 RING_A = np.array([[0, 0, 1.5, 7], [100, 0, 1.25, 8], [100, 40, 2, 9], [0, 40, 3, 10], [0, 0, 1.5, 7]], float)

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import aldpat.tasks._spill as spill
+from aldpat.io import spill
 from aldpat.tasks import get_task
 
 # two 2 x 2 m cells: cell (0, 0) with four points, cell (1, 0) with three

@@ -1,10 +1,10 @@
-"""Byte-for-byte copying of text records in step with the parser (aldpat.tasks._rawtext)."""
+"""Byte-for-byte copying of text records in step with the parser (aldpat.io.rawtext)."""
 
 import numpy as np
 
+from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.text import TextReader
 from aldpat.tasks import get_task
-from aldpat.tasks._rawtext import RawLines, passthrough_ok
 
 TEXT = "x y z\r\n1.5 2 3\r\n\r\n   \r\n 4 5 6.25\r\n7 8 9\r\n\t\r\n10 11 12"
 
