@@ -100,3 +100,32 @@ def kept_names(reader, out) -> tuple[str, ...]:
     if reader.format == "las":
         return point_names(reader, "xyzi")
     return reader.names
+
+
+# ---------------------------------------------------------------------------- every command
+
+
+@dataclass(frozen=True)
+class OutputParams:
+    """Options every file-writing task shares."""
+
+    odir: str | None = param(None, "output folder, created if missing (default: beside each input)", path=True,
+                             metavar="DIR")
+    suffix: str | None = param(None, "output name suffix, replacing the task's default")
+    delimiter: str = param("space", "delimiter of text outputs", choices=("space", "comma"), manual="Preference")
+    out_format: str = param("same", "output format", choices=("same", "text", "csv", "las", "laz"))
+    overwrite: bool = param(False, "replace existing outputs")
+
+
+@dataclass(frozen=True)
+class InputParams:
+    """How inputs are read."""
+
+    format: str = param("auto", "input format (auto: by extension)", choices=("auto", "text", "las"))
+
+
+@dataclass(frozen=True)
+class RunParams:
+    """How the jobs are run (not recorded as task parameters)."""
+
+    jobs: int = param(1, "worker processes (0 = all cores); results identical to -j 1", ge=0)

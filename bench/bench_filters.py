@@ -251,7 +251,7 @@ def speed_code(algo: str, las: Path, params_file: str | None) -> str:
     odir = WORK / "out"
     return (
         f"import sys; sys.path.insert(0, {str(REPO)!r})\n"
-        "from aldpat.tasks.base import get_task\n"
+        "from aldpat.tasks import get_task\n"
         f"rep = get_task('filter', {algo!r})([{str(las)!r}], odir={str(odir)!r}, overwrite=True, "
         f"result='classified', **{kwargs!r})\n"
         "assert rep.exit_code == 0, [r.error for r in rep.results]\n"

@@ -157,7 +157,7 @@ def run_speed(algos: list[str], millions: float, cell: float | None) -> None:
             kwargs["cell"] = cell
         code = (
             f"import sys; sys.path.insert(0, {str(REPO)!r})\n"
-            "from aldpat.tasks.base import get_task\n"
+            "from aldpat.tasks import get_task\n"
             f"rep = get_task('filter', {algo!r})([{str(las)!r}], odir={str(out)!r}, overwrite=True, "
             f"result='classified', **{kwargs!r})\n"
             "assert rep.exit_code == 0, [r.error for r in rep.results]\n"

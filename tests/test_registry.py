@@ -5,9 +5,9 @@ from pathlib import Path
 import pytest
 
 from aldpat.cli.main import cli
+from aldpat.jobs.resolve import resolve_run
 from aldpat.params import format_value
 from aldpat.tasks import TASKS
-from aldpat.tasks.base import resolve_run
 
 TASK_KEYS = sorted(TASKS)
 #: a real file for required file parameters (ortho-height opens its geoid grid when checked)

@@ -1,6 +1,6 @@
 """The ``aldpat`` command: a root group whose commands are generated from the task registry.
 
-Each command parses, resolves paths and hands the values to :func:`aldpat.tasks.base.run_task`;
+Each command parses, resolves paths and hands the values to :func:`aldpat.jobs.run.run_task`;
 no algorithm lives here. This is also the only place that turns errors into exit codes:
 0 all done, 1 some inputs failed, 2 usage error.
 """
@@ -21,9 +21,10 @@ from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError
+from aldpat.jobs.registry import Task
+from aldpat.jobs.run import run_task
 from aldpat.params import renamed_keys
 from aldpat.tasks import TASKS
-from aldpat.tasks.base import Task, run_task
 from aldpat.worksheet.toml import load_toml
 
 log = logging.getLogger("aldpat")
@@ -80,9 +81,7 @@ def make_command(task: Task) -> click.Command:
         except AldpatError as exc:
             click.echo(f"aldpat: error: {exc}", err=True)
             sys.exit(1)
-        as_json = bool(given.get("json") in (True, "true") or
-                       (params_file and layers[0][1].get("json") is True))
-        show(report, as_json)
+        show(report, bool(getattr(report.params, "json", False)))
         for result in report.results:
             for w in result.outputs:
                 log.info("wrote %s%s", w.path, f" ({w.count} points)" if w.count is not None else "")

@@ -9,7 +9,7 @@ import click
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.render import show
 from aldpat.errors import UsageError
-from aldpat.tasks.base import RunReport
+from aldpat.jobs.run import RunReport
 from aldpat.worksheet.model import load_worksheet
 from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, job_table, run_worksheet
 

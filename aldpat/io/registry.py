@@ -1,24 +1,59 @@
 """Point format registry: extension -> format, one chunked interface for every reader.
 
-``open_points`` returns a reader with ``path``, ``format``, ``names``, ``count`` (None when
-unknown before reading), ``crs``, ``decimals`` and ``chunks(size)``; ``write_points`` opens an
-atomic writer that takes chunks and renames the finished file into place.
+``open_points`` returns a :class:`PointReader`; ``write_points`` opens an atomic writer that
+takes chunks and renames the finished file into place, shaped like a :class:`PointSource`.
 """
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any, Protocol
 
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.las import LasReader, LasWriter
+from aldpat.io.table import PointTable
 from aldpat.io.text import TextReader, TextWriter
+
+
+class PointSource(Protocol):
+    """What a writer copies from its source (``like=``): a LAS output takes the source's header
+    (point format, scale, offset, VLRs) and CRS, a text output its decimals."""
+
+    @property
+    def format(self) -> str: ...  # "text" or "las"
+
+    @property
+    def crs(self) -> Any: ...  # a pyproj CRS, or None when unknown
+
+    @property
+    def decimals(self) -> dict[str, int] | None: ...
+
+
+class PointReader(PointSource, Protocol):
+    """The contract of every point reader (:class:`~aldpat.io.text.TextReader`,
+    :class:`~aldpat.io.las.LasReader`)."""
+
+    @property
+    def path(self) -> Path: ...
+
+    @property
+    def names(self) -> tuple[str, ...]: ...
+
+    @property
+    def count(self) -> int | None: ...  # None when unknown before reading (text)
+
+    def chunks(self, size: int = ...) -> Iterator[PointTable]: ...
+
+    def read(self) -> PointTable: ...
+
 
 #: extension -> format name
 EXTENSIONS = {".txt": "text", ".xyz": "text", ".csv": "text", ".pts": "text", ".las": "las", ".laz": "las"}
-FORMATS = {"text": TextReader, "las": LasReader}
+#: format name -> reader (mypy checks that each meets the PointReader contract)
+FORMATS: dict[str, Callable[..., PointReader]] = {"text": TextReader, "las": LasReader}
 #: output format name -> default extension (``--out-format``)
 OUT_EXTENSIONS = {"text": ".txt", "csv": ".csv", "las": ".las", "laz": ".laz"}
 
@@ -39,7 +74,7 @@ def detect_format(path: Path, override: str | None = None) -> str:
 
 
 def open_points(path: str | Path, *, format: str | None = None, layout: str = "points",
-                order: str = "last-first"):
+                order: str = "last-first") -> PointReader:
     """A chunked reader for a point file (``layout="altm9"`` for 9-column tapes)."""
     path = Path(path)
     if not path.exists():
@@ -60,7 +95,8 @@ def output_extension(reader, out_format: str | None) -> str:
 
 
 @contextlib.contextmanager
-def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = False, like=None,
+def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = False,
+                 like: PointSource | None = None,
                  delimiter: str = "space", decimals: dict | None = None, crs=None) -> Iterator:
     """Open an atomic point writer; the file appears under ``path`` only when the block succeeds.
 

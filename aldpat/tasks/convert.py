@@ -11,8 +11,9 @@ from pathlib import Path
 
 from aldpat.core.crs import parse_crs
 from aldpat.errors import UsageError
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, FieldsOption, point_names
-from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)

@@ -20,9 +20,10 @@ import numpy as np
 from aldpat.core.accuracy import coordinate_keys, match_accuracy
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.registry import open_points
+from aldpat.jobs.context import JobContext, Record
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import JsonOption
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,25 @@ def _reference_labels(path: str, tolerance: float, size: int, mtime_ns: int) -> 
     return coordinate_keys(ref.x, ref.y, ref.z, tolerance), ground
 
 
+class AccuracyRecord(Record):
+    """What ``aldpat evaluate`` reports of one result file."""
+
+    def lines(self) -> list[str]:
+        wrong = self["ground_as_object"] + self["object_as_ground"]
+        out = [
+            f"{self['path']}  vs  {self['reference']}",
+            (f"  Type I   {self['type1']:7.2f} %   ({self['ground_as_object']} of "
+            f"{self['ground_as_ground'] + self['ground_as_object']} bare-earth points rejected)"),
+            (f"  Type II  {self['type2']:7.2f} %   ({self['object_as_ground']} of "
+            f"{self['object_as_ground'] + self['object_as_object']} object points accepted)"),
+            f"  total    {self['total']:7.2f} %   ({wrong} of {self['points']} points)",
+            f"  kappa    {self['kappa']:7.4f}",
+        ]
+        if self.get("unmatched"):
+            out.append(f"  ({self['unmatched']} result points matched no reference point)")
+        return out
+
+
 def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     tol = params.tolerance
     assert params.reference is not None  # required
@@ -105,7 +125,7 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     acc, unmatched = match_accuracy(ref_keys, ref_ground, coordinate_keys(table.x, table.y, table.z, tol), res_ground)
     if unmatched:
         ctx.warn(f"{source}: {unmatched} result points match no reference point (not counted)")
-    record: dict[str, object] = {"path": str(source), "reference": str(ref_path)}
+    record = AccuracyRecord({"path": str(source), "reference": str(ref_path)})
     record.update(acc.as_dict())
     record["unmatched"] = unmatched
     ctx.emit(record)

@@ -22,7 +22,8 @@ import numpy as np
 
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.io.table import PointTable
-from aldpat.tasks.base import JobContext, Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 
 log = logging.getLogger(__name__)
 

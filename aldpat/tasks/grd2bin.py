@@ -13,9 +13,10 @@ from pathlib import Path
 
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
 from aldpat.io.surfer import read_surfer
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)

@@ -27,9 +27,10 @@ from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
 from aldpat.io.surfer import FORMATS, write_surfer
 from aldpat.io.tile_parameters import tile_row_for
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import OriginOption
 from aldpat.params import Checked, param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.jobs.context import JobContext, Record
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import JsonOption
-from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
@@ -21,6 +22,25 @@ def crs_text(crs) -> str | None:
         return None
     epsg = crs.to_epsg()
     return f"EPSG:{epsg}" if epsg else crs.name
+
+
+class InfoRecord(Record):
+    """What ``aldpat info`` reports of one file."""
+
+    def lines(self) -> list[str]:
+        b = self["bounds"]
+        delimited = f" ({self['delimiter']}-delimited)" if self.get("delimiter") else ""
+        rows = [
+            ("format", self["format"] + delimited),
+            ("points", f"{self['count']:,}"),
+            ("fields", " ".join(self["fields"])),
+            ("x range", f"{b[0]:.3f} .. {b[2]:.3f}  ({b[2] - b[0]:.3f})"),
+            ("y range", f"{b[1]:.3f} .. {b[3]:.3f}  ({b[3] - b[1]:.3f})"),
+            ("z range", f"{self['z_range'][0]:.3f} .. {self['z_range'][1]:.3f}"),
+            ("density", "-" if self["density"] is None else f"{self['density']:.3f} points per unit² (bounding box)"),
+            ("crs", self["crs"] or "unknown"),
+        ]
+        return [self["path"]] + [f"  {k:8} {v}" for k, v in rows]
 
 
 def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
@@ -37,7 +57,7 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
             lo[k] = min(lo[k], float(col.min()))
             hi[k] = max(hi[k], float(col.max()))
     area = float((hi[0] - lo[0]) * (hi[1] - lo[1]))
-    ctx.emit({
+    ctx.emit(InfoRecord({
         "path": str(source),
         "count": count,
         "bounds": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])],
@@ -47,7 +67,7 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
         "format": reader.format if reader.format != "las" else source.suffix.lower().lstrip("."),
         "delimiter": {" ": "space", ",": "comma", "\t": "tab"}.get(getattr(reader, "delimiter", "")),
         "crs": crs_text(reader.crs),
-    })
+    }))
 
 
 register_task(Task(

@@ -21,8 +21,9 @@ import numpy as np
 from aldpat.io.atomic import atomic_output
 from aldpat.io.merged_boundary import SEPARATOR
 from aldpat.io.text import format_rows
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

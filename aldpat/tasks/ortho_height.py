@@ -12,16 +12,17 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass
 from pathlib import Path
-from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
 from aldpat.core.crs import parse_crs
 from aldpat.core.heights import Z_UNITS, HeightConverter, geoid_transformer
 from aldpat.errors import AldpatError, ParamError, UsageError
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 
 @dataclass(frozen=True)
@@ -72,7 +73,17 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
     ctx.wrote(out, writer.count)
 
 
-def _reprojected_template(reader, convert: HeightConverter) -> SimpleNamespace:
+@dataclass(frozen=True)
+class _LasTemplate:
+    """A LAS header to write re-projected points with (a :class:`~aldpat.io.registry.PointSource`)."""
+
+    header: Any
+    crs: Any
+    format: str = "las"
+    decimals: dict[str, int] | None = None
+
+
+def _reprojected_template(reader, convert: HeightConverter) -> _LasTemplate:
     """The LAS source's header (point format, VLRs, every attribute kept) with the target CRS
     and an x, y scale and offset that suit the new coordinates (1e-7 for degrees)."""
     header = copy.deepcopy(reader.header)
@@ -85,7 +96,7 @@ def _reprojected_template(reader, convert: HeightConverter) -> SimpleNamespace:
         header.offsets = np.array([np.floor(x0 / 1000.0) * 1000.0, np.floor(y0 / 1000.0) * 1000.0,
                                    header.offsets[2]])
     header.add_crs(convert.to_crs)
-    return SimpleNamespace(format="las", header=header, crs=convert.to_crs, decimals=None)
+    return _LasTemplate(header, convert.to_crs)
 
 
 register_task(Task(

@@ -21,9 +21,10 @@ from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.rawtext import RawLines, passthrough_ok
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import kept_names
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

@@ -19,9 +19,10 @@ import numpy as np
 from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 from aldpat.errors import DataError, ParamError
 from aldpat.io.table import PointTable
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import FieldsOption, OrderOption
 from aldpat.params import Checked, param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

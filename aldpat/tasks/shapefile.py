@@ -16,9 +16,10 @@ from pathlib import Path
 from aldpat.errors import UsageError
 from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import Polygon, write_polygons
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

@@ -28,9 +28,10 @@ from aldpat.core.precision import above
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.rawtext import RawLines, passthrough_ok
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import OrderOption
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

@@ -17,9 +17,10 @@ import numpy as np
 from aldpat.core.boundary import BoundaryScan
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CellHeightOption, OriginOption
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

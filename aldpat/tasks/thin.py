@@ -23,9 +23,10 @@ import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CellHeightOption, OriginOption, kept_names
 from aldpat.params import param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

@@ -41,9 +41,10 @@ from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
 from aldpat.options import FieldsOption, point_names
 from aldpat.params import Checked, format_value, param
-from aldpat.tasks.base import JobContext, Task, register_task
 
 log = logging.getLogger(__name__)
 

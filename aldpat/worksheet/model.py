@@ -15,7 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.errors import ParamError, UsageError
-from aldpat.tasks.base import ResolvedRun, Task, expand_inputs, get_task, resolve_run
+from aldpat.jobs.inputs import expand_inputs
+from aldpat.jobs.registry import Task, get_task
+from aldpat.jobs.resolve import ResolvedRun, resolve_run
 from aldpat.worksheet.toml import load_toml
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
@@ -177,13 +179,13 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path)
 
 
 def _check_settings(settings: dict, jobs: list[Job], wpath: Path) -> None:
-    from aldpat.tasks.base import TASKS
+    from aldpat.jobs.registry import TASKS
 
     known = set()  # a setting may serve any task, not only those in this worksheet
     for task in TASKS.values():
         known |= {s.name for s in task.all_specs()}
+    from aldpat.options import RunParams
     from aldpat.params import specs as param_specs
-    from aldpat.tasks.base import RunParams
 
     known |= {s.name for s in param_specs(RunParams)}
     for key in settings:

@@ -29,13 +29,10 @@ from pathlib import Path
 import aldpat
 from aldpat import interrupt
 from aldpat.io.atomic import atomic_output, remove_stale_temporaries_in
-from aldpat.tasks.base import (
-    JobResult,
-    ResolvedRun,
-    expand_inputs,
-    resolve_run,
-    run_task,
-)
+from aldpat.jobs.context import JobResult
+from aldpat.jobs.inputs import expand_inputs
+from aldpat.jobs.resolve import ResolvedRun, resolve_run
+from aldpat.jobs.run import run_task
 from aldpat.worksheet.model import Job, Worksheet
 
 READY, RUNNING, DONE, FAILED, SKIPPED, BLOCKED = "Ready", "Running", "Done", "Failed", "Skipped", "Blocked"

@@ -7,8 +7,8 @@ import shutil
 import laspy
 import numpy as np
 
+from aldpat.jobs.inputs import expand_inputs
 from aldpat.tasks import get_task
-from aldpat.tasks.base import expand_inputs
 
 
 def _tiles(tmp_path, samp24, n=4):

@@ -9,7 +9,8 @@ import pytest
 
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.pm import PMParams
-from aldpat.tasks.base import get_task, resolve_run
+from aldpat.jobs.registry import get_task
+from aldpat.jobs.resolve import resolve_run
 
 REPO = Path(__file__).resolve().parents[2]
 

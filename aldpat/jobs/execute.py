@@ -1,0 +1,71 @@
+"""One job: run the task's function on its inputs, turn every failure into a one-line error
+of that job (the other jobs go on), write the job's log."""
+
+from __future__ import annotations
+
+import logging
+import time
+import traceback
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from aldpat import interrupt
+from aldpat.errors import AldpatError, UsageError
+from aldpat.jobs.context import JobContext, JobResult
+from aldpat.jobs.joblog import write_job_log
+
+if TYPE_CHECKING:
+    from aldpat.jobs.registry import Task
+    from aldpat.jobs.resolve import ResolvedRun
+
+log = logging.getLogger(__name__)
+
+
+def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> JobResult:
+    """Run one job (in this process or a worker) and write its log; never raises. ``task``
+    reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
+    result = JobResult(inputs=list(sources))
+    ctx = JobContext(task, run.output.values if run.output else None, run.input.values, result)
+    start = time.perf_counter()
+    try:
+        with interrupt.doing(f"running: {job_names(sources)}"):
+            if task.run_one is not None:
+                task.run_one(Path(sources[0]), run.params.values, ctx)
+            else:
+                assert task.run_all is not None  # a task has one of the two
+                task.run_all([Path(s) for s in sources], run.params.values, ctx)
+    except AldpatError as exc:
+        result.error = str(exc)
+        result.usage = isinstance(exc, UsageError)
+    except MemoryError:
+        result.error = f"{job_names(sources)}: out of memory"
+    except OSError as exc:  # the system refused a read or write: say which file and why
+        where = exc.filename if exc.filename is not None else job_names(sources)
+        result.error = f"{where}: {(exc.strerror or str(exc)).lower()}"
+        result.detail = traceback.format_exc()
+    except Exception as exc:  # noqa: BLE001  (an unexpected failure still may not end the other jobs)
+        result.error = f"{job_names(sources)}: internal error: {type(exc).__name__}: {exc}"
+        result.detail = traceback.format_exc()
+    result.seconds = time.perf_counter() - start
+    if result.ok and result.outputs and task.writes_outputs:
+        try:
+            result.log_path = str(write_job_log(run, result, command))
+        except OSError as exc:
+            result.warnings.append(f"could not write the log: {exc}")
+    return result
+
+
+def job_names(job: list[str]) -> str:
+    text = ", ".join(job)
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def report_result(result: JobResult, progress) -> None:
+    for w in result.warnings:
+        log.warning(w)
+    if not result.ok:
+        log.error(result.error)
+        if result.detail:
+            log.debug(result.detail)
+    if progress is not None:
+        progress(result)

@@ -1,0 +1,96 @@
+"""The task registry: every task registers a :class:`Task` under its command name.
+
+A task is one module in ``aldpat/tasks/`` that declares its parameters once (a frozen dataclass
+of :func:`aldpat.params.param` fields) and registers a :class:`Task` with either
+
+* ``run_one(source, params, ctx)`` -- one job per input file, run in parallel with ``-j``; or
+* ``run_all(sources, params, ctx)`` -- one job for all inputs (merge, tile, shapefile...).
+
+The CLI command and the worksheet job for a task are derived from the same registration, so
+adding a task is one module plus its tests.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from aldpat.errors import UsageError
+from aldpat.options import InputParams, OutputParams, RunParams
+from aldpat.params import specs
+
+if TYPE_CHECKING:
+    from aldpat.jobs.run import RunReport
+
+
+@dataclass(frozen=True)
+class Task:
+    name: str
+    summary: str
+    params: type
+    run_one: Callable | None = None
+    run_all: Callable | None = None
+    group: str | None = None  # "filter" for `aldpat filter ALGO`
+    inputs: str = "many"  # "many" (at least one) or "none"
+    writes_outputs: bool = True
+    epilog: str | None = None
+
+    @property
+    def key(self) -> str:
+        return f"{self.group} {self.name}" if self.group else self.name
+
+    @property
+    def option_classes(self) -> tuple[type, ...]:
+        """Every params class a command line / worksheet job of this task accepts."""
+        common = (InputParams, OutputParams) if self.writes_outputs else (InputParams,)
+        return (self.params,) + common + (RunParams,)
+
+    def all_specs(self):
+        seen = {}
+        for cls in self.option_classes:
+            for s in specs(cls):
+                seen.setdefault(s.name, s)
+        return list(seen.values())
+
+    def __call__(self, inputs: Iterable[str | Path] = (), **kwargs) -> RunReport:
+        """Run from Python with the same parameter names as the CLI and worksheets."""
+        from aldpat.jobs.run import run_task
+
+        return run_task(self, list(inputs), [("python", kwargs)])
+
+    def __reduce__(self):
+        # A task travels to worker processes by its registry key: its functions may be closures
+        # (one per filter algorithm) that pickle cannot carry.
+        return (_registered_task, (self.key,))
+
+
+TASKS: dict[str, Task] = {}
+
+
+def _registered_task(key: str) -> Task:
+    import aldpat.tasks  # noqa: F401  (a spawned worker registers the tasks again)
+
+    return TASKS[key]
+
+
+def register_task(task: Task) -> Task:
+    if task.key in TASKS:
+        raise ValueError(f"task {task.key!r} registered twice")
+    TASKS[task.key] = task
+    return task
+
+
+def get_task(name: str, algorithm: str | None = None) -> Task:
+    import aldpat.tasks  # noqa: F401  (registers every task module)
+
+    key = f"{name} {algorithm}" if algorithm else name
+    if key not in TASKS:
+        import difflib
+
+        options = sorted(TASKS)
+        hint = difflib.get_close_matches(key, options, n=1)
+        did = f"; did you mean {hint[0]!r}?" if hint else ""
+        raise UsageError(f"unknown task {key!r}{did}")
+    return TASKS[key]

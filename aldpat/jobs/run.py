@@ -1,0 +1,75 @@
+"""Running a task: expand the inputs, resolve the parameters, plan the jobs (one per input, or
+one for all), hand them to an executor, and report what happened (exit status 0, 1 or 2)."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aldpat.errors import UsageError
+from aldpat.jobs.context import JobResult, Written
+from aldpat.jobs.executors import run_in_processes, run_in_this_process
+from aldpat.jobs.inputs import expand_inputs
+from aldpat.jobs.resolve import ResolvedRun, resolve_run
+
+if TYPE_CHECKING:
+    from aldpat.jobs.registry import Task
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class RunReport:
+    task: str
+    results: list[JobResult]
+    input_errors: list[str]
+    params: Any = None  # the task's resolved parameters (``json`` says how to show the records)
+
+    @property
+    def failed(self) -> int:
+        return sum(not r.ok for r in self.results) + len(self.input_errors)
+
+    @property
+    def exit_code(self) -> int:
+        if any(r.usage for r in self.results):
+            return 2
+        return 1 if self.failed else 0
+
+    @property
+    def outputs(self) -> list[Written]:
+        return [w for r in self.results for w in r.outputs]
+
+
+def plan_jobs(task: Task, sources: list[Path]) -> list[list[str]]:
+    if task.run_one is not None:
+        return [[str(s)] for s in sources]
+    return [[str(s) for s in sources]]
+
+
+def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
+             command: str | None = None, base: Path | None = None, progress=None,
+             resolved: ResolvedRun | None = None) -> RunReport:
+    """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
+    run = resolved or resolve_run(task, layers)
+    command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
+    sources, errors = expand_inputs(inputs, base) if task.inputs != "none" else ([], [])
+    input_errors = [str(e) for e in errors]
+    for e in input_errors:
+        log.error(e)
+    if task.inputs == "many" and not sources:
+        if not input_errors:
+            raise UsageError("no inputs given")
+        return RunReport(task.key, [], input_errors)
+    jobs = plan_jobs(task, sources) if task.inputs != "none" else [[]]
+    workers = run.run.values.jobs or (os.cpu_count() or 1)
+    workers = max(1, min(workers, len(jobs)))
+    results: list[JobResult] = []
+    if workers == 1:
+        run_in_this_process(task, jobs, run, command, results, progress)
+    else:
+        run_in_processes(task, jobs, run, command, workers, results, progress)
+    return RunReport(task.key, results, input_errors, run.params.values)
