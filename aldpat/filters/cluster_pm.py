@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat.core import morphology
 from aldpat.core.clusters import make_clusters, recover_runs
+from aldpat.core.progressive import Recovery, progressive_opening
 from aldpat.filters.base import GroundParams, register_filter
 from aldpat.filters.gapm import check_series
 from aldpat.params import param
@@ -99,34 +99,33 @@ def progressive_marks(
     skip : cells that are never marked (they only support the openings).
 
     A cell keeps the first window that removed it. The surface handed to the next window is
-    the opened one (line 17).
+    the opened one (line 17). Runs on :func:`aldpat.core.progressive.progressive_opening` in
+    float64.
     """
-    zc = np.array(z, dtype=np.float64, copy=True)
-    mark = np.zeros(zc.shape, np.int32)
-    if skip is not None:
-        mark[skip] = -1  # not a candidate; reset to 0 before returning
-    for k, thresh in zip(windows, thresholds):
-        clustering = cluster_window_size is not None and k >= cluster_window_size
-        for axis in axes:
-            unfiltered = mark == 0
-            zo = morphology.opening(zc, k, window="line", axis=axis)
-            removed = unfiltered & (zc - zo > thresh)
-            mark[removed] = k
-            if clustering:
-                # clusters of the surface before this opening (line 7); rows (or columns) are
-                # independent, so blocks bound the temporaries
-                n_lines = zc.shape[0] if axis == 1 else zc.shape[1]
-                for a in range(0, n_lines, _BLOCK):
-                    part = slice(a, min(a + _BLOCK, n_lines))
-                    take = (part, slice(None)) if axis == 1 else (slice(None), part)
-                    zb, ub, rb = (_along(axis, arr[take]) for arr in (zc, unfiltered, removed))
-                    ids = make_clusters(zb, ub, cluster_threshold, gap_threshold).ids
-                    reset = recover_runs(rb, ids, None if recover_across_gaps else ub)
-                    mark[take][reset if axis == 1 else reset.T] = 0
-            zc = zo
-    if skip is not None:
-        mark[skip] = 0
-    return mark
+    recovery = None
+    if cluster_window_size is not None:
+        recovery = _cluster_recovery(cluster_threshold, gap_threshold, recover_across_gaps)
+    return progressive_opening(z, windows, thresholds, [("line", axis) for axis in axes], dtype=np.float64,
+                               skip=skip, recover=lambda k: recovery if k >= (cluster_window_size or 0) else None)
+
+
+def _cluster_recovery(cluster_threshold: float, gap_threshold: float | None, recover_across_gaps: bool) -> Recovery:
+    """The cluster recovery of §5.2.3 after one opening: clusters of the surface before it
+    (line 7) among the cells still standing, and the removed runs that lie inside one cluster
+    (``UpdateMark``). Rows (or columns) are independent, so blocks bound the temporaries."""
+    def recover(before: np.ndarray, candidates: np.ndarray, removed: np.ndarray, axis: int) -> np.ndarray:
+        reset = np.zeros(removed.shape, bool)
+        n_lines = before.shape[0] if axis == 1 else before.shape[1]
+        for a in range(0, n_lines, _BLOCK):
+            part = slice(a, min(a + _BLOCK, n_lines))
+            take = (part, slice(None)) if axis == 1 else (slice(None), part)
+            zb, ub, rb = (_along(axis, arr[take]) for arr in (before, candidates, removed))
+            ids = make_clusters(zb, ub, cluster_threshold, gap_threshold).ids
+            back = recover_runs(rb, ids, None if recover_across_gaps else ub)
+            reset[take] = back if axis == 1 else back.T
+        return reset
+
+    return recover
 
 
 @register_filter("cluster-pm", params=ClusterPmParams,

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat.core import morphology
+from aldpat.core.progressive import progressive_opening
 from aldpat.errors import ParamError
 from aldpat.filters.base import GroundParams, register_filter
 from aldpat.params import param
@@ -115,34 +115,6 @@ def threshold_series(p: ProgressiveParams, windows: tuple[int, ...]) -> tuple[fl
     return tuple(out)
 
 
-def progressive_open(z: np.ndarray, windows, thresholds, passes) -> np.ndarray:
-    """Mark matrix of the progressive opening (manual appendix PM; dissertation §5.2.2).
-
-    ``passes`` lists ``(window, axis)`` openings applied in turn at every step; each compares
-    the surface before and after itself. A cell keeps the first window that removed it.
-    Three grid-sized float32 buffers in all, whatever the number of windows; ``z`` is not
-    changed. float32 keeps elevations to 0.1 mm below 1000 m, far finer than any threshold
-    (0.1 m and up), and halves the memory and time of every pass on large grids.
-    """
-    surface = np.array(z, dtype=np.float32, copy=True)
-    opened = np.empty_like(surface)
-    work = np.empty_like(surface)
-    marks = np.zeros(surface.shape, np.int32)
-    kept = np.ones(surface.shape, bool)  # marks == MARK_GROUND, kept up to date
-    removed = np.empty(surface.shape, bool)
-    for k, dh in zip(windows, thresholds):
-        for window, axis in passes:
-            morphology.opening(surface, k, window=window, axis=axis, out=opened, work=work)
-            np.subtract(surface, opened, out=work)
-            np.greater(work, np.float32(dh), out=removed)
-            removed &= kept
-            marks[removed] = k
-            kept &= ~removed
-            surface, opened = opened, surface
-        log.debug("window %d (threshold %.3g): %d cells removed so far", k, dh, int((marks > 0).sum()))
-    return marks
-
-
 def rotation_angles(p: PMParams) -> tuple[float, ...]:
     """Angles the data are filtered at: ``i * rotate_angle`` for ``i = 1 .. rotate_times``."""
     if p.rotate_times == 0 or p.rotate_angle % 360.0 == 0.0:
@@ -159,4 +131,4 @@ _PASSES = {"x": (("line", 1),), "y": (("line", 0),), "xy": (("line", 1), ("line"
 def pm(z: np.ndarray, empty: np.ndarray, params: PMParams) -> np.ndarray:
     """Progressive morphology with 1-D line windows (manual appendix PM, task 8 "Direction")."""
     windows = window_series(params)
-    return progressive_open(z, windows, threshold_series(params, windows), _PASSES[params.direction])
+    return progressive_opening(z, windows, threshold_series(params, windows), _PASSES[params.direction])

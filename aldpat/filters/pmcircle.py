@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aldpat.core.progressive import progressive_opening
 from aldpat.filters.base import register_filter
 from aldpat.filters.pm import (
     ProgressiveParams,
-    progressive_open,
     threshold_series,
     window_series,
 )
@@ -32,4 +32,4 @@ class PMCircleParams(ProgressiveParams):
 def pmcircle(z: np.ndarray, empty: np.ndarray, params: PMCircleParams) -> np.ndarray:
     """Progressive morphology with disk windows (manual task 8; appendix PM)."""
     windows = window_series(params)
-    return progressive_open(z, windows, threshold_series(params, windows), (("disk", 1),))
+    return progressive_opening(z, windows, threshold_series(params, windows), (("disk", 1),))

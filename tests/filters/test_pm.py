@@ -8,7 +8,6 @@ from aldpat.filters import ground_filter
 from aldpat.filters.pm import (
     PMParams,
     pm,
-    progressive_open,
     rotation_angles,
     threshold_series,
     window_series,
@@ -43,19 +42,6 @@ def test_threshold_rule_of_the_manual():
         threshold_series(p, (1, 2, 4))
     with pytest.raises(ParamError, match="threshold_series: expected one value per window"):
         PMParams(threshold_series=(0.5, 1.0))  # eight windows by default: refused when made
-
-
-def test_building_removed_at_the_first_window_wider_than_it():
-    # a profile along x: 5-cell wide building, 4 m high on flat ground
-    z = np.zeros((3, 30))
-    z[:, 10:15] = 4.0
-    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
-    assert (marks[:, 10:15] == 4).all()  # full windows 3 and 5 fit on the roof: removed by 9
-    assert (marks[:, :10] == 0).all() and (marks[:, 15:] == 0).all()
-    # a first removal is never overwritten by a later window
-    z[:, 20] = 4.0
-    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
-    assert (marks[:, 20] == 1).all() and (marks[:, 10:15] == 4).all()
 
 
 def test_direction_picks_the_axis():
