@@ -6,19 +6,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from aldpat.core.progressive import progressive_opening as progressive_open
+from aldpat.core.progressive import progressive_opening
 
 
 def test_building_removed_at_the_first_window_wider_than_it():
     # a profile along x: 5-cell wide building, 4 m high on flat ground
     z = np.zeros((3, 30))
     z[:, 10:15] = 4.0
-    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
+    marks = progressive_opening(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
     assert (marks[:, 10:15] == 4).all()  # full windows 3 and 5 fit on the roof: removed by 9
     assert (marks[:, :10] == 0).all() and (marks[:, 15:] == 0).all()
     # a first removal is never overwritten by a later window
     z[:, 20] = 4.0
-    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
+    marks = progressive_opening(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
     assert (marks[:, 20] == 1).all() and (marks[:, 10:15] == 4).all()
 
 
@@ -27,7 +27,7 @@ def test_skipped_cells_support_the_openings_but_are_never_marked():
     z[:, 10:15] = 4.0
     skip = np.zeros(z.shape, bool)
     skip[:, 12] = True
-    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),), skip=skip)
+    marks = progressive_opening(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),), skip=skip)
     assert (marks[:, 12] == 0).all() and (marks[:, [10, 11, 13, 14]] == 4).all()
 
 
@@ -43,12 +43,12 @@ def test_recovered_cells_are_ground_and_the_opened_surface_goes_on():
 
         return back
 
-    marks = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),), recover=recover)
+    marks = progressive_opening(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),), recover=recover)
     # set back at k = 2; the surface opened at k = 2 goes on (Cui 2013, §5.2.2 line 17), so no
     # later window sees the block again
     assert calls == [(1, 0), (2, 3), (4, 0)]
     assert (marks == 0).all()
-    plain = progressive_open(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
+    plain = progressive_opening(z, (1, 2, 4), (0.3, 0.9, 1.5), (("line", 1),))
     assert (plain[0, 10:13] == 2).all()
 
 
@@ -58,5 +58,5 @@ def test_precision_decides_a_height_equal_to_the_threshold():
     # why the precision is an argument of the one loop and each filter states its own
     z = np.full((1, 9), 289.95)
     z[0, 4] = 290.25
-    assert progressive_open(z, (1,), (0.3,), (("line", 1),), dtype=np.float64)[0, 4] == 1
-    assert progressive_open(z, (1,), (0.3,), (("line", 1),), dtype=np.float32)[0, 4] == 0
+    assert progressive_opening(z, (1,), (0.3,), (("line", 1),), dtype=np.float64)[0, 4] == 1
+    assert progressive_opening(z, (1,), (0.3,), (("line", 1),), dtype=np.float32)[0, 4] == 0
