@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
+from aldpat.io.geotiff import write_geotiff
 from aldpat.io.surfer import read_surfer
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
@@ -21,13 +22,18 @@ from aldpat.params import param
 
 @dataclass(frozen=True)
 class Grd2BinParams(CrsOption):
-    to: str = param("flt", "output: ArcGIS binary float grid (.flt + .hdr) or ESRI ASCII grid (.asc)",
-                    choices=("flt", "asc"))
+    to: str = param("flt", "output: ArcGIS binary float grid (.flt + .hdr), ESRI ASCII grid (.asc), GeoTIFF "
+                    "(tif) or Cloud Optimized GeoTIFF (cog; both need aldpat[geotiff])", choices=("flt", "asc", "tif", "cog"))
     nodata: float = param(-9999.0, "value written for blank nodes")
 
 
 def grd2bin_one(source: Path, params: Grd2BinParams, ctx: JobContext) -> None:
     values, spec = read_surfer(source)
+    if params.to in ("tif", "cog"):
+        out = ctx.output_path(source, "", ".tif")
+        ctx.wrote(write_geotiff(out, values, spec, cog=params.to == "cog", nodata=params.nodata, crs=params.crs,
+                                overwrite=ctx.overwrite))
+        return
     out = ctx.output_path(source, "", "." + params.to)
     writer = write_float_grid if params.to == "flt" else write_ascii_grid
     for path in writer(out, values, spec, nodata=params.nodata, crs=params.crs, overwrite=ctx.overwrite):

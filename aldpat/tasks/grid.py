@@ -25,18 +25,21 @@ from aldpat.core.grid_extent import (
 from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
-from aldpat.io.surfer import FORMATS, write_surfer
+from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
+from aldpat.io.geotiff import write_geotiff
+from aldpat.io.surfer import FORMATS as SURFER_FORMATS
+from aldpat.io.surfer import write_surfer
 from aldpat.io.tile_parameters import tile_row_for
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import OriginOption
-from aldpat.params import Checked, param
+from aldpat.options import CrsOption, OriginOption
+from aldpat.params import param
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class GridParams(OriginOption, Checked):
+class GridParams(OriginOption, CrsOption):
     cell: float = param(1.0, "grid cell size: spacing of the nodes", unit="m", gt=0)
     method: str = param("linear", "interpolation: nearest point, Delaunay TIN, inverse distance, ordinary "
                         "kriging, or the min/max/mean of the points in each node's cell", choices=METHODS)
@@ -45,9 +48,11 @@ class GridParams(OriginOption, Checked):
                                     "column", path=True, metavar="FILE")
     bounds: tuple[float, float, float, float] | None = param(
         None, "grid range MINX MINY MAXX MAXY: the outer nodes lie on it", unit="m", metavar="MINX MINY MAXX MAXY")
-    grid_format: str = param("surfer7", "Surfer grid written: 7 binary (DSRB), 6 binary (DSBB), 6 ASCII (DSAA)",
-                             choices=FORMATS)
-    nodata: float | None = param(None, "blank value of a surfer7 grid; none: Surfer's 1.70141e38")
+    grid_format: str = param("surfer7", "grid written: Surfer 7 binary (DSRB), 6 binary (DSBB), 6 ASCII (DSAA), "
+                             "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
+                             choices=SURFER_FORMATS + tuple(GEOTIFF_FORMATS))
+    nodata: float | None = param(None, "blank value of a surfer7 or GeoTIFF grid; none: Surfer's 1.70141e38, "
+                                 "GeoTIFF's -9999")
     max_distance: float | None = param(None, "leave nodes blank farther than this from any point (linear: "
                                        "in triangles with a longer edge)", unit="m", gt=0)
     power: float = param(2.0, "inverse distance weighting power (idw)", gt=0)
@@ -66,8 +71,8 @@ class GridParams(OriginOption, Checked):
             minx, miny, maxx, maxy = self.bounds
             if maxx <= minx or maxy <= miny:
                 raise ParamError(f"bounds: maximum must exceed minimum (got {minx:g} {miny:g} {maxx:g} {maxy:g})")
-        if self.nodata is not None and self.grid_format != "surfer7":
-            raise ParamError("nodata: applies to surfer7 grids; Surfer 6 grids always use 1.70141e38")
+        if self.nodata is not None and self.grid_format in ("surfer6", "surfer6-ascii"):
+            raise ParamError("nodata: applies to surfer7 and GeoTIFF grids; Surfer 6 grids always use 1.70141e38")
 
 
 def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = None,
@@ -114,7 +119,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         ctx.warn(f"{source.name}: skipped, it is the tile parameter file")
         return
     reader = ctx.open_input(source)
-    out = ctx.output_path(source, "", ".grd")
+    out = ctx.output_path(source, "", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
     spec = grid_spec_for(source, params, ctx)
     if spec is not None and params.method in BINNING:
         binner = Binner(spec, params.method)  # streams: memory is the grid's, not the points'
@@ -145,7 +150,11 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if blank == values.size:
         raise DataError(f"every node is blank: none of the {count} points lies near the grid range "
                         f"{spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g}", path=source)
-    write_surfer(out, values, spec, fmt=params.grid_format, blank=params.nodata, overwrite=ctx.overwrite)
+    if params.grid_format in GEOTIFF_FORMATS:
+        write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
+                      crs=params.crs or reader.crs, overwrite=ctx.overwrite)
+    else:
+        write_surfer(out, values, spec, fmt=params.grid_format, blank=params.nodata, overwrite=ctx.overwrite)
     log.info("%s: %d points -> %d x %d nodes (%d blank)", source, count, spec.nx, spec.ny, blank)
     if blank:
         ctx.warn(f"{out.name}: {blank} of {values.size} nodes are blank (no data near them)")
@@ -154,8 +163,8 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
 
 register_task(Task(
     name="grid",
-    summary="Interpolate points to a Surfer grid: nearest, TIN, IDW, kriging or binning (manual task 9, "
-            "Surfer's job).",
+    summary="Interpolate points to a Surfer grid or a GeoTIFF/COG: nearest, TIN, IDW, kriging or binning "
+            "(manual task 9, Surfer's job).",
     params=GridParams,
     run_one=grid_one,
 ))

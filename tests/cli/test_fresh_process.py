@@ -22,12 +22,14 @@ import shapefile as pyshp
 
 from aldpat.core.interpolate import METHODS
 from aldpat.filters.base import FILTERS
+from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.registry import OUT_EXTENSIONS
-from aldpat.io.surfer import FORMATS as GRID_FORMATS
+from aldpat.io.surfer import FORMATS as SURFER_FORMATS
 from aldpat.tasks import TASKS
 from tests.cli.fresh import DATA, TEST_DATA, aldpat, count_points, leftovers
 
-GDAL_DRIVERS = {"surfer7": "GS7BG", "surfer6": "GSBG", "surfer6-ascii": "GSAG"}
+GDAL_DRIVERS = {"surfer7": "GS7BG", "surfer6": "GSBG", "surfer6-ascii": "GSAG", "geotiff": "GTiff", "cog": "GTiff"}
+GRID_FORMATS = SURFER_FORMATS + tuple(GEOTIFF_FORMATS)
 NGA_LAT, NGA_LON, NGA_N = 38.6281550, 269.7791550 - 360.0, -31.628  # EGM96 test point in egm96_15_nga1.gtx
 
 
@@ -129,7 +131,7 @@ def test_every_grid_method_and_format_opens_in_gdal(work, tmp_path, method, grid
     src = work / "samp.txt"
     aldpat("grid", src, "--cell", "4", "--method", method, "--grid-format", grid_format, "--odir", tmp_path).ok()
     rows = text_rows(src)
-    with rasterio.open(tmp_path / "samp.grd") as ds:
+    with rasterio.open(tmp_path / ("samp.tif" if grid_format in GEOTIFF_FORMATS else "samp.grd")) as ds:
         assert ds.driver == GDAL_DRIVERS[grid_format]
         band = ds.read(1, masked=True)
         assert band.count() > 0.5 * band.size
@@ -141,11 +143,12 @@ def test_every_grid_method_and_format_opens_in_gdal(work, tmp_path, method, grid
     assert leftovers(tmp_path) == []
 
 
-@pytest.mark.parametrize("to", ["flt", "asc"])
+@pytest.mark.parametrize("to", ["flt", "asc", "tif", "cog"])
 def test_grd2bin_opens_in_gdal_at_the_same_place(work, tmp_path, to):
     aldpat("grid", work / "samp.txt", "--cell", "4", "--odir", tmp_path).ok()
     aldpat("grd2bin", tmp_path / "samp.grd", "--to", to, "--crs", "EPSG:32632").ok()
-    with rasterio.open(tmp_path / "samp.grd") as surfer, rasterio.open(tmp_path / f"samp.{to}") as esri:
+    name = "samp.tif" if to in ("tif", "cog") else f"samp.{to}"
+    with rasterio.open(tmp_path / "samp.grd") as surfer, rasterio.open(tmp_path / name) as esri:
         assert esri.crs.to_epsg() == 32632
         assert (esri.width, esri.height) == (surfer.width, surfer.height)
         assert esri.xy(0, 0) == pytest.approx(surfer.xy(0, 0))

@@ -3,6 +3,8 @@ GDAL finds every input point at the centre of its node, every Surfer format, CLI
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import rasterio  # test-only dependency: GDAL as the real client
@@ -149,3 +151,16 @@ def test_tiles_of_a_real_sample_grid_seamlessly(tmp_path, samp24):
     assert ((y[one_sided] < 5403124.76 + 1) | (y[one_sided] > 5403197.20 - 1)).all()
     assert sorted(p.name for p in (tmp_path / "grids").glob("*.grd")) == [
         "tile_513750_5403120.grd", "tile_513810_5403120.grd"]
+
+
+def test_a_cog_of_a_las_strip_carries_the_strips_crs_unless_crs_is_given(tmp_path):
+    strip = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"  # EPSG:32632
+    assert get_task("grid")([strip], cell=2.0, grid_format="cog", odir=str(tmp_path / "a")).exit_code == 0
+    with rasterio.open(tmp_path / "a" / "fsite5_strip.tif") as ds:
+        assert ds.crs.to_epsg() == 32632 and ds.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
+        band = ds.read(1, masked=True)
+        assert band.count() > 0.5 * band.size and ds.res == (2.0, 2.0)
+    assert get_task("grid")([strip], cell=2.0, grid_format="geotiff", crs="EPSG:25832",
+                            odir=str(tmp_path / "b")).exit_code == 0
+    with rasterio.open(tmp_path / "b" / "fsite5_strip.tif") as ds:
+        assert ds.crs.to_epsg() == 25832

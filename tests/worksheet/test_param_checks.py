@@ -34,7 +34,7 @@ BAD = [
     ("grid", {"bounds": [10.0, 0.0, 0.0, 10.0]}, "bounds: maximum must exceed minimum"),
     ("grid", {"bounds": [0.0, 0.0, 10.0, 10.0], "tile_params": "tile_parameter.txt"},
      "bounds: give either --tile-params or --bounds"),
-    ("grid", {"grid_format": "surfer6", "nodata": -9999.0}, "nodata: applies to surfer7 grids"),
+    ("grid", {"grid_format": "surfer6", "nodata": -9999.0}, "nodata: applies to surfer7 and GeoTIFF grids"),
     ("tile", {"bounds": [10.0, 0.0, 0.0, 10.0]}, "bounds: maximum below minimum"),
     ("ortho-height", {}, "geoid: required"),
     ("ortho-height", {"geoid": "no_such_grid.gtx"}, "geoid: "),
