@@ -6,6 +6,7 @@ from __future__ import annotations
 import logging
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,16 +25,33 @@ log = logging.getLogger(__name__)
 def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> JobResult:
     """Run one job (in this process or a worker) and write its log; never raises. ``task``
     reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
+    def body(ctx: JobContext) -> None:
+        if task.run_one is not None:
+            task.run_one(Path(sources[0]), run.params.values, ctx)
+        else:
+            assert task.run_all is not None  # a task has one of the two
+            task.run_all([Path(s) for s in sources], run.params.values, ctx)
+
+    return _guarded(task, sources, run, command, body)
+
+
+def execute_finish(task: Task, results: list[JobResult], run: ResolvedRun, command: str) -> JobResult:
+    """The task's ``finish`` step, once every job has run (``grid --mosaic``); never raises.
+    Its inputs are the outputs of the jobs."""
+    assert task.finish is not None
+    finish = task.finish
+    done = [w.path for r in results for w in r.outputs]
+    return _guarded(task, done, run, command, lambda ctx: finish(results, run.params.values, ctx))
+
+
+def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
+             body: Callable[[JobContext], None]) -> JobResult:
     result = JobResult(inputs=list(sources))
     ctx = JobContext(task, run.output.values if run.output else None, run.input.values, result)
     start = time.perf_counter()
     try:
         with interrupt.doing(f"running: {job_names(sources)}"):
-            if task.run_one is not None:
-                task.run_one(Path(sources[0]), run.params.values, ctx)
-            else:
-                assert task.run_all is not None  # a task has one of the two
-                task.run_all([Path(s) for s in sources], run.params.values, ctx)
+            body(ctx)
     except AldpatError as exc:
         result.error = str(exc)
         result.usage = isinstance(exc, UsageError)

@@ -36,6 +36,8 @@ class Task:
     inputs: str = "many"  # "many" (at least one) or "none"
     writes_outputs: bool = True
     epilog: str | None = None
+    #: ``finish(results, params, ctx)``: once, in this process, after every job (``grid --mosaic``)
+    finish: Callable | None = None
 
     @property
     def key(self) -> str:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from aldpat.errors import UsageError
 from aldpat.jobs.context import JobResult, Written
+from aldpat.jobs.execute import execute_finish, report_result
 from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
@@ -72,4 +73,9 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
         run_in_this_process(task, jobs, run, command, results, progress)
     else:
         run_in_processes(task, jobs, run, command, workers, results, progress)
+    if task.finish is not None:
+        last = execute_finish(task, results, run, command)
+        if last.outputs or not last.ok:  # a finish step with nothing to do is not a job
+            results.append(last)
+            report_result(last, None)
     return RunReport(task.key, results, input_errors, run.params.values)

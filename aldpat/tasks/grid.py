@@ -10,6 +10,7 @@ extents: :mod:`aldpat.core.grid_extent`; files: :mod:`aldpat.io.surfer`.
 
 from __future__ import annotations
 
+import importlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,10 +28,12 @@ from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.geotiff import write_geotiff
+from aldpat.io.surfer import BLANK as SURFER_BLANK
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS
-from aldpat.io.surfer import write_surfer
+from aldpat.io.surfer import read_surfer, write_surfer
 from aldpat.io.tile_parameters import tile_row_for
-from aldpat.jobs.context import JobContext
+from aldpat.io.vrt import TileGrid, write_mosaic
+from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import param
@@ -62,6 +65,8 @@ class GridParams(OriginOption, CrsOption):
     variogram: str = param("linear", "variogram model fitted to the data (kriging)", choices=MODELS)
     nugget: float = param(0.0, "variogram nugget (kriging)", unit="m^2", ge=0)
     drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS)
+    mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every grid written, so tile "
+                               "grids open as one raster", path=True, metavar="FILE.vrt")
 
     def check(self) -> None:
         super().check()
@@ -161,10 +166,40 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     ctx.wrote(out)
 
 
+def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -> None:
+    """``--mosaic``: a VRT over the grids every job wrote (all of them, or none is written)."""
+    if params.mosaic is None:
+        return
+    failed = [r for r in results if not r.ok]
+    if failed:
+        raise DataError(f"mosaic not written: {len(failed)} of {len(results)} grids failed", path=params.mosaic)
+    out = Path(params.mosaic)
+    if ctx.output is not None and ctx.output.odir and not out.is_absolute():
+        out = Path(ctx.output.odir) / out
+    tiles = []
+    crs = params.crs
+    for written in (w for r in results for w in r.outputs):
+        path = Path(written.path)
+        if path.suffix.lower() == ".tif":
+            rasterio = importlib.import_module("rasterio")  # it wrote the file, so it is there
+            with rasterio.open(path) as ds:
+                t = ds.transform
+                spec = GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height)
+                tiles.append(TileGrid(path, spec, float(ds.nodata)))
+                crs = crs or (ds.crs.to_wkt() if ds.crs else None)
+        else:
+            _, spec = read_surfer(path)
+            tiles.append(TileGrid(path, spec, params.nodata if params.nodata is not None else SURFER_BLANK))
+    nodata = tiles[0].nodata if tiles else -9999.0
+    ctx.wrote(write_mosaic(out, tiles, nodata=nodata, crs=crs, overwrite=ctx.overwrite))
+    log.info("%s: mosaic of %d grids", out, len(tiles))
+
+
 register_task(Task(
     name="grid",
     summary="Interpolate points to a Surfer grid or a GeoTIFF/COG: nearest, TIN, IDW, kriging or binning "
             "(manual task 9, Surfer's job).",
     params=GridParams,
     run_one=grid_one,
+    finish=grid_mosaic,
 ))

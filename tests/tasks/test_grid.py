@@ -164,3 +164,33 @@ def test_a_cog_of_a_las_strip_carries_the_strips_crs_unless_crs_is_given(tmp_pat
                             odir=str(tmp_path / "b")).exit_code == 0
     with rasterio.open(tmp_path / "b" / "fsite5_strip.tif") as ds:
         assert ds.crs.to_epsg() == 25832
+
+
+@pytest.mark.parametrize("grid_format", ["surfer7", "geotiff"])
+def test_a_mosaic_opens_the_tile_grids_as_one_raster(tmp_path, samp24, grid_format):
+    """Two tiles of sample 24 gridded with --mosaic: GDAL reads the VRT as one raster whose every
+    node holds the value of the tile grid that covers it, the shared column included."""
+    tiles = tmp_path / "tiles"
+    get_task("tile")([samp24], width=60.0, height=80.0, buffer=5.0,
+                     bounds=(513750.0, 5403120.0, 513870.0, 5403200.0), odir=str(tiles))
+    report = get_task("grid")([str(tiles / "tile_*.txt")], tile_params=str(tiles / "tile_parameter.txt"),
+                              grid_format=grid_format, crs="EPSG:32632", mosaic="dtm.vrt", odir=str(tmp_path / "g"))
+    assert report.exit_code == 0, [r.error for r in report.results]
+    ext = ".tif" if grid_format == "geotiff" else ".grd"
+    with rasterio.open(tmp_path / "g" / "dtm.vrt") as vrt:
+        assert (vrt.width, vrt.height) == (121, 81) and vrt.crs.to_epsg() == 32632
+        mosaic = vrt.read(1, masked=True)
+        covered = np.zeros(mosaic.shape, bool)
+        for name in ("tile_513750_5403120", "tile_513810_5403120"):
+            with rasterio.open(tmp_path / "g" / f"{name}{ext}") as tile:
+                part = tile.read(1, masked=True)
+                row, col = vrt.index(*tile.xy(0, 0))
+                window = mosaic[row:row + tile.height, col:col + tile.width]
+                assert window.shape == part.shape
+                valid = ~part.mask
+                np.testing.assert_allclose(window[valid], part[valid], atol=1e-4)
+                covered[row:row + tile.height, col:col + tile.width] |= valid
+        # a node is blank in the mosaic exactly where no tile has a value (a blank node of one
+        # tile does not cover its neighbour's value on the shared column)
+        assert np.array_equal(~mosaic.mask, covered) and covered.sum() > 8000
+    assert (tmp_path / "g" / "dtm.vrt").read_text().count("<ComplexSource>") == 2
