@@ -19,6 +19,7 @@ import numpy as np
 
 from aldpat.core.accuracy import coordinate_keys, match_accuracy
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.io.classified import class_column_of
 from aldpat.io.registry import open_points
 from aldpat.jobs.context import JobContext, Record
 from aldpat.jobs.registry import Task, register_task
@@ -37,16 +38,6 @@ class EvaluateParams(JsonOption):
     class_column: int | None = param(None, "1-based column holding the class in a classified text result "
                                      "(default: found as --mode says)", ge=1)
     tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0)
-
-
-def class_column_of(reader, table) -> int | None:
-    """The column of a classified text result: the last one after x y z whose values are all
-    1 or 2 with some 2 (what ``filter --result classified`` writes, ``mark`` may follow it)."""
-    for k in range(len(reader.names) - 1, 2, -1):
-        values = table[reader.names[k]]
-        if np.isin(values, (1, 2)).all() and (values == 2).any():
-            return k
-    return None
 
 
 def _result_ground(reader, table, params: EvaluateParams) -> np.ndarray:

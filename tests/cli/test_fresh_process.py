@@ -59,7 +59,7 @@ def text_rows(path: Path) -> np.ndarray:
 
 def test_every_task_is_run_by_this_file():
     covered = {"convert", "evaluate", "grd2bin", "grid", "info", "merge-boundary", "ortho-height",
-               "polygon-extract", "separate-returns", "shapefile", "split-tape", "strip-boundary", "thin", "tile"}
+               "polygon-extract", "preview", "separate-returns", "shapefile", "split-tape", "strip-boundary", "thin", "tile"}
     covered |= {f"filter {name}" for name in FILTERS}
     assert set(TASKS) <= covered, sorted(set(TASKS) - covered)
 
@@ -154,6 +154,19 @@ def test_grd2bin_opens_in_gdal_at_the_same_place(work, tmp_path, to):
         assert esri.xy(0, 0) == pytest.approx(surfer.xy(0, 0))
         np.testing.assert_allclose(esri.read(1, masked=True).filled(np.nan), surfer.read(1, masked=True).filled(np.nan),
                                    atol=1e-3)
+
+
+def test_preview_pictures_of_a_grid_and_of_points(work, tmp_path):
+    from PIL import Image
+
+    aldpat("grid", work / "samp.txt", "--cell", "2", "--grid-format", "cog", "--odir", tmp_path).ok()
+    aldpat("preview", tmp_path / "samp.tif", work / "samp.txt", "--odir", tmp_path, "--size", "300").ok()
+    with Image.open(tmp_path / "samp_hillshade.png") as shade, rasterio.open(tmp_path / "samp.tif") as grid:
+        assert shade.mode == "RGBA" and shade.size == (grid.width, grid.height)
+    with Image.open(tmp_path / "samp_plan.png") as plan:
+        assert plan.mode == "RGBA" and max(plan.size) <= 300
+        assert len(np.unique(np.asarray(plan).reshape(-1, 4), axis=0)) > 20  # elevations in many colours
+    assert leftovers(tmp_path) == []
 
 
 def test_preparation_chain_to_a_shapefile_and_tiles(work, tmp_path):

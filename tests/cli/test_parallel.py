@@ -62,11 +62,12 @@ ARGS: dict[str, tuple[str, list[str]]] = {
     "merge-boundary": ("bounds", ["--output", "{odir}/merged.txt"]),
     "ortho-height": ("heights", ["--crs", "15N", "--geoid", "{geoid}"]),
     "polygon-extract": ("points", ["--polygon", "{polygon}"]),
+    "preview": ("points", ["--size", "200"]),
     "separate-returns": ("tapes", []),
     "shapefile": ("merged", ["--output", "{odir}/strips.shp", "--crs", "EPSG:32632"]),
     "split-tape": ("tapes", []),
-    "strip-boundary": ("firsts", ["--cell-width", "2", "--cell-height", "2"]),
-    "thin": ("points", ["--cell-width", "2", "--cell-height", "2"]),
+    "strip-boundary": ("firsts", ["--cell", "2"]),
+    "thin": ("points", ["--cell", "2"]),
     "tile": ("points", ["--width", "50", "--height", "50", "--buffer", "5"]),
 }
 

@@ -1,0 +1,166 @@
+"""``aldpat preview``: quick-look pictures (PNG) to see whether a run worked before opening
+anything in a GIS -- what ALDPAT's GUI views gave.
+
+* a grid (Surfer ``.grd``, ArcGIS ``.flt`` / ``.asc``, GeoTIFF ``.tif``) -> ``<stem>_hillshade.png``:
+  its hillshade (:mod:`aldpat.core.hillshade`), one pixel per node, north up, blank nodes
+  transparent;
+* a point file -> ``<stem>_plan.png``: a plan view, north up, at most ``size`` pixels on its
+  longer side and pixels no finer than twice the mean point spacing, each pixel coloured by the highest point in it (``--color-by elevation``, low blue to high
+  brown) or by its class (``--color-by class``: green where a ground point falls -- LAS class 2,
+  or 2 in the class column ``aldpat filter --result classified`` writes
+  (:mod:`aldpat.io.classified`) -- grey where only other points do); pixels without points are
+  transparent.
+
+PNGs are written with Pillow, an optional extra (``pip install 'aldpat[preview]'``).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aldpat.core.grid_extent import GridSpec
+from aldpat.core.hillshade import hillshade
+from aldpat.core.lowest_grid import fill_nearest
+from aldpat.errors import DataError, UsageError
+from aldpat.io.atomic import atomic_output
+from aldpat.io.classified import ground_of
+from aldpat.io.esri_grid import read_ascii_grid, read_float_grid
+from aldpat.io.surfer import read_surfer
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
+from aldpat.params import param
+
+GRID_EXTENSIONS = (".grd", ".flt", ".asc", ".tif", ".tiff")
+#: elevation colours, low to high (blue, green, yellow, brown, white)
+RAMP = np.array([[40, 80, 200], [60, 160, 80], [230, 220, 110], [150, 100, 60], [250, 250, 250]], float)
+GROUND_RGB = (60, 160, 60)
+OTHER_RGB = (160, 160, 160)
+
+
+@dataclass(frozen=True)
+class PreviewParams:
+    azimuth: float = param(315.0, "direction the light of a hillshade comes from, clockwise from north",
+                           unit="degrees", ge=0, lt=360)
+    altitude: float = param(45.0, "height of that light above the horizon", unit="degrees", gt=0, le=90)
+    z_factor: float = param(1.0, "vertical exaggeration of a hillshade", gt=0)
+    color_by: str = param("elevation", "colour of a point plan view: the highest point's elevation, or "
+                          "ground (green) / other (grey)", choices=("elevation", "class"))
+    size: int = param(1000, "longer side of a point plan view at most (pixels are never finer than twice "
+                      "the mean point spacing)", unit="pixels", ge=16, le=20000)
+
+
+def _pillow() -> Any:
+    try:
+        return importlib.import_module("PIL.Image")
+    except ImportError:
+        raise UsageError("previews need the optional image library Pillow: pip install 'aldpat[preview]'") from None
+
+
+def read_grid(path: Path) -> tuple[np.ndarray, GridSpec]:
+    """Any grid aldpat writes, rows from the south, NaN for blank nodes."""
+    ext = path.suffix.lower()
+    if ext == ".grd":
+        return read_surfer(path)
+    if ext == ".flt":
+        return read_float_grid(path)
+    if ext == ".asc":
+        return read_ascii_grid(path)
+    try:
+        rasterio = importlib.import_module("rasterio")
+    except ImportError:
+        raise UsageError("GeoTIFF grids need the optional GDAL binding rasterio: pip install 'aldpat[geotiff]'") \
+            from None
+    with rasterio.open(path) as ds:
+        values = ds.read(1, masked=True).astype(np.float64).filled(np.nan)[::-1]
+        t = ds.transform
+        spec = GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height)
+    return values, spec
+
+
+def _save(rgba: np.ndarray, out: Path, overwrite: bool) -> Path:
+    image = _pillow()
+    with atomic_output(out, overwrite=overwrite) as tmp:
+        image.fromarray(np.ascontiguousarray(rgba)).save(tmp, format="PNG")  # (h, w, 4) uint8: RGBA
+    return out
+
+
+def hillshade_rgba(values: np.ndarray, spec: GridSpec, params: PreviewParams) -> np.ndarray:
+    """The hillshade as an RGBA image (north up), blank nodes transparent."""
+    blank = ~np.isfinite(values[::-1])
+    # blank nodes take their nearest node's height for the shading of their neighbours only
+    north_up = fill_nearest(values[::-1], blank)
+    shade = hillshade(north_up, spec.dx, spec.dy, azimuth=params.azimuth, altitude=params.altitude,
+                      z_factor=params.z_factor)
+    gray = np.where(blank, 0, np.rint(shade)).astype(np.uint8)
+    return np.dstack([gray, gray, gray, np.where(blank, 0, 255).astype(np.uint8)])
+
+
+def plan_rgba(x: np.ndarray, y: np.ndarray, z: np.ndarray, ground: np.ndarray | None, size: int) -> np.ndarray:
+    """Plan view of points (north up, at most ``size`` pixels on the longer side, pixels no finer
+    than twice the mean point spacing)."""
+    x0, x1, y0, y1 = float(x.min()), float(x.max()), float(y.min()), float(y.max())
+    # no finer than twice the mean point spacing: about four points a pixel, so that the picture
+    # shows a surface (98 % of pixels hold a point where the points are spread evenly), not dots
+    spacing = np.sqrt(max((x1 - x0) * (y1 - y0), 1e-12) / len(x))
+    pixel = max(max(x1 - x0, y1 - y0) / (size - 1), 2.0 * spacing) or 1.0
+    cols, rows = int((x1 - x0) / pixel) + 1, int((y1 - y0) / pixel) + 1
+    c = np.minimum(((x - x0) / pixel).astype(np.int64), cols - 1)
+    r = np.minimum(((y1 - y) / pixel).astype(np.int64), rows - 1)  # row 0 is the north
+    flat = r * cols + c
+    rgba = np.zeros((rows * cols, 4), np.uint8)
+    if ground is None:
+        top = np.full(rows * cols, -np.inf)
+        np.maximum.at(top, flat, z)
+        has = np.isfinite(top)
+        t = (top[has] - z.min()) / (np.ptp(z) or 1.0) * (len(RAMP) - 1)
+        k = np.minimum(t.astype(np.int64), len(RAMP) - 2)
+        frac = (t - k)[:, None]
+        rgba[has, :3] = np.rint(RAMP[k] * (1 - frac) + RAMP[k + 1] * frac).astype(np.uint8)
+    else:
+        has = np.zeros(rows * cols, bool)
+        has[flat] = True
+        is_ground = np.zeros(rows * cols, bool)
+        is_ground[flat[ground]] = True
+        rgba[has, :3] = OTHER_RGB
+        rgba[is_ground, :3] = GROUND_RGB
+    rgba[has, 3] = 255
+    return rgba.reshape(rows, cols, 4)
+
+
+def _ground_of(reader, table, source: Path) -> np.ndarray:
+    ground = ground_of(reader, table)
+    if ground is not None:
+        return ground
+    raise DataError("--color-by class needs classes: LAS classification or a text 'class' column "
+                    "(aldpat filter --result classified writes them)", path=source)
+
+
+def preview_one(source: Path, params: PreviewParams, ctx: JobContext) -> None:
+    if source.suffix.lower() in GRID_EXTENSIONS:
+        values, spec = read_grid(source)
+        if not np.isfinite(values).any():
+            raise DataError("every node is blank: nothing to shade", path=source)
+        rgba = hillshade_rgba(values, spec, params)
+        out = ctx.output_path(source, "_hillshade", ".png")
+    else:
+        reader = ctx.open_input(source)
+        table = reader.read()
+        if len(table) == 0:
+            raise DataError("no points to draw", path=source)
+        ground = _ground_of(reader, table, source) if params.color_by == "class" else None
+        rgba = plan_rgba(np.asarray(table.x), np.asarray(table.y), np.asarray(table.z), ground, params.size)
+        out = ctx.output_path(source, "_plan", ".png")
+    ctx.wrote(_save(rgba, out, ctx.overwrite))
+
+
+register_task(Task(
+    name="preview",
+    summary="Quick-look PNGs: the hillshade of a grid, or a plan view of points by elevation or by class.",
+    params=PreviewParams,
+    run_one=preview_one,
+))
