@@ -438,9 +438,8 @@ class SharedOption:
 
 
 def validate_instance(obj: Any) -> Any:
-    """Re-check a params instance built directly in Python (keyword arguments)."""
+    """Re-check the bounds of a params instance built directly in Python (keyword arguments);
+    its :meth:`Checked.check` already ran when it was made."""
     for s in specs(type(obj)):
         coerce(s, getattr(obj, s.name))
-    if isinstance(obj, Checked):
-        obj.check()
     return obj

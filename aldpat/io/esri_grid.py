@@ -36,7 +36,9 @@ def _square_cell(spec: GridSpec, path: Path) -> float:
     return spec.dx
 
 
-def _filled(values: np.ndarray, spec: GridSpec, nodata: float, path: Path) -> np.ndarray:
+def filled_with_nodata(values: np.ndarray, spec: GridSpec, nodata: float, path: Path) -> np.ndarray:
+    """``values`` with blank (NaN) nodes set to ``nodata``; a node already holding ``nodata`` is an error
+    (it would read back as blank)."""
     values = np.asarray(values, dtype=np.float64)
     if values.shape != spec.shape:
         raise ValueError(f"values have shape {values.shape}, grid is {spec.shape}")
@@ -62,7 +64,7 @@ def write_float_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
     """Write ``path`` (.flt), its ``.hdr`` and, when ``crs`` is given, its ``.prj``; all or none."""
     path = Path(path)
     _square_cell(spec, path)
-    filled = _filled(values, spec, nodata, path)
+    filled = filled_with_nodata(values, spec, nodata, path)
     targets = [path, path.with_suffix(".hdr")]
     if crs is not None:
         targets.append(path.with_suffix(".prj"))
@@ -86,7 +88,7 @@ def write_ascii_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
     """Write an ESRI ASCII grid (northern row first) and, when ``crs`` is given, its ``.prj``."""
     path = Path(path)
     _square_cell(spec, path)
-    filled = _filled(values, spec, nodata, path)
+    filled = filled_with_nodata(values, spec, nodata, path)
     targets = [path] + ([path.with_suffix(".prj")] if crs is not None else [])
     fmt = "{:.10g}".format
     with atomic_outputs(targets, overwrite=overwrite) as tmps:

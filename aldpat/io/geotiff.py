@@ -23,8 +23,9 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.grid_extent import GridSpec
-from aldpat.errors import DataError, UsageError
+from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output
+from aldpat.io.esri_grid import filled_with_nodata
 
 #: ``--grid-format`` / ``--to`` name -> file extension
 FORMATS = {"geotiff": ".tif", "cog": ".tif"}
@@ -53,13 +54,8 @@ def write_geotiff(path: str | Path, values: np.ndarray, spec: GridSpec, *, cog: 
 
     path = Path(path)
     nodata = DEFAULT_NODATA if nodata is None else float(nodata)
-    values = np.asarray(values, dtype=np.float64)
-    if values.shape != spec.shape:
-        raise ValueError(f"values have shape {values.shape}, grid is {spec.shape}")
-    blank = np.isnan(values)
-    if np.any(values[~blank] == nodata):
-        raise DataError(f"a node holds the nodata value {nodata:g} itself; choose another nodata value", path=path)
-    band = np.where(blank, nodata, values).astype(np.float32)[::-1]  # GeoTIFF rows run from the north
+    # GeoTIFF rows run from the north
+    band = filled_with_nodata(values, spec, nodata, path).astype(np.float32)[::-1]
     gt = spec.corner_transform()
     profile = {
         "width": spec.nx, "height": spec.ny, "count": 1, "dtype": "float32", "nodata": nodata,
@@ -85,3 +81,24 @@ def write_geotiff(path: str | Path, values: np.ndarray, spec: GridSpec, *, cog: 
             with rasterio.open(str(tmp), "w", **profile) as ds:
                 ds.write(band, 1)
     return path
+
+
+def geotiff_header(path: str | Path) -> tuple[GridSpec, float | None, str | None]:
+    """The nodes, the nodata value and the CRS (WKT) of a GeoTIFF, without reading its values."""
+    rasterio = _rasterio()
+    with rasterio.open(str(path)) as ds:
+        return _spec_of(ds), ds.nodata, (ds.crs.to_wkt() if ds.crs else None)
+
+
+def read_geotiff(path: str | Path) -> tuple[np.ndarray, GridSpec]:
+    """A GeoTIFF grid as written here: values with rows from the south, NaN for blank nodes."""
+    rasterio = _rasterio()
+    with rasterio.open(str(path)) as ds:
+        return ds.read(1, masked=True).astype(np.float64).filled(np.nan)[::-1], _spec_of(ds)
+
+
+def _spec_of(ds: Any) -> GridSpec:
+    """The nodes of a north-up raster whose pixels are centred on them (the inverse of
+    :meth:`GridSpec.corner_transform`)."""
+    t = ds.transform
+    return GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height)

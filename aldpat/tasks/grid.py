@@ -10,7 +10,6 @@ extents: :mod:`aldpat.core.grid_extent`; files: :mod:`aldpat.io.surfer`.
 
 from __future__ import annotations
 
-import importlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,8 +25,8 @@ from aldpat.core.grid_extent import (
 from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
+from aldpat.io.geotiff import DEFAULT_NODATA, geotiff_header, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
-from aldpat.io.geotiff import write_geotiff
 from aldpat.io.surfer import BLANK as SURFER_BLANK
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS
 from aldpat.io.surfer import read_surfer, write_surfer
@@ -181,12 +180,9 @@ def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -
     for written in (w for r in results for w in r.outputs):
         path = Path(written.path)
         if path.suffix.lower() == ".tif":
-            rasterio = importlib.import_module("rasterio")  # it wrote the file, so it is there
-            with rasterio.open(path) as ds:
-                t = ds.transform
-                spec = GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height)
-                tiles.append(TileGrid(path, spec, float(ds.nodata)))
-                crs = crs or (ds.crs.to_wkt() if ds.crs else None)
+            spec, nodata, wkt = geotiff_header(path)
+            tiles.append(TileGrid(path, spec, float(DEFAULT_NODATA if nodata is None else nodata)))
+            crs = crs or wkt
         else:
             _, spec = read_surfer(path)
             tiles.append(TileGrid(path, spec, params.nodata if params.nodata is not None else SURFER_BLANK))

@@ -30,6 +30,7 @@ from aldpat.errors import DataError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.classified import ground_of
 from aldpat.io.esri_grid import read_ascii_grid, read_float_grid
+from aldpat.io.geotiff import read_geotiff
 from aldpat.io.surfer import read_surfer
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
@@ -70,16 +71,7 @@ def read_grid(path: Path) -> tuple[np.ndarray, GridSpec]:
         return read_float_grid(path)
     if ext == ".asc":
         return read_ascii_grid(path)
-    try:
-        rasterio = importlib.import_module("rasterio")
-    except ImportError:
-        raise UsageError("GeoTIFF grids need the optional GDAL binding rasterio: pip install 'aldpat[geotiff]'") \
-            from None
-    with rasterio.open(path) as ds:
-        values = ds.read(1, masked=True).astype(np.float64).filled(np.nan)[::-1]
-        t = ds.transform
-        spec = GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height)
-    return values, spec
+    return read_geotiff(path)
 
 
 def _save(rgba: np.ndarray, out: Path, overwrite: bool) -> Path:

@@ -36,7 +36,7 @@ class StripBoundaryParams(CellHeightOption, OriginOption):
 
 def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
     """The closed boundary ring of a strip (columns x y z intensity) and the scan used."""
-    scan = BoundaryScan(params.cell, params.cell_shape()[1], params.origin)
+    scan = BoundaryScan(*params.cell_shape(), params.origin)
     for chunk in reader.chunks():
         intensity = chunk["intensity"] if "intensity" in chunk else None  # noqa: SIM401  (a PointTable, no .get)
         scan.add(chunk.x, chunk.y, chunk.z, intensity)

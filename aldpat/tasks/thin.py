@@ -48,7 +48,7 @@ def round_half_away(v: np.ndarray) -> np.ndarray:
 
 def thin_table(table, params: ThinParams):
     """The points ``table`` keeps (one per occupied cell), x and y rounded if asked."""
-    keep = select_per_cell(table.x, table.y, table.z, params.cell, params.cell_shape()[1],
+    keep = select_per_cell(table.x, table.y, table.z, *params.cell_shape(),
                            method=params.method, origin=params.origin)
     out = table.take(keep)
     if params.xy == "integer":
@@ -75,7 +75,7 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
             spill = Spill(out.parent, k)
             try:
                 for chunk in reader.chunks():
-                    i, j = cell_of(chunk.x, chunk.y, params.cell, params.cell_shape()[1], params.origin)
+                    i, j = cell_of(chunk.x, chunk.y, *params.cell_shape(), params.origin)
                     spill.add(chunk, bucket_of(i, j, k))
                     total += len(chunk)
                 for bucket in spill.buckets():
