@@ -1,7 +1,8 @@
 """``aldpat preview``: quick-look pictures (PNG) to see whether a run worked before opening
 anything in a GIS -- what ALDPAT's GUI views gave.
 
-* a grid (Surfer ``.grd``, ArcGIS ``.flt`` / ``.asc``, GeoTIFF ``.tif``) -> ``<stem>_hillshade.png``:
+* a grid (Surfer ``.grd``, ArcGIS ``.flt`` / ``.asc``, GeoTIFF ``.tif``, the ``.vrt`` mosaic of
+  ``aldpat grid --mosaic``) -> ``<stem>_hillshade.png``:
   its hillshade (:mod:`aldpat.core.hillshade`), one pixel per node, north up, blank nodes
   transparent;
 * a point file -> ``<stem>_plan.png``: a plan view, north up, at most ``size`` pixels on its
@@ -36,7 +37,7 @@ from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 from aldpat.params import param
 
-GRID_EXTENSIONS = (".grd", ".flt", ".asc", ".tif", ".tiff")
+GRID_EXTENSIONS = (".grd", ".flt", ".asc", ".tif", ".tiff", ".vrt")
 #: elevation colours, low to high (blue, green, yellow, brown, white)
 RAMP = np.array([[40, 80, 200], [60, 160, 80], [230, 220, 110], [150, 100, 60], [250, 250, 250]], float)
 GROUND_RGB = (60, 160, 60)
@@ -63,7 +64,8 @@ def _pillow() -> Any:
 
 
 def read_grid(path: Path) -> tuple[np.ndarray, GridSpec]:
-    """Any grid aldpat writes, rows from the south, NaN for blank nodes."""
+    """Any grid aldpat writes, rows from the south, NaN for blank nodes (GeoTIFF and the VRT
+    mosaic through GDAL)."""
     ext = path.suffix.lower()
     if ext == ".grd":
         return read_surfer(path)

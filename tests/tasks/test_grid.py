@@ -194,3 +194,9 @@ def test_a_mosaic_opens_the_tile_grids_as_one_raster(tmp_path, samp24, grid_form
         # tile does not cover its neighbour's value on the shared column)
         assert np.array_equal(~mosaic.mask, covered) and covered.sum() > 8000
     assert (tmp_path / "g" / "dtm.vrt").read_text().count("<ComplexSource>") == 2
+    # the mosaic previews as one picture, one pixel per node, transparent where it is blank
+    assert get_task("preview")([tmp_path / "g" / "dtm.vrt"]).exit_code == 0
+    from PIL import Image
+
+    shade = np.asarray(Image.open(tmp_path / "g" / "dtm_hillshade.png"))
+    assert shade.shape == (81, 121, 4) and np.array_equal(shade[..., 3] == 255, covered)
