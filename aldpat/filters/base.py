@@ -164,6 +164,9 @@ class FilterSpec:
     #: ``None``: the data are filtered once, unrotated.
     rotations: Callable[[Any], Sequence[float]] | None = None
     on_points: bool = False
+    #: ``noise(result, z, params)``: per point -1 low noise, +1 high noise, 0 neither, for a
+    #: filter that finds noise rather than ground (``outlier``); ``None``: it finds none.
+    noise: Callable[..., np.ndarray] | None = None
 
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
@@ -171,7 +174,8 @@ FILTERS: dict[str, FilterSpec] = {}
 
 
 def register_filter(name: str, *, params: type, summary: str,
-                    rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False):
+                    rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False,
+                    noise: Callable[..., np.ndarray] | None = None):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
@@ -182,7 +186,7 @@ def register_filter(name: str, *, params: type, summary: str,
         if name in FILTERS and FILTERS[name].fn is not fn:
             raise ValueError(f"filter {name!r} is registered twice")
         FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
-                                   on_points=on_points)
+                                   on_points=on_points, noise=noise)
         return fn
 
     return deco

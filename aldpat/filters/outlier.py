@@ -5,6 +5,10 @@ lines, birds) stand out of an *opening* with a small window (1 to 3 cells); isol
 low points (multipath, a window reaching a floor) sink below a *closing*. A cell is an outlier
 when it lies more than ``high_threshold`` above its opening or more than ``low_threshold``
 below its closing; its mark is the half window used.
+
+Classified output (:func:`outlier_noise`) calls the points of a removed cell low noise when they
+lie more than ``low_threshold`` below the ground surface around them, high noise when more than
+``high_threshold`` above it (ASPRS classes 7 and 18).
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
-from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.base import FilterResult, GroundParams, register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
@@ -50,7 +54,30 @@ def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | Non
     return np.where(out, np.int32(window), np.int32(0))
 
 
-@register_filter("outlier", params=OutlierParams,
+def outlier_noise(result: FilterResult, z: np.ndarray, params: OutlierParams) -> np.ndarray:
+    """Per point: -1 low noise, +1 high noise, 0 neither.
+
+    Noise is a point of a removed cell (mark > 0) that is not ground; it is low or high by its
+    height against the final ground surface at its cell (the removed cell filled from its
+    nearest ground cell), measured with the filter's own thresholds. Points of kept cells are
+    never noise, even canopy over ground: the test is about isolated points, not objects.
+    """
+    cell_marks = result.marks.ravel()[result.cell_index]
+    removed = (cell_marks > 0) & ~result.is_ground
+    kind = np.zeros(len(z), np.int8)
+    if not removed.any():
+        return kind
+    height = z[removed] - result.surface.ravel()[result.cell_index[removed]]
+    sub = np.zeros(len(height), np.int8)
+    if params.low_threshold is not None:
+        sub[height < -params.low_threshold] = -1
+    if params.high_threshold is not None:
+        sub[height > params.high_threshold] = 1
+    kind[removed] = sub
+    return kind
+
+
+@register_filter("outlier", params=OutlierParams, noise=outlier_noise,
                  summary="morphological removal of isolated high and low points (dissertation §4.1)")
 def outlier(z: np.ndarray, empty: np.ndarray, params: OutlierParams) -> np.ndarray:
     """Mark matrix of the outlier filter (dissertation §4.1.1)."""

@@ -1,21 +1,34 @@
 """Where a classified point file keeps its classes: LAS ``classification`` (ASPRS: 2 ground), or
 in text the column ``aldpat filter --result classified`` writes -- the last column after x y z
-holding only 1 and 2 (a ``mark`` column may follow it)."""
+holding only ASPRS codes 1, 2, 7 and 18 (a ``mark`` column may follow it).
+
+The codes are the ASPRS LAS 1.4 standard classes (R15, Table 17): 1 unclassified, 2 ground,
+7 low point (noise), 18 high noise. LAS point formats 0-5 (LAS 1.2/1.3) reserve 18, so there
+high noise is written as 7, the one noise class they define."""
 
 from __future__ import annotations
 
 import numpy as np
 
-#: ASPRS class of ground points
+#: ASPRS classes written by ``aldpat filter --result classified``
+UNCLASSIFIED = 1
 GROUND = 2
+LOW_NOISE = 7
+HIGH_NOISE = 18
+CLASSES = (UNCLASSIFIED, GROUND, LOW_NOISE, HIGH_NOISE)
+
+
+def high_noise_class(las_point_format: int | None) -> int:
+    """The class of high noise: 18 in text and LAS point formats 6-10, 7 in formats 0-5."""
+    return HIGH_NOISE if las_point_format is None or las_point_format >= 6 else LOW_NOISE
 
 
 def class_column_of(reader, table) -> int | None:
     """The column of a classified text result: the last one after x y z whose values are all
-    1 or 2 with some 2."""
+    ASPRS codes 1, 2, 7 or 18 with some 2."""
     for k in range(len(reader.names) - 1, 2, -1):
         values = table[reader.names[k]]
-        if np.isin(values, (1, 2)).all() and (values == GROUND).any():
+        if np.isin(values, CLASSES).all() and (values == GROUND).any():
             return k
     return None
 

@@ -100,12 +100,18 @@ class LasReader:
         return next(iter(self.chunks(size=max(self.count, 1))))
 
 
+def new_point_format(names) -> int:
+    """The point format a LAS file made from non-LAS points gets: 6 (LAS 1.4) when they have a
+    time, else 0."""
+    return 6 if "t" in names or "gps_time" in names else 0
+
+
 def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> laspy.LasHeader:
     """A LAS 1.4 header for points that did not come from LAS (format 6 when a time exists)."""
     import laspy
 
-    has_time = "t" in table.columns or "gps_time" in table.columns
-    header = laspy.LasHeader(point_format=6 if has_time else 0, version="1.4" if has_time else "1.2")
+    point_format = new_point_format(table.names)
+    header = laspy.LasHeader(point_format=point_format, version="1.4" if point_format >= 6 else "1.2")
     decimals = decimals or table.meta.get("decimals", {})
     scales = [10.0 ** -min(max(decimals.get(n, 3), 0), 6) for n in "xyz"]
     header.scales = np.array(scales)

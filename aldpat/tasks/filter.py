@@ -21,23 +21,45 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.filters import FILTERS, ground_filter
+from aldpat.io.classified import GROUND, LOW_NOISE, UNCLASSIFIED, high_noise_class
+from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 
 log = logging.getLogger(__name__)
 
-#: LAS classification codes (ASPRS): 2 ground, 1 unclassified.
-CLASS_GROUND = 2
-CLASS_OTHER = 1
 
-def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarray, np.ndarray]:
-    """Rows to write, their ground flags and marks (one per cell in ``center`` mode)."""
+def point_classes(res, z: np.ndarray, params, algorithm: str, las_point_format: int | None) -> np.ndarray:
+    """ASPRS classes of every point: 2 ground, 1 unclassified, and for a filter that finds noise
+    (``outlier``) 7 low noise and 18 high noise (7 in LAS point formats 0-5, which reserve 18)."""
+    cls = np.where(res.is_ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+    noise = FILTERS[algorithm].noise
+    if noise is not None:
+        kind = noise(res, z, params)
+        cls[kind < 0] = LOW_NOISE
+        cls[kind > 0] = high_noise_class(las_point_format)
+    return cls
+
+
+def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarray | slice, np.ndarray, np.ndarray]:
+    """Rows to write, the input rows they come from, their ground flags and marks (one per
+    cell in ``center`` mode)."""
     if params.data_mode == "center":
         c = res.center()
         out = table.take(c.index).with_columns(x=c.x, y=c.y, z=c.z)
-        return out, c.is_ground, c.marks
-    return table, res.is_ground, res.point_marks
+        return out, c.index, c.is_ground, c.marks
+    return table, slice(None), res.is_ground, res.point_marks
+
+
+def _output_point_format(reader, ctx: JobContext, source: Path) -> int | None:
+    """The LAS point format the classified output gets (None for text)."""
+    path = ctx.output_path(source, "", reader=reader)
+    if path.suffix.lower() not in (".las", ".laz"):
+        return None
+    if reader.format == "las":
+        return int(reader.header.point_format.id)
+    return new_point_format(reader.names)
 
 
 def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
@@ -51,14 +73,15 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
                  f"row_windows = {list(params.row_windows or ())}, column_windows = "
                  f"{list(params.column_windows or ())}")
     res = ground_filter(table.x, table.y, table.z, algorithm, params)
-    rows, ground, marks = _output_table(table, res, params)
+    rows, origin_rows, ground, marks = _output_table(table, res, params)
     names = tuple(reader.names)
     extra: dict[str, np.ndarray] = {}
     if params.marks:
         extra["mark"] = marks.astype(np.int32)
         names += ("mark",)
     if params.result == "classified":
-        cls = np.where(ground, CLASS_GROUND, CLASS_OTHER).astype(np.uint8)
+        point_format = _output_point_format(reader, ctx, source)
+        cls = point_classes(res, table.z, params, algorithm, point_format)[origin_rows]
         if reader.format == "las":
             extra["classification"] = cls
             if "classification" not in names:

@@ -1,5 +1,6 @@
-"""LAS 1.4 point formats 6-8 go through the filters and convert with every attribute kept,
-and classified output uses the ASPRS codes (2 ground, 1 unclassified)."""
+"""LAS 1.4 point formats 6-10 go through the filters and convert with every attribute kept,
+and classified output uses the ASPRS codes (2 ground, 1 unclassified; the outlier filter 7 low
+noise and 18 high noise where the point format has that class, 7 for both where it has not)."""
 
 from __future__ import annotations
 
@@ -27,15 +28,19 @@ def las14(path: Path, point_format: int) -> laspy.LasData:
     out.return_number = np.ones(n, np.uint8)
     out.number_of_returns = np.ones(n, np.uint8)
     out.scan_angle = np.arange(n, dtype=np.int16) % 300 - 150  # a 1.4 attribute (0.006 degree units)
-    if point_format >= 7:
+    if point_format in (7, 8, 10):
         out.red = np.full(n, 1000, np.uint16)
-    if point_format == 8:
+    if point_format in (8, 10):
         out.nir = np.full(n, 2000, np.uint16)
+    if point_format in (9, 10):  # waveform packets: their descriptors are kept as they are
+        out.wavepacket_index = np.ones(n, np.uint8)
+        out.wavepacket_offset = np.arange(n, dtype=np.uint64) * 256
+        out.wavepacket_size = np.full(n, 256, np.uint32)
     out.write(path)
     return out
 
 
-@pytest.mark.parametrize("point_format", [6, 7, 8])
+@pytest.mark.parametrize("point_format", [6, 7, 8, 9, 10])
 def test_filter_keeps_the_format_and_every_attribute(tmp_path, point_format):
     src = las14(tmp_path / "s.laz", point_format)
     report = get_task("filter", "gapm")([tmp_path / "s.laz"], result="classified", odir=str(tmp_path / "out"))
@@ -56,3 +61,57 @@ def test_convert_las14_to_las14(tmp_path):
     assert got.header.point_format.id == 7 and str(got.header.version) == "1.4"
     for dim in src.point_format.dimension_names:
         np.testing.assert_array_equal(np.asarray(got[dim]), np.asarray(src[dim]), err_msg=dim)
+
+
+#: the strip's points are 2.5 m apart and it holds a quarry face: 3 m cells, and thresholds above
+#: its real relief within a cell's neighbours, so that only the planted points are noise
+NOISE_TEST = {"cell": 3.0, "high_threshold": 20.0, "low_threshold": 20.0}
+
+
+def with_noise(points: laspy.LasData) -> tuple[int, int]:
+    """Put a bird 40 m over one point and a multipath return 30 m under another, far apart."""
+    x, y = np.asarray(points.x), np.asarray(points.y)
+    high = int(np.argmin(np.hypot(x - np.percentile(x, 30), y - np.percentile(y, 30))))
+    low = int(np.argmin(np.hypot(x - np.percentile(x, 70), y - np.percentile(y, 70))))
+    z = np.asarray(points.z).copy()
+    z[high] += 40.0
+    z[low] -= 30.0
+    points.z = z
+    return high, low
+
+
+@pytest.mark.parametrize(("point_format", "high_class"), [(6, 18), (1, 7)])
+def test_outlier_writes_asprs_noise_classes(tmp_path, point_format, high_class):
+    if point_format >= 6:
+        src = las14(tmp_path / "s.laz", point_format)
+    else:
+        src = laspy.read(STRIP)
+        src = laspy.convert(src, point_format_id=point_format)
+    high, low = with_noise(src)
+    src.write(tmp_path / "s.laz")
+    report = get_task("filter", "outlier")([tmp_path / "s.laz"], result="classified", odir=str(tmp_path / "out"),
+                                           **NOISE_TEST)
+    assert report.exit_code == 0, [r.error for r in report.results]
+    got = laspy.read(tmp_path / "out" / "s_outlier.laz")
+    cls = np.asarray(got.classification)
+    assert cls[high] == high_class and cls[low] == 7
+    noise = np.flatnonzero(np.isin(cls, (7, 18)))
+    assert set(noise) == {high, low}  # real terrain, trees and roofs are not noise
+
+
+def test_outlier_noise_classes_in_text(tmp_path):
+    src = laspy.read(STRIP)
+    high, low = with_noise(src)
+    np.savetxt(tmp_path / "s.txt", np.c_[src.x, src.y, src.z], fmt="%.3f")
+    report = get_task("filter", "outlier")([tmp_path / "s.txt"], result="classified", odir=str(tmp_path / "out"),
+                                           **NOISE_TEST)
+    assert report.exit_code == 0, [r.error for r in report.results]
+    cls = np.loadtxt(tmp_path / "out" / "s_outlier.txt")[:, 3]
+    assert cls[high] == 18 and cls[low] == 7
+    assert set(np.flatnonzero(np.isin(cls, (7, 18)))) == {high, low}
+    # evaluate finds the class column (codes 1, 2, 7, 18) and scores noise as object
+    labels = np.loadtxt(tmp_path / "out" / "s_outlier.txt")
+    labels[:, 3] = cls != 2  # ISPRS labels: 0 bare earth, 1 object
+    np.savetxt(tmp_path / "ref.txt", labels, fmt="%.3f %.3f %.3f %d")
+    ev = get_task("evaluate")([tmp_path / "out" / "s_outlier.txt"], reference=str(tmp_path / "ref.txt"))
+    assert ev.exit_code == 0 and ev.results[0].records[0]["total"] == 0.0
