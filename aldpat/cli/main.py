@@ -21,11 +21,11 @@ from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError
+from aldpat.io.toml import load_toml
 from aldpat.jobs.registry import Task
 from aldpat.jobs.run import run_task
 from aldpat.params import renamed_keys
 from aldpat.tasks import TASKS
-from aldpat.worksheet.toml import load_toml
 
 log = logging.getLogger("aldpat")
 

@@ -67,6 +67,8 @@ class JobContext:
         self.output = output  # OutputParams instance (or None)
         self.input = input_opts
         self.result = result
+        #: inputs a planned job reads besides its own (:attr:`Task.plan`): neighbouring tiles
+        self.neighbours: list[Path] = []
 
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,

@@ -27,6 +27,7 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
     reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
     def body(ctx: JobContext) -> None:
         if task.run_one is not None:
+            ctx.neighbours = [Path(s) for s in sources[1:]]  # a planned job's other inputs
             task.run_one(Path(sources[0]), run.params.values, ctx)
         else:
             assert task.run_all is not None  # a task has one of the two

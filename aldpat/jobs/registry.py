@@ -38,6 +38,9 @@ class Task:
     epilog: str | None = None
     #: ``finish(results, params, ctx)``: once, in this process, after every job (``grid --mosaic``)
     finish: Callable | None = None
+    #: ``plan(sources, params, input_params) -> jobs``: a ``run_one`` task whose job reads more than its
+    #: own input (``dtm``: the neighbours within its buffer) lists them after it, ``[own, *others]``
+    plan: Callable | None = None
 
     @property
     def key(self) -> str:

@@ -45,7 +45,10 @@ class RunReport:
         return [w for r in self.results for w in r.outputs]
 
 
-def plan_jobs(task: Task, sources: list[Path]) -> list[list[str]]:
+def plan_jobs(task: Task, sources: list[Path], run: ResolvedRun) -> list[list[str]]:
+    """The inputs of each job: one each (``run_one``), all (``run_all``), or as the task plans."""
+    if task.plan is not None:
+        return task.plan(sources, run.params.values, run.input.values)
     if task.run_one is not None:
         return [[str(s)] for s in sources]
     return [[str(s) for s in sources]]
@@ -65,7 +68,7 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
         if not input_errors:
             raise UsageError("no inputs given")
         return RunReport(task.key, [], input_errors)
-    jobs = plan_jobs(task, sources) if task.inputs != "none" else [[]]
+    jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
     workers = run.run.values.jobs or (os.cpu_count() or 1)
     workers = max(1, min(workers, len(jobs)))
     results: list[JobResult] = []

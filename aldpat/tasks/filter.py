@@ -42,6 +42,20 @@ def point_classes(res, z: np.ndarray, params, algorithm: str, las_point_format: 
     return cls
 
 
+def apply_auto(params, x: np.ndarray, y: np.ndarray, z: np.ndarray, ctx: JobContext):
+    """``params`` with ``--auto``'s cell and windows derived from the points (gapm), recorded in
+    the job's log; unchanged without ``auto``."""
+    if not getattr(params, "auto", False):
+        return params
+    from aldpat.filters.gapm import with_auto
+
+    params = with_auto(params, x, y, z)
+    ctx.note(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
+             f"row_windows = {list(params.row_windows or ())}, column_windows = "
+             f"{list(params.column_windows or ())}")
+    return params
+
+
 def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarray | slice, np.ndarray, np.ndarray]:
     """Rows to write, the input rows they come from, their ground flags and marks (one per
     cell in ``center`` mode)."""
@@ -65,13 +79,7 @@ def _output_point_format(reader, ctx: JobContext, source: Path) -> int | None:
 def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
     reader = ctx.open_input(source)
     table = reader.read()
-    if getattr(params, "auto", False):
-        from aldpat.filters.gapm import with_auto
-
-        params = with_auto(params, table.x, table.y, table.z)
-        ctx.note(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
-                 f"row_windows = {list(params.row_windows or ())}, column_windows = "
-                 f"{list(params.column_windows or ())}")
+    params = apply_auto(params, table.x, table.y, table.z, ctx)
     res = ground_filter(table.x, table.y, table.z, algorithm, params)
     rows, origin_rows, ground, marks = _output_table(table, res, params)
     names = tuple(reader.names)

@@ -103,7 +103,7 @@ def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = Non
 SURFACE_METHODS = ("linear", "kriging")
 
 
-def _check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> None:
+def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> None:
     """Refuse, with a message saying why, points a TIN or a variogram cannot be built on."""
     if np.ptp(x) == 0 and np.ptp(y) == 0:
         distinct = x[:1]
@@ -146,7 +146,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
             spec = grid_spec_for(source, params, ctx, xy=(x, y))
         assert spec is not None  # from the points when neither tile parameters nor bounds give it
         if params.method in SURFACE_METHODS:
-            _check_spread(x, y, params.method, source)
+            check_spread(x, y, params.method, source)
         values = interpolate(x, y, z, spec, method=params.method, power=params.power, radius=params.radius,
                              max_points=params.max_points, max_distance=params.max_distance,
                              variogram=params.variogram, nugget=params.nugget, drift=params.drift)

@@ -15,10 +15,10 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.errors import ParamError, UsageError
+from aldpat.io.toml import load_toml
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.registry import Task, get_task
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
-from aldpat.worksheet.toml import load_toml
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
 TOP_KEYS = ("settings", "job")

@@ -58,7 +58,7 @@ def text_rows(path: Path) -> np.ndarray:
 
 
 def test_every_task_is_run_by_this_file():
-    covered = {"convert", "evaluate", "grd2bin", "grid", "info", "merge-boundary", "ortho-height",
+    covered = {"convert", "dtm", "evaluate", "grd2bin", "grid", "info", "merge-boundary", "ortho-height",
                "polygon-extract", "preview", "separate-returns", "shapefile", "split-tape", "strip-boundary", "thin", "tile"}
     covered |= {f"filter {name}" for name in FILTERS}
     assert set(TASKS) <= covered, sorted(set(TASKS) - covered)
@@ -154,6 +154,25 @@ def test_grd2bin_opens_in_gdal_at_the_same_place(work, tmp_path, to):
         assert esri.xy(0, 0) == pytest.approx(surfer.xy(0, 0))
         np.testing.assert_allclose(esri.read(1, masked=True).filled(np.nan), surfer.read(1, masked=True).filled(np.nan),
                                    atol=1e-3)
+
+
+def test_dtm_of_laz_tiles_is_a_cog_in_the_las_crs(work, tmp_path):
+    strip = laspy.read(work / "strip.laz")
+    middle = float(np.median(strip.x))
+    for name, keep in (("west", strip.x < middle), ("east", strip.x >= middle)):
+        part = laspy.LasData(strip.header)
+        part.points = strip.points[np.asarray(keep)]
+        part.write(tmp_path / f"{name}.laz")
+    aldpat("dtm", tmp_path / "west.laz", tmp_path / "east.laz", "--cell", "2", "--algorithm", "gapm",
+           "--odir", tmp_path / "dtm", "--mosaic", "strip.vrt").ok()
+    with rasterio.open(tmp_path / "dtm" / "strip.vrt") as ds:
+        assert ds.crs.to_epsg() == 32632 and ds.res == (2.0, 2.0)
+        band = ds.read(1, masked=True)
+        assert band.count() > 0.9 * band.size
+        assert strip.z.min() - 1 < band.min() and band.max() < strip.z.max()
+    with rasterio.open(tmp_path / "dtm" / "west_dtm.tif") as ds:
+        assert ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+    assert leftovers(tmp_path) == []
 
 
 def test_preview_pictures_of_a_grid_and_of_points(work, tmp_path):

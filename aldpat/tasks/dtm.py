@@ -1,0 +1,173 @@
+"""``aldpat dtm``: points to a bare-earth terrain model in one command.
+
+The chain of ALDPAT 1.0 user manual (2007) tasks 8 and 9 -- filter the ground points, grid them
+with a TIN -- run tile by tile and written as a GeoTIFF or Cloud Optimized GeoTIFF:
+
+1. each input (one file, or one tile of many) is read with the points of the other inputs that
+   lie within ``buffer`` of it, so that the filter sees the objects and slopes crossing its edge
+   (the neighbours are found once, from the LAS headers or one pass over each text file, before
+   any job runs);
+2. the ground filter ``algorithm`` (any registered one; ``gapm`` by default, dissertation ch. 6)
+   classifies them, with the parameters of ``filter_params`` -- the same file ``aldpat filter
+   ALGO --params`` takes -- or ``--auto``;
+3. the ground points are triangulated (Delaunay TIN, linear inside each triangle: Surfer's
+   "Triangulation with Linear Interpolation" of task 9) onto nodes ``cell`` apart over the
+   input's own extent, on whole multiples of the cell from ``origin``, so that adjacent tiles
+   share their edge nodes (manual Fig. 7); with ``tile_params`` the extent is the tile's row of
+   ``tile_parameter.txt``;
+4. the grid is written as ``<stem>_dtm.tif``, float32, with the CRS (``--crs`` or the LAS's).
+
+``--mosaic dtm.vrt`` adds a GDAL virtual raster over every tile's DTM.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aldpat.core.grid_extent import GridSpec, from_bounds, from_data
+from aldpat.core.interpolate import interpolate
+from aldpat.errors import AldpatError, DataError, ParamError
+from aldpat.filters import FILTERS, ground_filter
+from aldpat.io.bounds import Bounds, point_bounds
+from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
+from aldpat.io.geotiff import write_geotiff
+from aldpat.io.tile_parameters import tile_row_for
+from aldpat.io.toml import load_toml
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
+from aldpat.options import CrsOption, OriginOption
+from aldpat.params import Checked, param, resolve
+from aldpat.tasks.filter import apply_auto
+from aldpat.tasks.grid import check_spread, grid_mosaic
+
+log = logging.getLogger(__name__)
+
+#: Filters that find ground (``outlier`` finds noise only: a DTM from it would keep the roofs).
+GROUND_FILTERS = tuple(sorted(name for name in FILTERS if name != "outlier"))
+
+
+@dataclass(frozen=True)
+class DtmParams(OriginOption, CrsOption, Checked):
+    cell: float = param(1.0, "DTM node spacing", unit="m", gt=0)
+    algorithm: str = param("gapm", "ground filter", choices=GROUND_FILTERS)
+    filter_params: str | None = param(None, "the filter's parameters: a TOML file of the keys 'aldpat filter "
+                                      "ALGO --params' takes (default: the filter's own defaults)",
+                                      path=True, metavar="FILE.toml")
+    auto: bool = param(False, "gapm: derive the cell and windows from the data (as 'aldpat filter gapm --auto')")
+    buffer: float = param(30.0, "points of the other inputs within this distance of an input's extent are "
+                          "filtered and triangulated with it (at least the largest object's half width)",
+                          unit="m", ge=0)
+    tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile': each DTM covers its "
+                                    "tile's row, so adjacent DTMs share their edge nodes", path=True,
+                                    metavar="FILE")
+    grid_format: str = param("cog", "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
+                             choices=tuple(GEOTIFF_FORMATS))
+    nodata: float | None = param(None, "value of nodes outside the ground points' triangles; none: -9999")
+    max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this",
+                                       unit="m", gt=0)
+    mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every DTM written",
+                               path=True, metavar="FILE.vrt")
+
+    def check(self) -> None:
+        super().check()
+        if self.auto and self.algorithm != "gapm":
+            raise ParamError(f"auto: derives gapm's parameters; --algorithm is {self.algorithm}")
+        self.ground_params()  # a bad filter parameter file fails before any point is read
+
+    def ground_params(self) -> Any:
+        """The filter's parameters: its defaults, then ``filter_params``, then ``auto``."""
+        layers: list[tuple[str, dict]] = []
+        if self.filter_params:
+            layers.append((self.filter_params, load_toml(self.filter_params)))
+        if self.auto:
+            layers.append(("--auto", {"auto": True}))
+        return resolve(FILTERS[self.algorithm].params, layers, where="filter_params: ").values
+
+
+def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> list[list[str]]:
+    """Each job's inputs: its own file, then every other input whose extent comes within
+    ``buffer`` of it. An input whose extent cannot be read gets a job of its own, which reports
+    why."""
+    if params.buffer == 0 or len(sources) < 2:
+        return [[str(s)] for s in sources]
+    bounds: dict[Path, Bounds | None] = {}
+    for s in sources:
+        try:
+            bounds[s] = point_bounds(s, format=input_params.format)
+        except AldpatError:
+            bounds[s] = None
+    jobs = []
+    for s in sources:
+        own = bounds[s]
+        if own is None:
+            jobs.append([str(s)])
+            continue
+        region = own.grown(params.buffer)
+        near = [o for o in sources if o != s and (b := bounds[o]) is not None and region.meets(b)]
+        jobs.append([str(s)] + [str(o) for o in near])
+    return jobs
+
+
+def _extent(source: Path, params: DtmParams, x: np.ndarray, y: np.ndarray) -> GridSpec:
+    if params.tile_params:
+        row = tile_row_for(params.tile_params, source)
+        return from_bounds(row.minx, row.miny, row.maxx, row.maxy, params.cell)
+    return from_data(x, y, params.cell, origin=params.origin or (0.0, 0.0))
+
+
+def _buffer_points(ctx: JobContext, region: Bounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x, y, z of the neighbours' points inside ``region``, read chunk by chunk."""
+    xs, ys, zs = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
+    for path in ctx.neighbours:
+        for chunk in ctx.open_input(path).chunks():
+            inside = region.holds(chunk.x, chunk.y)
+            xs.append(np.asarray(chunk.x[inside], np.float64))
+            ys.append(np.asarray(chunk.y[inside], np.float64))
+            zs.append(np.asarray(chunk.z[inside], np.float64))
+    return np.concatenate(xs), np.concatenate(ys), np.concatenate(zs)
+
+
+def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
+    reader = ctx.open_input(source)
+    table = reader.read()
+    if len(table) == 0:
+        raise DataError("no points", path=source)
+    spec = _extent(source, params, table.x, table.y)
+    region = Bounds(spec.xmin, spec.ymin, spec.xmax, spec.ymax).grown(params.buffer)
+    bx, by, bz = _buffer_points(ctx, region)
+    x = np.concatenate([np.asarray(table.x, np.float64), bx])
+    y = np.concatenate([np.asarray(table.y, np.float64), by])
+    z = np.concatenate([np.asarray(table.z, np.float64), bz])
+    fparams = apply_auto(params.ground_params(), x, y, z, ctx)
+    ground = ground_filter(x, y, z, params.algorithm, fparams).is_ground
+    n_ground = int(ground.sum())
+    ctx.note(f"{len(table)} points of {source.name} and {len(bx)} of {len(ctx.neighbours)} neighbouring "
+             f"inputs within {params.buffer:g} m; {n_ground} ground ({params.algorithm})")
+    if n_ground == 0:
+        raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=source)
+    check_spread(x[ground], y[ground], "linear", source)
+    values = interpolate(x[ground], y[ground], z[ground], spec, method="linear", max_distance=params.max_distance)
+    blank = int(np.isnan(values).sum())
+    if blank == values.size:
+        raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=source)
+    out = ctx.output_path(source, "_dtm", ".tif")
+    write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
+                  crs=params.crs or reader.crs, overwrite=ctx.overwrite)
+    log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
+    ctx.wrote(out)
+
+
+register_task(Task(
+    name="dtm",
+    summary="Points to a bare-earth DTM GeoTIFF/COG in one step: ground filter, TIN grid, tile by tile with "
+            "buffers (manual tasks 8 and 9).",
+    params=DtmParams,
+    run_one=dtm_one,
+    plan=plan_neighbours,
+    finish=grid_mosaic,
+))
