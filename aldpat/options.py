@@ -106,7 +106,15 @@ def kept_names(reader, out) -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
-class OutputParams:
+class OverwriteOption(SharedOption):
+    """Whether existing outputs are replaced: every file-writing task's (:class:`OutputParams`),
+    and a reporting task's that writes a picture on request (``evaluate --map``)."""
+
+    overwrite: bool = param(False, "replace existing outputs")
+
+
+@dataclass(frozen=True)
+class OutputParams(OverwriteOption):
     """Options every file-writing task shares."""
 
     odir: str | None = param(None, "output folder, created if missing (default: beside each input)", path=True,
@@ -114,7 +122,6 @@ class OutputParams:
     suffix: str | None = param(None, "output name suffix, replacing the task's default")
     delimiter: str = param("space", "delimiter of text outputs", choices=("space", "comma"), manual="Preference")
     out_format: str = param("same", "output format", choices=("same", "text", "csv", "las", "laz"))
-    overwrite: bool = param(False, "replace existing outputs")
 
 
 @dataclass(frozen=True)

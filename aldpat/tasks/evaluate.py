@@ -6,6 +6,11 @@ ground, anything else object). Reference labels come from ISPRS text ``x y z lab
 (0 = bare earth, 1 = object) or LAS class 2 = ground. Points are matched by coordinates snapped
 to ``tolerance``; duplicates count as many times as they occur (see
 :func:`aldpat.core.accuracy.match_accuracy`).
+
+``--map FILE.png`` draws the calls over the reference points, north up
+(:func:`aldpat.tasks.preview.calls_rgba`): bare earth rejected (Type I) red, objects accepted
+(Type II) blue, right calls green (ground) and grey (object). With several results, ``{stem}`` in
+the name stands for each result's name.
 """
 
 from __future__ import annotations
@@ -17,18 +22,19 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.core.accuracy import coordinate_keys, match_accuracy
+from aldpat.core.accuracy import coordinate_keys, match_accuracy, reference_calls
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.classified import class_column_of
 from aldpat.io.registry import open_points
 from aldpat.jobs.context import JobContext, Record
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import JsonOption
+from aldpat.options import JsonOption, OverwriteOption
 from aldpat.params import param
+from aldpat.tasks.preview import calls_rgba, save_png
 
 
 @dataclass(frozen=True)
-class EvaluateParams(JsonOption):
+class EvaluateParams(JsonOption, OverwriteOption):
     reference: str | None = param(None, "reference points with labels (ISPRS text x y z label, or LAS class 2 = ground)",
                                   path=True, metavar="REF", required=True)
     mode: str = param("auto", "how the result marks ground: terrain (every point is ground), classified "
@@ -38,6 +44,9 @@ class EvaluateParams(JsonOption):
     class_column: int | None = param(None, "1-based column holding the class in a classified text result "
                                      "(default: found as --mode says)", ge=1)
     tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0)
+    map: str | None = param(None, "also draw the calls over the reference as a PNG: bare earth rejected red, "
+                            "objects accepted blue, right calls green / grey ({stem}: the result's name)",
+                            path=True, metavar="FILE.png")
 
 
 def _result_ground(reader, table, params: EvaluateParams) -> np.ndarray:
@@ -100,6 +109,8 @@ class AccuracyRecord(Record):
         ]
         if self.get("unmatched"):
             out.append(f"  ({self['unmatched']} result points matched no reference point)")
+        if self.get("map"):
+            out.append(f"  map      {self['map']}")
         return out
 
 
@@ -119,7 +130,31 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     record = AccuracyRecord({"path": str(source), "reference": str(ref_path)})
     record.update(acc.as_dict())
     record["unmatched"] = unmatched
+    if params.map is not None:
+        calls = reference_calls(ref_keys, ref_ground, coordinate_keys(table.x, table.y, table.z, tol), res_ground)
+        ref_x, ref_y = ref_keys[:, 0] * tol, ref_keys[:, 1] * tol  # the reference's points, snapped
+        out = map_path(params.map, source)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        ctx.wrote(save_png(calls_rgba(ref_x, ref_y, ref_ground, calls, MAP_SIZE), out, params.overwrite))
+        record["map"] = str(out)
     ctx.emit(record)
+
+
+#: longest side of an ``evaluate --map`` before enlarging (pixels): one pixel per point spacing
+#: on every ISPRS sample (the largest is 560 m across at 1 m spacing)
+MAP_SIZE = 2000
+
+
+def map_path(template: str, source: Path) -> Path:
+    return Path(template.replace("{stem}", Path(source).stem))
+
+
+def plan_evaluations(sources: list[Path], params: EvaluateParams, _input) -> list[list[str]]:
+    """One job per result; several results cannot share one map."""
+    if params.map is not None and len(sources) > 1 and "{stem}" not in params.map:
+        raise UsageError(f"--map {params.map}: {len(sources)} results would draw the same file; put {{stem}} in "
+                         "the name for each result's name (e.g. maps/{stem}.png)")
+    return [[str(s)] for s in sources]
 
 
 register_task(Task(
@@ -127,5 +162,6 @@ register_task(Task(
     summary="Type I, Type II, total error and kappa of a ground classification against reference labels.",
     params=EvaluateParams,
     run_one=evaluate_one,
+    plan=plan_evaluations,
     writes_outputs=False,
 ))

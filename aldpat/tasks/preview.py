@@ -76,7 +76,7 @@ def read_grid(path: Path) -> tuple[np.ndarray, GridSpec]:
     return read_geotiff(path)
 
 
-def _save(rgba: np.ndarray, out: Path, overwrite: bool) -> Path:
+def save_png(rgba: np.ndarray, out: Path, overwrite: bool) -> Path:
     image = _pillow()
     with atomic_output(out, overwrite=overwrite) as tmp:
         image.fromarray(np.ascontiguousarray(rgba)).save(tmp, format="PNG")  # (h, w, 4) uint8: RGBA
@@ -94,18 +94,25 @@ def hillshade_rgba(values: np.ndarray, spec: GridSpec, params: PreviewParams) ->
     return np.dstack([gray, gray, gray, np.where(blank, 0, 255).astype(np.uint8)])
 
 
+def plan_pixels(x: np.ndarray, y: np.ndarray, size: int, spacings: float = 2.0) -> tuple[np.ndarray, int, int]:
+    """Each point's pixel (flat index, row 0 the north) in a plan view at most ``size`` pixels on
+    its longer side with pixels no finer than ``spacings`` mean point spacings; and the rows and
+    columns."""
+    x0, x1, y0, y1 = float(x.min()), float(x.max()), float(y.min()), float(y.max())
+    spacing = np.sqrt(max((x1 - x0) * (y1 - y0), 1e-12) / len(x))
+    pixel = max(max(x1 - x0, y1 - y0) / (size - 1), spacings * spacing) or 1.0
+    cols, rows = int((x1 - x0) / pixel) + 1, int((y1 - y0) / pixel) + 1
+    c = np.minimum(((x - x0) / pixel).astype(np.int64), cols - 1)
+    r = np.minimum(((y1 - y) / pixel).astype(np.int64), rows - 1)
+    return r * cols + c, rows, cols
+
+
 def plan_rgba(x: np.ndarray, y: np.ndarray, z: np.ndarray, ground: np.ndarray | None, size: int) -> np.ndarray:
     """Plan view of points (north up, at most ``size`` pixels on the longer side, pixels no finer
     than twice the mean point spacing)."""
-    x0, x1, y0, y1 = float(x.min()), float(x.max()), float(y.min()), float(y.max())
     # no finer than twice the mean point spacing: about four points a pixel, so that the picture
     # shows a surface (98 % of pixels hold a point where the points are spread evenly), not dots
-    spacing = np.sqrt(max((x1 - x0) * (y1 - y0), 1e-12) / len(x))
-    pixel = max(max(x1 - x0, y1 - y0) / (size - 1), 2.0 * spacing) or 1.0
-    cols, rows = int((x1 - x0) / pixel) + 1, int((y1 - y0) / pixel) + 1
-    c = np.minimum(((x - x0) / pixel).astype(np.int64), cols - 1)
-    r = np.minimum(((y1 - y) / pixel).astype(np.int64), rows - 1)  # row 0 is the north
-    flat = r * cols + c
+    flat, rows, cols = plan_pixels(x, y, size)
     rgba = np.zeros((rows * cols, 4), np.uint8)
     if ground is None:
         top = np.full(rows * cols, -np.inf)
@@ -124,6 +131,44 @@ def plan_rgba(x: np.ndarray, y: np.ndarray, z: np.ndarray, ground: np.ndarray | 
         rgba[is_ground, :3] = GROUND_RGB
     rgba[has, 3] = 255
     return rgba.reshape(rows, cols, 4)
+
+
+#: colours of :func:`calls_rgba`, by call: right object, right ground, object accepted (Type II),
+#: bare earth rejected (Type I) -- a pixel shows the last of these any of its points has
+CALL_RGB = np.array([[175, 175, 175], [120, 185, 110], [40, 90, 230], [225, 40, 40]], np.uint8)
+OBJECT_RIGHT, GROUND_RIGHT, TYPE_II, TYPE_I = range(4)
+
+
+def calls_rgba(x: np.ndarray, y: np.ndarray, reference_ground: np.ndarray, called_ground: np.ndarray,
+               size: int) -> np.ndarray:
+    """Map of a classification's right and wrong calls (north up), one pixel about a point
+    spacing (errors must not hide among four right calls), enlarged to at least ``MAP_MIN`` pixels
+    on its longer side so that a sample of a few thousand points is not a thumbnail."""
+    call = np.where(reference_ground, np.where(called_ground, GROUND_RIGHT, TYPE_I),
+                    np.where(called_ground, TYPE_II, OBJECT_RIGHT))
+    flat, rows, cols = plan_pixels(x, y, size, spacings=1.0)
+    worst_flat = np.full(rows * cols, -1)
+    np.maximum.at(worst_flat, flat, call)
+    worst = worst_flat.reshape(rows, cols)
+    # scan lines leave pixels between points empty: they take their nearest call up to two
+    # pixels away, so that the map reads as areas; farther (outside the data) stays transparent
+    empty = worst < 0
+    if empty.any() and not empty.all():
+        from scipy import ndimage
+
+        distance, (nr, nc) = ndimage.distance_transform_edt(empty, return_indices=True)
+        near = empty & (distance <= 2.0)
+        worst[near] = worst[nr[near], nc[near]]
+    rgba = np.zeros((rows, cols, 4), np.uint8)
+    has = worst >= 0
+    rgba[has, :3] = CALL_RGB[worst[has]]
+    rgba[has, 3] = 255
+    zoom = max(1, -(-MAP_MIN // max(rows, cols)))
+    return np.repeat(np.repeat(rgba, zoom, axis=0), zoom, axis=1)
+
+
+#: a map of calls is enlarged (each pixel repeated) to at least this many pixels on its longer side
+MAP_MIN = 600
 
 
 def _ground_of(reader, table, source: Path) -> np.ndarray:
@@ -149,7 +194,7 @@ def preview_one(source: Path, params: PreviewParams, ctx: JobContext) -> None:
         ground = _ground_of(reader, table, source) if params.color_by == "class" else None
         rgba = plan_rgba(np.asarray(table.x), np.asarray(table.y), np.asarray(table.z), ground, params.size)
         out = ctx.output_path(source, "_plan", ".png")
-    ctx.wrote(_save(rgba, out, ctx.overwrite))
+    ctx.wrote(save_png(rgba, out, ctx.overwrite))
 
 
 register_task(Task(

@@ -3,8 +3,9 @@ import json
 import numpy as np
 import pytest
 
-from aldpat.core.accuracy import accuracy, coordinate_keys, match_accuracy
+from aldpat.core.accuracy import accuracy, coordinate_keys, match_accuracy, reference_calls
 from aldpat.tasks import get_task
+from aldpat.tasks.preview import CALL_RGB, GROUND_RIGHT, OBJECT_RIGHT, TYPE_I, TYPE_II, calls_rgba
 from tests.conftest import write_xyz
 
 
@@ -94,3 +95,63 @@ def test_the_reference_is_read_once_for_many_results(tmp_path, samp24):
         len(data[data[:, 3] == 0][k::3]) for k in range(3)]
     info = _reference_labels.cache_info()
     assert (info.misses, info.hits) == (1, 2)
+
+
+def test_reference_calls_agree_with_the_counts():
+    rng = np.random.default_rng(3)
+    ref = rng.integers(0, 40, (500, 3))  # many repeated keys
+    ref_ground = rng.random(500) < 0.6
+    res = ref[rng.random(500) < 0.7]
+    res_ground = rng.random(len(res)) < 0.8
+    calls = reference_calls(ref, ref_ground, res, res_ground)
+    assert accuracy(ref_ground, calls) == match_accuracy(ref, ref_ground, res, res_ground)[0]
+    # a duplicated ground point held once: one of the two is called ground, the first
+    one = reference_calls(np.array([[0, 0, 0], [0, 0, 0]]), np.array([True, True]), np.array([[0, 0, 0]]),
+                          np.array([True]))
+    assert one.tolist() == [True, False]
+
+
+def test_map_colours_each_call_where_it_is():
+    # south-west ground called ground, south-east ground rejected, north-west object accepted,
+    # north-east object rejected; 10 m apart: 5 m pixels, 3 x 3, enlarged to 600 x 600
+    x = np.array([0.0, 10.0, 0.0, 10.0])
+    y = np.array([0.0, 0.0, 10.0, 10.0])
+    rgba = calls_rgba(x, y, np.array([True, True, False, False]), np.array([True, False, True, False]), 1000)
+    assert rgba.shape == (600, 600, 4) and (rgba[..., 3] == 255).all()
+    corners = {"nw": rgba[0, 0, :3], "ne": rgba[0, -1, :3], "sw": rgba[-1, 0, :3], "se": rgba[-1, -1, :3]}
+    expected = {"nw": TYPE_II, "ne": OBJECT_RIGHT, "sw": GROUND_RIGHT, "se": TYPE_I}
+    for where, call in expected.items():
+        assert corners[where].tolist() == CALL_RGB[call].tolist(), where
+
+
+def test_evaluate_map_of_sample_24(tmp_path, samp24):
+    from PIL import Image
+
+    data = np.loadtxt(samp24)
+    called = data.copy()
+    called[:, 3] = np.where(data[:, 0] < np.median(data[:, 0]), 0, 1)  # west half called ground
+    np.savetxt(tmp_path / "called.txt", np.c_[called[:, :3], np.where(called[:, 3] == 0, 2, 1)],
+               fmt="%.2f %.2f %.2f %d")
+    report = get_task("evaluate")([tmp_path / "called.txt"], reference=str(samp24), map=str(tmp_path / "m.png"))
+    assert report.exit_code == 0, [r.error for r in report.results]
+    with Image.open(tmp_path / "m.png") as im:
+        pixels = np.asarray(im)[..., :3].reshape(-1, 3)
+    found = {call for call in range(4) if (pixels == CALL_RGB[call]).all(axis=1).any()}
+    assert found == {OBJECT_RIGHT, GROUND_RIGHT, TYPE_I, TYPE_II}
+    west = np.asarray(Image.open(tmp_path / "m.png"))[:, :100, :3].reshape(-1, 3)
+    east = np.asarray(Image.open(tmp_path / "m.png"))[:, -100:, :3].reshape(-1, 3)
+    # west: ground right or objects accepted only; east: objects right or ground rejected only
+    assert not (west == CALL_RGB[TYPE_I]).all(axis=1).any() and not (east == CALL_RGB[TYPE_II]).all(axis=1).any()
+
+
+def test_one_map_for_several_results_needs_stem(tmp_path, samp24):
+    from aldpat.errors import UsageError
+
+    write_xyz(tmp_path / "a.txt", np.loadtxt(samp24)[:10, :3])
+    write_xyz(tmp_path / "b.txt", np.loadtxt(samp24)[10:20, :3])
+    with pytest.raises(UsageError, match="stem"):
+        get_task("evaluate")([tmp_path / "a.txt", tmp_path / "b.txt"], reference=str(samp24),
+                             map=str(tmp_path / "m.png"))
+    report = get_task("evaluate")([tmp_path / "a.txt", tmp_path / "b.txt"], reference=str(samp24),
+                                  map=str(tmp_path / "{stem}_calls.png"))
+    assert report.exit_code == 0 and (tmp_path / "a_calls.png").exists() and (tmp_path / "b_calls.png").exists()
