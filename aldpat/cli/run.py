@@ -37,10 +37,13 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
               help="override a key of job N (or settings.key=VALUE) for this run")
 @click.option("-j", "--jobs", type=click.IntRange(min=0), default=None,
               help="worker processes per job (0 = all cores), overriding the worksheet")
+@click.option("--report", is_flag=True, help="write <worksheet>.html beside the worksheet: every job's state, "
+              "time, parameters, inputs, outputs, results and pictures, in one self-contained page "
+              "(also: report = true in [settings])")
 @click.option("-v", "--verbose", count=True, help="more detail on stderr")
 @click.option("-q", "--quiet", count=True, help="only errors on stderr: no job statuses")
 @click.pass_context
-def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, verbose, quiet):
+def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, report, verbose, quiet):
     """Run a worksheet: jobs in order, each Ready -> Running -> Done or Failed."""
     root = ctx.find_root().params
     quiet += root.get("quiet", 0)
@@ -49,6 +52,7 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, verbose,
     try:
         ws = load_worksheet(worksheet, overrides)
         selected = _parse_only(only)
+        report = report or ws.wants_report
         if selected and max(selected) > len(ws.jobs):
             raise UsageError(f"--only {max(selected)}: the worksheet has {len(ws.jobs)} jobs")
     except UsageError as exc:
@@ -75,7 +79,17 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, verbose,
             show(RunReport(st.job.task.key, st.results, []),
                  as_json=bool(getattr(st.job.run.params.values, "json", False)))
 
-    statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status,
-                             command="aldpat run " + " ".join(sys.argv[2:]))
+    command = "aldpat run " + " ".join(sys.argv[2:])
+    statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status, command=command)
+    if report:
+        from aldpat.worksheet.report import write_report
+
+        try:
+            page = write_report(ws, statuses, command=command)
+        except OSError as exc:
+            click.echo(f"aldpat: error: report not written: {exc}", err=True)
+            sys.exit(1)
+        if not quiet:
+            click.echo(f"report: {page}", err=True)
     failed = [s for s in statuses if s.state in (FAILED, BLOCKED)]
     sys.exit(1 if failed else 0)

@@ -22,6 +22,8 @@ from aldpat.jobs.resolve import ResolvedRun, resolve_run
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
 TOP_KEYS = ("settings", "job")
+#: ``[settings]`` keys of the run itself, not of its jobs: ``report = true`` writes the HTML report
+RUN_SETTINGS = ("report",)
 
 
 @dataclass
@@ -65,6 +67,14 @@ class Worksheet:
     @property
     def folder(self) -> Path:
         return self.path.parent
+
+    @property
+    def wants_report(self) -> bool:
+        """``report = true`` in ``[settings]``: every run writes the HTML report."""
+        value = self.settings.get("report", False)
+        if not isinstance(value, bool):
+            raise UsageError(f"settings: report: expected true or false, got {value!r}", path=self.path)
+        return value
 
 
 def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None, str, Any]]:
@@ -187,7 +197,7 @@ def _check_settings(settings: dict, jobs: list[Job], wpath: Path) -> None:
     from aldpat.options import RunParams
     from aldpat.params import specs as param_specs
 
-    known |= {s.name for s in param_specs(RunParams)}
+    known |= {s.name for s in param_specs(RunParams)} | set(RUN_SETTINGS)
     for key in settings:
         if key.replace("-", "_") not in known:
             hint = difflib.get_close_matches(key.replace("-", "_"), sorted(known), n=1)

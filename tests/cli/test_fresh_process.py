@@ -242,6 +242,15 @@ def test_demo_worksheet(tmp_path):
     done = aldpat("run", work / "demo.toml", cwd=tmp_path).ok()
     assert "Failed" not in done.stderr and "Blocked" not in done.stderr
     assert len(list((work / "demo-out" / "grids").glob("*.flt"))) == 6
+    # it ends with a COG DTM of every tile, their mosaic, its hillshade and the run report
+    tiles = sorted((work / "demo-out" / "dtm").glob("tile_*_dtm.tif"))
+    assert len(tiles) == 6
+    with rasterio.open(tiles[0]) as ds:
+        assert ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG" and ds.crs.to_epsg() == 32632
+    assert (work / "demo-out" / "dtm_hillshade.png").exists() and (work / "demo-out" / "samp24_calls.png").exists()
+    page = (work / "demo.html").read_text(encoding="utf-8")
+    assert page.count('<section class="job"') == (work / "demo.toml").read_text().count("[[job]]")
+    assert page.count("data:image/png;base64,") == 2 and page.count("state Done") == page.count("<section")
     assert leftovers(work) == []
 
 
