@@ -10,6 +10,7 @@ column order of the 9-column tapes (task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -132,7 +133,36 @@ class InputParams:
 
 
 @dataclass(frozen=True)
-class RunParams:
+class RunParams(Checked):
     """How the jobs are run (not recorded as task parameters)."""
 
     jobs: int = param(1, "worker processes (0 = all cores); results identical to -j 1", ge=0)
+    scheduler: str | None = param(None, "run the jobs on a Dask cluster: its scheduler's address (tcp://host:8786), "
+                                  "or local:N for N worker processes here; default: $ALDPAT_SCHEDULER, else none "
+                                  "(needs aldpat[dask]; inputs and outputs on a file system the workers share)",
+                                  metavar="ADDRESS")
+
+    def check(self) -> None:
+        super().check()
+        if self.scheduler is not None:
+            check_scheduler(self.scheduler)
+
+
+#: ``local`` or ``local:N`` (a Dask cluster of N workers here), or a Dask scheduler's address
+LOCAL_SCHEDULER = re.compile(r"^local(?::(\d+))?$")
+SCHEDULER_ADDRESS = re.compile(r"^(tcp|tls|ucx|inproc|ws|wss)://\S+$")
+
+
+def check_scheduler(text: str) -> None:
+    """Refuse, before anything runs, a scheduler that is none of ``none``, ``local[:N]`` and an
+    address (the option, a worksheet's setting and ``$ALDPAT_SCHEDULER`` alike)."""
+    if text.lower() in ("none", "off", ""):
+        return
+    m = LOCAL_SCHEDULER.match(text)
+    if m:
+        if m.group(1) is not None and int(m.group(1)) < 1:
+            raise ParamError(f"scheduler: {text!r}: local:N needs N of at least 1")
+        return
+    if not SCHEDULER_ADDRESS.match(text):
+        raise ParamError(f"scheduler: {text!r}: expected a Dask scheduler address such as tcp://host:8786, "
+                         "or local:N for N worker processes on this machine")

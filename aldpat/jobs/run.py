@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aldpat.errors import UsageError
+from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.context import JobResult, Written
 from aldpat.jobs.execute import execute_finish, report_result
 from aldpat.jobs.executors import run_in_processes, run_in_this_process
@@ -72,7 +73,12 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     workers = run.run.values.jobs or (os.cpu_count() or 1)
     workers = max(1, min(workers, len(jobs)))
     results: list[JobResult] = []
-    if workers == 1:
+    scheduler = scheduler_for(run.run.values.scheduler)
+    if scheduler is not None:
+        from aldpat.jobs.cluster import run_on_cluster
+
+        run_on_cluster(task, jobs, run, command, scheduler, results, progress)
+    elif workers == 1:
         run_in_this_process(task, jobs, run, command, results, progress)
     else:
         run_in_processes(task, jobs, run, command, workers, results, progress)

@@ -1,0 +1,148 @@
+"""Where jobs run when they leave this machine: a Dask distributed cluster.
+
+``--scheduler tcp://host:8786`` (or ``[settings] scheduler = ...`` in a worksheet, or the
+environment variable ``ALDPAT_SCHEDULER``) sends every job -- one input, one tile with its
+neighbours -- to the workers of a running Dask scheduler; ``--scheduler local:N`` starts a
+``LocalCluster`` of N single-threaded worker processes on this machine for the run (and keeps it
+for the next jobs of a worksheet). ``dask[distributed]`` is the optional extra ``aldpat[dask]``,
+imported only here.
+
+The workers must see the inputs and outputs under the same paths as this process (a shared file
+system: the usual deployment); each job runs in the folder the command was started from, so
+relative paths mean the same on every worker. Results come back in input order, as with ``-j``,
+so outputs and logs are those of ``-j 1``. A worker lost mid-job: the scheduler gives the job to
+another worker (Dask reschedules the tasks of a lost worker); the lost writer's temporary file is
+removed at the end of the run, and no output is ever half-written (``aldpat.io.atomic``).
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import importlib
+import logging
+import os
+import threading
+import uuid
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aldpat import interrupt
+from aldpat.errors import ParamError, UsageError
+from aldpat.io.atomic import remove_stale_temporaries_in
+from aldpat.jobs.context import JobResult
+from aldpat.jobs.execute import execute, job_names, report_result
+from aldpat.options import LOCAL_SCHEDULER, check_scheduler
+
+if TYPE_CHECKING:
+    from aldpat.jobs.registry import Task
+    from aldpat.jobs.resolve import ResolvedRun
+
+log = logging.getLogger(__name__)
+
+ENV = "ALDPAT_SCHEDULER"
+
+
+def scheduler_for(given: str | None) -> str | None:
+    """The scheduler a run uses: the option's, else ``$ALDPAT_SCHEDULER``; ``none`` means none."""
+    value = given if given is not None else os.environ.get(ENV) or None
+    if value is None or value.lower() in ("none", "off", ""):
+        return None
+    try:
+        check_scheduler(value)
+    except ParamError as exc:
+        raise UsageError(f"{exc} (from ${ENV})" if given is None else str(exc)) from None
+    return value
+
+
+def _distributed() -> Any:
+    try:
+        return importlib.import_module("distributed")
+    except ImportError:
+        raise UsageError("--scheduler needs Dask's distributed scheduler: pip install 'aldpat[dask]'") from None
+
+
+_clients: dict[str, Any] = {}
+_clients_lock = threading.Lock()
+
+
+def client_for(scheduler: str) -> Any:
+    """A client of ``scheduler``, made once per process and closed at exit (a worksheet's jobs
+    share it, and a ``local:N`` cluster is started once)."""
+    with _clients_lock:
+        client = _clients.get(scheduler)
+        if client is not None and client.status == "running":
+            return client
+        distributed = _distributed()
+        m = LOCAL_SCHEDULER.match(scheduler)
+        if m:
+            workers = int(m.group(1) or os.cpu_count() or 1)
+            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                               dashboard_address=":0")
+            client = distributed.Client(cluster)
+        else:
+            try:
+                client = distributed.Client(scheduler, timeout="20s")
+            except OSError as exc:
+                raise UsageError(f"scheduler {scheduler}: cannot connect: {exc}") from None
+        _clients[scheduler] = client
+        log.info("dask scheduler %s: dashboard %s", scheduler, client.dashboard_link)
+        return client
+
+
+@atexit.register
+def _close_clients() -> None:
+    for client in list(_clients.values()):
+        with contextlib.suppress(Exception):
+            cluster = client.cluster
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    _clients.clear()
+
+
+def _execute_in_folder(folder: str, task: Task, sources: list[str], run: ResolvedRun, command: str) -> JobResult:
+    """:func:`execute` on a worker, in the folder the command was started from."""
+    if os.getcwd() != folder:
+        os.chdir(folder)
+    return execute(task, sources, run, command)
+
+
+def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, scheduler: str,
+                   results: list[JobResult], progress) -> None:
+    """Run ``jobs`` on the cluster, collecting results in input order."""
+    client = client_for(scheduler)
+    folder = os.getcwd()
+    tag = uuid.uuid4().hex[:8]
+    futures = [client.submit(_execute_in_folder, folder, task, job, run, command, pure=False,
+                             key=f"aldpat-{task.key.replace(' ', '-')}-{k}-{tag}")
+               for k, job in enumerate(jobs)]
+    try:
+        for job, fut in zip(jobs, futures):
+            def state(done: int = len(results)) -> str:
+                return f"{task.key} on {scheduler} ({done} of {len(jobs)} inputs done)"
+
+            with interrupt.doing(state):
+                try:
+                    results.append(fut.result())
+                except Exception as exc:  # noqa: BLE001  (the unit failed on every worker it was given to)
+                    results.append(JobResult(inputs=job, error=f"{job_names(job)}: cluster worker failed: "
+                                                               f"{type(exc).__name__}: {exc}"))
+            report_result(results[-1], progress)
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(futures)
+        raise
+    finally:
+        _remove_lost_writers_files(results, run)
+
+
+def _remove_lost_writers_files(results: list[JobResult], run: ResolvedRun) -> None:
+    """Temporary files of writers that are gone (a worker killed mid-write) in the output folders."""
+    folders = {Path(w.path).parent for r in results for w in r.outputs}
+    odir = getattr(run.output.values, "odir", None) if run.output is not None else None
+    if odir:
+        folders.add(Path(odir))
+    for folder in folders:
+        with contextlib.suppress(OSError):
+            remove_stale_temporaries_in(folder)

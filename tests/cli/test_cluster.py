@@ -1,0 +1,162 @@
+"""``--scheduler``: jobs on a real Dask cluster give the files ``-j 1`` gives.
+
+A ``LocalCluster`` (``--scheduler local:2``), and a ``dask scheduler`` with two ``dask worker``
+processes on loopback started here, one of them killed while a worksheet runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import filecmp
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.cli.fresh import DATA, aldpat, aldpat_command, leftovers
+
+pytest.importorskip("distributed")  # the test extra installs it; aldpat[dask] for users
+
+
+def outputs(folder: Path) -> list[str]:
+    """The files the jobs wrote (the worksheet, its state and the logs, which hold times and
+    paths, aside)."""
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*")
+                  if p.is_file() and p.suffix != ".log" and not p.name.startswith("project."))
+
+
+def same_files(one: Path, two: Path) -> list[str]:
+    names = outputs(one)
+    assert names == outputs(two)
+    for name in names:
+        assert filecmp.cmp(one / name, two / name, shallow=False), name
+    return names
+
+
+@pytest.fixture(scope="module")
+def parts(tmp_path_factory) -> list[Path]:
+    """Sample 24 in four quarters (real points; dtm reads each quarter's neighbours)."""
+    root = tmp_path_factory.mktemp("cluster")
+    rows = np.loadtxt(DATA / "samp24.txt")
+    xm, ym = (rows[:, :2].min(axis=0) + rows[:, :2].max(axis=0)) / 2
+    paths = []
+    for i, west in enumerate((True, False)):
+        for j, south in enumerate((True, False)):
+            keep = ((rows[:, 0] < xm) == west) & ((rows[:, 1] < ym) == south)
+            paths.append(root / f"q{i}{j}.txt")
+            np.savetxt(paths[-1], rows[keep], fmt=["%.2f", "%.2f", "%.2f", "%d"])
+    return paths
+
+
+@pytest.mark.parametrize("command", [["filter", "gapm", "--result", "classified"],
+                                     ["dtm", "--cell", "2", "--crs", "EPSG:32632"]])
+def test_local_cluster_writes_what_one_process_writes(parts, tmp_path, command):
+    aldpat(*command, *parts, "--odir", tmp_path / "one").ok()
+    done = aldpat(*command, *parts, "--odir", tmp_path / "dask", "--scheduler", "local:2", "-v").ok()
+    assert "dashboard http://" in done.stderr
+    assert len(same_files(tmp_path / "one", tmp_path / "dask")) == 4
+    assert leftovers(tmp_path) == []
+
+
+def test_scheduler_from_the_environment_and_bad_values(parts, tmp_path):
+    aldpat("info", parts[0], env={"ALDPAT_SCHEDULER": "local:1"}).ok()
+    bad = aldpat("info", parts[0], "--scheduler", "host:8786")
+    assert bad.returncode == 2 and "tcp://host:8786" in bad.stderr
+    bad = aldpat("info", parts[0], env={"ALDPAT_SCHEDULER": "local:0"})
+    assert bad.returncode == 2 and "ALDPAT_SCHEDULER" in bad.stderr
+
+
+def test_without_dask_the_command_says_how_to_install_it(parts, tmp_path):
+    shadow = tmp_path / "shadow"
+    shadow.mkdir()
+    (shadow / "distributed.py").write_text("raise ImportError('not installed')\n")  # as if absent
+    done = aldpat("info", parts[0], "--scheduler", "local:2", env={"PYTHONPATH": str(shadow)})
+    assert done.returncode == 2 and "pip install 'aldpat[dask]'" in done.stderr
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _dask(*args: str) -> subprocess.Popen:
+    script = Path(sys.executable).with_name("dask")
+    return subprocess.Popen([str(script), *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)  # its own group: a kill takes the nanny and its worker
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+
+
+@pytest.fixture
+def cluster():
+    """A scheduler and two single-threaded workers on loopback."""
+    from distributed import Client
+
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs = [_dask("scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")]
+    workers = [_dask("worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard") for _ in range(2)]
+    procs += workers
+    try:
+        with Client(address, timeout="30s") as client:
+            client.wait_for_workers(2, timeout=60)
+        yield address, workers
+    finally:
+        for p in procs:
+            _kill(p)
+
+
+def worksheet(folder: Path, inputs: list[Path], scheduler: str | None) -> Path:
+    settings = f'scheduler = "{scheduler}"\n' if scheduler else ""
+    names = ", ".join(f'"{p}"' for p in inputs)
+    path = folder / "project.toml"
+    folder.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"[settings]\noverwrite = true\n{settings}\n"
+                    f'[[job]]\ntask = "filter"\nalgorithm = "gapm"\ninputs = [{names}]\nodir = "ground"\n\n'
+                    f'[[job]]\ntask = "grid"\ninputs = ["ground/*.txt"]\nodir = "grids"\ncell = 2.0\n')
+    return path
+
+
+def test_worksheet_on_a_scheduler_and_two_workers(parts, tmp_path, cluster):
+    address, _ = cluster
+    aldpat("run", worksheet(tmp_path / "one", parts, None)).ok()
+    aldpat("run", worksheet(tmp_path / "dask", parts, address)).ok()
+    assert len(same_files(tmp_path / "one", tmp_path / "dask")) == 8
+
+
+def test_a_worker_killed_mid_run_changes_nothing(tmp_path, cluster):
+    address, workers = cluster
+    # twelve inputs of 300,000 points, about a second of filtering each: the kill lands mid-run
+    rng = np.random.default_rng(5)
+    inputs = []
+    for k in range(12):
+        x, y = rng.uniform(0, 550, 300_000), rng.uniform(0, 550, 300_000)
+        z = 100 + 0.05 * x + np.sin(y / 40) * 3 + rng.normal(0, 0.05, x.size)
+        z[(x % 100 < 20) & (y % 100 < 20)] += 8.0  # buildings
+        inputs.append(tmp_path / f"t{k:02d}.txt")
+        np.savetxt(inputs[-1], np.c_[x + 1000 * k, y, z], fmt="%.2f")
+    aldpat("run", worksheet(tmp_path / "one", inputs, None)).ok()
+    sheet = worksheet(tmp_path / "dask", inputs, address)
+    run = subprocess.Popen([*aldpat_command(), "run", str(sheet)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True)
+    ground = tmp_path / "dask" / "ground"
+    deadline = time.time() + 120
+    while not (ground.exists() and any(ground.glob("*.txt"))) and time.time() < deadline:
+        time.sleep(0.05)
+    assert run.poll() is None, "the run ended before a worker could be killed"
+    _kill(workers[0])
+    _, err = run.communicate(timeout=600)
+    assert run.returncode == 0, err
+    assert len(same_files(tmp_path / "one", tmp_path / "dask")) == 24
+    assert leftovers(tmp_path) == []
