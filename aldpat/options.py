@@ -107,6 +107,30 @@ def kept_names(reader, out) -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
+class ChunkOption(SharedOption, Checked):
+    """Processing one input in square chunks with buffers (lidR's chunk size and chunk buffer):
+    memory bounded by a chunk, chunks in parallel with ``-j``."""
+
+    chunk: float | None = param(None, "process each input in square chunks of this size (rounded to whole cells), "
+                                "each with a buffer, in bounded memory and in parallel with -j; none: whole",
+                                unit="m", gt=0)
+    chunk_buffer: str = param("auto", "buffer around each chunk in metres, or auto: what the filter's windows "
+                              "reach", metavar="M|auto")
+    tmpdir: str | None = param(None, "folder for the chunks' temporary files (default: the output folder)",
+                               path=True, metavar="DIR")
+
+    def check(self) -> None:
+        super().check()
+        if self.chunk_buffer != "auto":
+            try:
+                value = float(self.chunk_buffer)
+            except ValueError:
+                raise ParamError(f"chunk_buffer: expected metres or auto, got {self.chunk_buffer!r}") from None
+            if not value >= 0:
+                raise ParamError(f"chunk_buffer: must be at least 0, got {self.chunk_buffer}")
+
+
+@dataclass(frozen=True)
 class OverwriteOption(SharedOption):
     """Whether existing outputs are replaced: every file-writing task's (:class:`OutputParams`),
     and a reporting task's that writes a picture on request (``evaluate --map``)."""

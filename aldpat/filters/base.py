@@ -31,7 +31,7 @@ import numpy as np
 
 from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError, ParamError
-from aldpat.options import OriginOption
+from aldpat.options import ChunkOption, OriginOption
 from aldpat.params import Checked, SharedOption, param, validate_instance
 
 log = logging.getLogger(__name__)
@@ -72,7 +72,7 @@ class FilterOutputOption(SharedOption):
 
 
 @dataclass(frozen=True)
-class GroundParams(FilterOutputOption, OriginOption, Checked):
+class GroundParams(FilterOutputOption, ChunkOption, OriginOption, Checked):
     """Parameters every grid filter shares; each filter's params class subclasses it."""
 
     cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
@@ -125,7 +125,7 @@ class GroundParams(FilterOutputOption, OriginOption, Checked):
 
 
 @dataclass(frozen=True)
-class PointFilterParams(FilterOutputOption, Checked):
+class PointFilterParams(FilterOutputOption, ChunkOption, Checked):
     """Parameters every point filter shares (``slope``, ``ipf``, ``poly2``, ``atin``): filters that
     test points against their neighbours or a fitted surface rather than a mark matrix.
 
@@ -167,6 +167,10 @@ class FilterSpec:
     #: ``noise(result, z, params)``: per point -1 low noise, +1 high noise, 0 neither, for a
     #: filter that finds noise rather than ground (``outlier``); ``None``: it finds none.
     noise: Callable[..., np.ndarray] | None = None
+    #: ``reach(params) -> cells``: how far from a cell the cells its mark depends on may lie
+    #: (the windows of the morphological steps, each opening reaching twice its half window);
+    #: ``--chunk-buffer auto`` is this many cells. ``None``: the filter does not know (point filters).
+    reach: Callable[[Any], int] | None = None
 
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
@@ -175,7 +179,7 @@ FILTERS: dict[str, FilterSpec] = {}
 
 def register_filter(name: str, *, params: type, summary: str,
                     rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False,
-                    noise: Callable[..., np.ndarray] | None = None):
+                    noise: Callable[..., np.ndarray] | None = None, reach: Callable[[Any], int] | None = None):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
@@ -186,7 +190,7 @@ def register_filter(name: str, *, params: type, summary: str,
         if name in FILTERS and FILTERS[name].fn is not fn:
             raise ValueError(f"filter {name!r} is registered twice")
         FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
-                                   on_points=on_points, noise=noise)
+                                   on_points=on_points, noise=noise, reach=reach)
         return fn
 
     return deco
@@ -407,6 +411,13 @@ def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin) 
         grid.lowest[only] = -1
         grid.__dict__.pop("empty", None)  # recomputed from ``lowest``
     return grid
+
+
+def low_outlier_reach(params) -> int:
+    """Cells the low-outlier test looks across: its window, once each round."""
+    if getattr(params, "low_outliers", None) is None:
+        return 0
+    return params.low_outlier_window * LOW_OUTLIER_ROUNDS
 
 
 def low_outliers(x, y, z, params) -> tuple[np.ndarray | None, LowestGrid]:

@@ -21,7 +21,7 @@ import numpy as np
 
 from aldpat.core.clusters import make_clusters, recover_runs
 from aldpat.core.progressive import Recovery, progressive_opening
-from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
 from aldpat.filters.gapm import check_series
 from aldpat.params import param
 
@@ -128,7 +128,12 @@ def _cluster_recovery(cluster_threshold: float, gap_threshold: float | None, rec
     return recover
 
 
-@register_filter("cluster-pm", params=ClusterPmParams,
+def cluster_pm_reach(p: ClusterPmParams) -> int:
+    """The progressive openings; the cluster recovery along a row may reach farther."""
+    return sum(2 * k for k in p.window_series) + low_outlier_reach(p)
+
+
+@register_filter("cluster-pm", params=ClusterPmParams, reach=cluster_pm_reach,
                  summary="cluster-based progressive morphological filter (dissertation ch. 5)")
 def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams) -> np.ndarray:
     """Mark matrix of ``MorphClusterFilter`` (dissertation ch. 5 §5.2.2)."""

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
-from aldpat.filters.base import MARK_GROUND, GroundParams, register_filter
+from aldpat.filters.base import MARK_GROUND, GroundParams, low_outlier_reach, register_filter
 from aldpat.options import ElevationLimitsOption
 from aldpat.params import param
 
@@ -44,7 +44,12 @@ class ETEWParams(ElevationLimitsOption, GroundParams):
                             manual="Loop Times")
 
 
-@register_filter("etew", params=ETEWParams,
+def etew_reach(p: ETEWParams) -> int:
+    """Every iteration erodes the original surface: the largest window is the reach."""
+    return 2 ** (p.loop_times - 1) + low_outlier_reach(p)
+
+
+@register_filter("etew", params=ETEWParams, reach=etew_reach,
                  summary="elevation threshold with expanding window (manual appendix; Zhang and Whitman 2005)")
 def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams) -> np.ndarray:
     """Expanding-window elevation threshold (manual appendix ETEW, eqs. 1-3)."""

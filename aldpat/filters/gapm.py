@@ -29,7 +29,7 @@ import numpy as np
 from aldpat.core import morphology
 from aldpat.core.trend import candidate_thresholds
 from aldpat.errors import ParamError
-from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
 from aldpat.params import default_of, param
 
 log = logging.getLogger(__name__)
@@ -266,7 +266,15 @@ def run_directions(z: np.ndarray, row_fn, column_fn) -> np.ndarray:
     return combine_directions(done.get("row"), done.get("column"))
 
 
-@register_filter("gapm", params=GapmParams,
+def gapm_reach(p: GapmParams) -> int:
+    """The progressive 2-D openings, then the row and column passes on their result; the
+    raised-segment and surface tests after them are not bounded (a segment may be any size)."""
+    rows = sum(2 * k for k in (p.row_windows or ()))
+    columns = sum(2 * k for k in (p.column_windows or ()))
+    return sum(2 * k for k in p.window_series) + max(rows, columns) + low_outlier_reach(p)
+
+
+@register_filter("gapm", params=GapmParams, reach=gapm_reach,
                  summary="generalized adaptive morphological filter with cluster and trend analysis "
                          "(dissertation ch. 6)")
 def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:

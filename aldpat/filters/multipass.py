@@ -31,7 +31,7 @@ import numpy as np
 from aldpat.core.lowest_grid import fill_nearest
 from aldpat.core.priority_fill import priority_fill
 from aldpat.errors import ParamError
-from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
 from aldpat.filters.cluster_pm import AXES, OLD_DIRECTIONS, progressive_marks
 from aldpat.filters.gapm import check_series
 from aldpat.params import param
@@ -78,7 +78,14 @@ class MultipassParams(GroundParams):
             )
 
 
-@register_filter("multipass", params=MultipassParams,
+def multipass_reach(p: MultipassParams) -> int:
+    """Both passes' openings; the priority interpolation between them may reach farther."""
+    first = sum(2 * k for k in p.window_series)
+    second = sum(2 * k for k in p.second_window_series) * p.passes
+    return first + second + low_outlier_reach(p)
+
+
+@register_filter("multipass", params=MultipassParams, reach=multipass_reach,
                  summary="multi-pass morphological filter with priority boundary interpolation "
                          "(dissertation ch. 4)")
 def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams) -> np.ndarray:

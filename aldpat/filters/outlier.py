@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
-from aldpat.filters.base import FilterResult, GroundParams, register_filter
+from aldpat.filters.base import FilterResult, GroundParams, low_outlier_reach, register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
@@ -77,7 +77,12 @@ def outlier_noise(result: FilterResult, z: np.ndarray, params: OutlierParams) ->
     return kind
 
 
-@register_filter("outlier", params=OutlierParams, noise=outlier_noise,
+def outlier_reach(p: OutlierParams) -> int:
+    """A closing, then an opening of the lifted surface: four half windows."""
+    return 4 * p.window + low_outlier_reach(p)
+
+
+@register_filter("outlier", params=OutlierParams, noise=outlier_noise, reach=outlier_reach,
                  summary="morphological removal of isolated high and low points (dissertation §4.1)")
 def outlier(z: np.ndarray, empty: np.ndarray, params: OutlierParams) -> np.ndarray:
     """Mark matrix of the outlier filter (dissertation §4.1.1)."""

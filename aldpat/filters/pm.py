@@ -29,7 +29,7 @@ import numpy as np
 
 from aldpat.core.progressive import progressive_opening
 from aldpat.errors import ParamError
-from aldpat.filters.base import GroundParams, register_filter
+from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
@@ -125,7 +125,13 @@ def rotation_angles(p: PMParams) -> tuple[float, ...]:
 _PASSES = {"x": (("line", 1),), "y": (("line", 0),), "xy": (("line", 1), ("line", 0))}
 
 
-@register_filter("pm", params=PMParams, rotations=rotation_angles,
+def progressive_reach(p: ProgressiveParams) -> int:
+    """Cells a progressive filter's marks depend on: each opening works on the last one's
+    surface and reaches twice its half window (Zhang et al. 2003, eq. 2)."""
+    return sum(2 * k for k in window_series(p)) + low_outlier_reach(p)
+
+
+@register_filter("pm", params=PMParams, rotations=rotation_angles, reach=progressive_reach,
                  summary="progressive morphological filter, line windows along x, y or both "
                          "(manual appendix and task 8; Zhang and others 2003)")
 def pm(z: np.ndarray, empty: np.ndarray, params: PMParams) -> np.ndarray:

@@ -17,6 +17,7 @@ from aldpat.core.progressive import progressive_opening
 from aldpat.filters.base import register_filter
 from aldpat.filters.pm import (
     ProgressiveParams,
+    progressive_reach,
     threshold_series,
     window_series,
 )
@@ -27,7 +28,7 @@ class PM2DParams(ProgressiveParams):
     pass
 
 
-@register_filter("pm2d", params=PM2DParams,
+@register_filter("pm2d", params=PM2DParams, reach=progressive_reach,
                  summary="progressive morphological filter, square windows (manual task 8, Morph 2D Filter)")
 def pm2d(z: np.ndarray, empty: np.ndarray, params: PM2DParams) -> np.ndarray:
     """Progressive morphology with square windows (manual task 8; appendix PM)."""

@@ -17,6 +17,7 @@ from aldpat.core.progressive import progressive_opening
 from aldpat.filters.base import register_filter
 from aldpat.filters.pm import (
     ProgressiveParams,
+    progressive_reach,
     threshold_series,
     window_series,
 )
@@ -27,7 +28,7 @@ class PMCircleParams(ProgressiveParams):
     pass
 
 
-@register_filter("pmcircle", params=PMCircleParams,
+@register_filter("pmcircle", params=PMCircleParams, reach=progressive_reach,
                  summary="progressive morphological filter, circular windows (manual task 8, Morph Circle Filter)")
 def pmcircle(z: np.ndarray, empty: np.ndarray, params: PMCircleParams) -> np.ndarray:
     """Progressive morphology with disk windows (manual task 8; appendix PM)."""

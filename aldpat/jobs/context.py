@@ -69,6 +69,8 @@ class JobContext:
         self.result = result
         #: inputs a planned job reads besides its own (:attr:`Task.plan`): neighbouring tiles
         self.neighbours: list[Path] = []
+        #: processes the job may use for its chunks (``--chunk``)
+        self.workers = 1
 
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,

@@ -49,6 +49,7 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
              body: Callable[[JobContext], None]) -> JobResult:
     result = JobResult(inputs=list(sources))
     ctx = JobContext(task, run.output.values if run.output else None, run.input.values, result)
+    ctx.workers = run.chunk_workers
     start = time.perf_counter()
     try:
         with interrupt.doing(f"running: {job_names(sources)}"):

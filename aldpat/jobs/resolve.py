@@ -21,6 +21,9 @@ class ResolvedRun:
     output: Resolved | None
     input: Resolved
     run: Resolved
+    #: processes a job may use for its chunks (``--chunk``): the ``-j`` workers when the run is
+    #: one job, else 1 (the jobs already use them)
+    chunk_workers: int = 1
 
     def record(self) -> list[tuple[str, str, str]]:
         rows = self.params.record()

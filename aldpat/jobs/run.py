@@ -3,6 +3,7 @@ one for all), hand them to an executor, and report what happened (exit status 0,
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from collections.abc import Mapping, Sequence
@@ -71,6 +72,8 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
         return RunReport(task.key, [], input_errors)
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
     workers = run.run.values.jobs or (os.cpu_count() or 1)
+    if len(jobs) == 1 and workers > 1:
+        run = dataclasses.replace(run, chunk_workers=workers)  # one big input: its chunks use the cores
     workers = max(1, min(workers, len(jobs)))
     results: list[JobResult] = []
     scheduler = scheduler_for(run.run.values.scheduler)

@@ -15,12 +15,18 @@ writes ALDPAT's one point per cell: the cell's lowest point moved to the cell ce
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import logging
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, ground_filter
+from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, LOW_NOISE, UNCLASSIFIED, high_noise_class
 from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
@@ -76,50 +82,118 @@ def _output_point_format(reader, ctx: JobContext, source: Path) -> int | None:
     return new_point_format(reader.names)
 
 
+def _output_names(reader, params) -> tuple[str, ...]:
+    """The columns of the outputs: the input's, then ``mark`` and the class where asked."""
+    names = tuple(reader.names)
+    if params.marks:
+        names += ("mark",)
+    if params.result == "classified" and not (reader.format == "las" and "classification" in names):
+        names += ("classification",) if reader.format == "las" else ("class",)
+    return names
+
+
+def _with_classes(rows: PointTable, reader, params, marks: np.ndarray, cls: np.ndarray | None) -> PointTable:
+    extra: dict[str, np.ndarray] = {}
+    if params.marks:
+        extra["mark"] = marks.astype(np.int32)
+    if cls is not None:
+        extra["classification" if reader.format == "las" else "class"] = cls
+    return rows.with_columns(**extra) if extra else rows
+
+
+def _outputs(source: Path, params, ctx: JobContext, reader, algorithm: str) -> list[tuple[Path, str]]:
+    """(path, which points) of every output: ``all``, ``ground`` or ``object``."""
+    terrain_path = ctx.output_path(source, f"_{algorithm}", reader=reader)
+    nonterrain_path = terrain_path.with_name(terrain_path.stem + "_nt" + terrain_path.suffix)
+    if params.result == "classified":
+        return [(terrain_path, "all")]
+    outputs = []
+    if params.result in ("terrain", "both"):
+        outputs.append((terrain_path, "ground"))
+    if params.result in ("nonterrain", "both"):
+        outputs.append((nonterrain_path, "object"))
+    return outputs
+
+
+def _part(rows: PointTable, which: str, ground: np.ndarray) -> PointTable:
+    return rows if which == "all" else rows.take(ground if which == "ground" else ~ground)
+
+
 def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
+    if params.chunk is not None:
+        filter_chunked(source, params, ctx, algorithm=algorithm)
+        return
     reader = ctx.open_input(source)
     table = reader.read()
     params = apply_auto(params, table.x, table.y, table.z, ctx)
     res = ground_filter(table.x, table.y, table.z, algorithm, params)
     rows, origin_rows, ground, marks = _output_table(table, res, params)
-    names = tuple(reader.names)
-    extra: dict[str, np.ndarray] = {}
-    if params.marks:
-        extra["mark"] = marks.astype(np.int32)
-        names += ("mark",)
+    cls = None
     if params.result == "classified":
         point_format = _output_point_format(reader, ctx, source)
         cls = point_classes(res, table.z, params, algorithm, point_format)[origin_rows]
-        if reader.format == "las":
-            extra["classification"] = cls
-            if "classification" not in names:
-                names += ("classification",)
-        else:
-            extra["class"] = cls
-            names += ("class",)
-    if extra:
-        rows = rows.with_columns(**extra)
-
-    terrain_path = ctx.output_path(source, f"_{algorithm}", reader=reader)
-    nonterrain_path = terrain_path.with_name(terrain_path.stem + "_nt" + terrain_path.suffix)
+    rows = _with_classes(rows, reader, params, marks, cls)
+    names = _output_names(reader, params)
     n_ground = int(ground.sum())
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
-    writes: list[tuple[Path, np.ndarray | slice]]
-    if params.result == "classified":
-        writes = [(terrain_path, slice(None))]
-    else:
-        writes = []
-        if params.result in ("terrain", "both"):
-            writes.append((terrain_path, ground))
-        if params.result in ("nonterrain", "both"):
-            writes.append((nonterrain_path, ~ground))
-    for path, which in writes:
-        part = rows if isinstance(which, slice) else rows.take(which)
+    for path, which in _outputs(source, params, ctx, reader, algorithm):
         with ctx.write_points(path, names, like=reader) as writer:
-            writer.write(part)
+            writer.write(_part(rows, which, ground))
         ctx.wrote(path, writer.count)
     log.info("%s: %d of %d points ground (%s)", source, n_ground, len(ground), algorithm)
+
+
+def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
+    """``--chunk``: the input spilled into chunks with buffers, each filtered on its own (in
+    ``-j`` processes when this is the run's one input), the outputs written in the input's
+    order with every attribute, as a whole-file run writes them (:mod:`aldpat.filters.chunked`)."""
+    from aldpat.filters.chunked import chunk_plan, filter_chunks
+
+    if params.data_mode == "center":
+        raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")
+    if getattr(params, "auto", False):
+        raise UsageError("--chunk with --auto: --auto derives its windows from all the points; derive them once "
+                         "(aldpat filter gapm --auto on the file writes them to its log) and pass them")
+    reader = ctx.open_input(source)
+    plan = chunk_plan(algorithm, params, params.chunk, params.chunk_buffer)
+    point_format = _output_point_format(reader, ctx, source)
+    classes_of = functools.partial(point_classes, algorithm=algorithm, las_point_format=point_format)
+    outputs = _outputs(source, params, ctx, reader, algorithm)
+    for path, _ in outputs:  # refuse an existing output before the long part, not after it
+        check_writable(path, overwrite=ctx.overwrite)
+    place = Path(params.tmpdir) if params.tmpdir else outputs[0][0].parent
+    place.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
+    try:
+        marks, classes, n, chunks = filter_chunks(reader.chunks(), algorithm, params, plan, scratch,
+                                                  classes_of=classes_of, workers=ctx.workers)
+        ctx.note(f"--chunk: {chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
+                 f"{plan.lattice.buffer:g} m buffers, on {ctx.workers} process(es)")
+        names = _output_names(reader, params)
+        n_ground = 0
+        with contextlib.ExitStack() as stack:
+            writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
+                       for path, which in outputs]
+            start = 0
+            for table in reader.chunks():
+                stop = start + len(table)
+                cls = np.asarray(classes[start:stop])
+                ground = cls == GROUND
+                n_ground += int(ground.sum())
+                rows = _with_classes(table, reader, params, np.asarray(marks[start:stop]),
+                                     cls if params.result == "classified" else None)
+                for writer, _, which in writers:
+                    writer.write(_part(rows, which, ground))
+                start = stop
+        for writer, path, _ in writers:
+            ctx.wrote(path, writer.count)
+        del marks, classes
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    if n_ground == 0:
+        ctx.warn(f"{source}: no point was classified as ground")
+    log.info("%s: %d of %d points ground (%s, in chunks)", source, n_ground, n, algorithm)
 
 
 def _register_all() -> None:

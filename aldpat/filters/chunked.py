@@ -1,0 +1,114 @@
+"""Filtering a file chunk by chunk, each chunk with a buffer, in bounded memory and in parallel.
+
+The input is spilled once into square chunks with buffers (:mod:`aldpat.io.chunks`); each chunk
+is filtered with its buffer on its own -- in ``workers`` processes -- and only its own points'
+classes are kept: the buffer gives the filter the surroundings a whole-file run would have seen,
+then is dropped. The classes go into two files indexed by the points' rows in the input (marks as
+int32, ASPRS classes as uint8: 5 bytes a point, on disk, not in memory), which the writer reads
+back in input order.
+
+Chunks lie on whole multiples of the cell from the filter's origin, so a chunk's cells are the
+whole file's cells. With a buffer of twice the filter's reach (:attr:`FilterSpec.reach`: the
+cells its marks depend on; twice, because an empty cell within that reach takes the height of
+its nearest point, which lies within twice the reach), the filters whose marks depend only on the cells within their windows
+-- ``etew``, ``pm``, ``pm2d``, ``pmcircle`` without rotation -- give exactly the whole file's
+classes. The others have steps that are not bounded (gapm's raised segments and surface test,
+cluster-pm's recovery along a row, multipass's interpolation, the point filters' searches), so
+their agreement with a whole-file run is measured (``bench/bench_chunks.py``), not promised.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aldpat.errors import UsageError
+from aldpat.filters.base import get_filter, ground_filter
+from aldpat.io.chunks import ChunkLattice, SpilledChunks, spill_chunks
+from aldpat.io.table import PointTable
+
+
+@dataclass(frozen=True)
+class ChunkPlan:
+    lattice: ChunkLattice
+    cells: int  # chunk side in cells
+    buffer_cells: int
+
+
+def chunk_plan(algorithm: str, params: Any, size: float, buffer: float | str) -> ChunkPlan:
+    """Chunks of ``size`` m (rounded to whole cells) with a buffer of ``buffer`` m (rounded up to
+    whole cells), or with ``"auto"`` the filter's reach."""
+    cell = float(getattr(params, "cell", None) or 1.0)  # point filters' chunks: on whole metres
+    cells = max(1, round(size / cell))
+    if buffer == "auto":
+        reach = get_filter(algorithm).reach
+        if reach is None:
+            raise UsageError(f"--chunk-buffer auto: {algorithm} has no bounded reach; give the buffer in metres")
+        # empty cells are filled from their nearest point: for a cell within the reach of a point
+        # that point lies within twice the reach, so twice the reach sees every value used
+        buffer_cells = 2 * int(reach(params)) + 1
+    else:
+        buffer_cells = math.ceil(float(buffer) / cell - 1e-9)
+    origin = getattr(params, "origin", None) or (0.0, 0.0)
+    return ChunkPlan(ChunkLattice(cells * cell, buffer_cells * cell, origin), cells, buffer_cells)
+
+
+def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, plan: ChunkPlan, scratch: Path, *,
+                  classes_of, workers: int = 1) -> tuple[np.memmap, np.memmap, int, int]:
+    """Filter the points of ``tables`` (one input, in row order) chunk by chunk.
+
+    ``classes_of(result, z, params) -> uint8`` gives each point's ASPRS class. Returns the marks
+    and classes of every row (memory-mapped files in ``scratch``), the number of points and the
+    number of chunks.
+    """
+    # every chunk's grid on the file's lattice: a grid aligned to the data's own minimum would
+    # shift with each chunk's extent
+    if hasattr(params, "origin"):
+        params = replace(params, origin=plan.lattice.origin)
+    with spill_chunks(tables, plan.lattice, tmpdir=scratch) as spilled:
+        n = spilled.points
+        marks = np.lib.format.open_memmap(scratch / "marks.npy", mode="w+", dtype=np.int32, shape=(max(n, 1),))
+        classes = np.lib.format.open_memmap(scratch / "classes.npy", mode="w+", dtype=np.uint8, shape=(max(n, 1),))
+        jobs = [(spilled, col, row, algorithm, params, classes_of) for col, row in spilled.chunks]
+        for rows, m, c in _run(jobs, workers):
+            marks[rows] = m
+            classes[rows] = c
+        marks.flush()
+        classes.flush()
+        return marks, classes, n, len(spilled.chunks)
+
+
+def _run(jobs: list, workers: int):
+    if workers <= 1 or len(jobs) <= 1:
+        for job in jobs:
+            yield _filter_one_chunk(*job)
+        return
+    import multiprocessing
+
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        futures = [pool.submit(_filter_one_chunk, *job) for job in jobs]
+        try:
+            for fut in futures:
+                yield fut.result()
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
+
+
+def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows, marks and classes of the points of chunk (col, row), filtered with its buffer."""
+    points = spilled.read(col, row)
+    x, y, z = points["x"], points["y"], points["z"]
+    own_col, own_row = spilled.lattice.index(x, y)
+    own = (own_col == col) & (own_row == row)
+    res = ground_filter(x, y, z, algorithm, params)
+    cls = classes_of(res, z, params)
+    return points["row"][own], res.point_marks[own], cls[own]

@@ -1,0 +1,119 @@
+"""Cutting a point file into square chunks with buffers, in one streaming pass, so that each
+chunk can be read back alone (as lidR's LAScatalog chunk size + chunk buffer, or ``pdal tile``).
+
+Chunks lie on a lattice of ``size`` from ``origin``; a chunk's *buffered* extent is its square
+grown by ``buffer`` on every side. The pass reads the input once, chunk of rows by chunk of rows,
+and appends every point to the spill file of each chunk whose buffered extent holds it (its own
+chunk, and its neighbours' when it lies in their buffer), as records of its row number in the
+input and x, y, z. The spill files of one chunk therefore hold its points in input order. Peak
+memory is one read chunk; the spill files take 32 bytes a point (times the buffer's share) in a
+temporary folder, removed by the caller's ``with``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import shutil
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: one spilled point: its row in the input, and its coordinates
+RECORD = np.dtype([("row", "<i8"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8")])
+
+
+@dataclass(frozen=True)
+class ChunkLattice:
+    size: float
+    buffer: float
+    origin: tuple[float, float] = (0.0, 0.0)
+
+    def index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Column and row of the chunk each point belongs to."""
+        ox, oy = self.origin
+        return (np.floor((x - ox) / self.size).astype(np.int64), np.floor((y - oy) / self.size).astype(np.int64))
+
+    def bounds(self, col: int, row: int) -> tuple[float, float, float, float]:
+        """The chunk's own square: minx, miny, maxx, maxy."""
+        ox, oy = self.origin
+        return (ox + col * self.size, oy + row * self.size, ox + (col + 1) * self.size, oy + (row + 1) * self.size)
+
+
+@dataclass
+class SpilledChunks:
+    """The chunks a pass found, with their spill files, and the input's point count."""
+
+    lattice: ChunkLattice
+    folder: Path
+    points: int
+    chunks: list[tuple[int, int]]
+
+    def path(self, col: int, row: int) -> Path:
+        return self.folder / f"chunk_{col}_{row}.bin"
+
+    def read(self, col: int, row: int) -> np.ndarray:
+        """The chunk's points with its buffer, in input order (a :data:`RECORD` array)."""
+        return np.fromfile(self.path(col, row), dtype=RECORD)
+
+
+@contextlib.contextmanager
+def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = None) -> Iterator[SpilledChunks]:
+    """Spill the point tables ``tables`` (an input's chunks of rows, in order) by chunk; the
+    folder is removed when the block ends, however it ends."""
+    folder = Path(tempfile.mkdtemp(prefix="aldpat-chunks-", dir=tmpdir))
+    try:
+        seen: set[tuple[int, int]] = set()
+        owned: set[tuple[int, int]] = set()
+        start = 0
+        reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
+        for table in tables:
+            n = len(table)
+            if n == 0:
+                continue
+            records = np.empty(n, RECORD)
+            records["row"] = np.arange(start, start + n)
+            records["x"], records["y"], records["z"] = table.x, table.y, table.z
+            col, row = lattice.index(records["x"], records["y"])
+            owned.update(zip(col.tolist(), row.tolist()))
+            for dc in range(-reach, reach + 1):
+                for dr in range(-reach, reach + 1):
+                    take = _in_buffer(records, col + dc, row + dr, lattice) if (dc or dr) else slice(None)
+                    part = records[take]
+                    if not len(part):
+                        continue
+                    _append_by_chunk(folder, part, (col + dc)[take], (row + dr)[take], seen)
+            start += n
+        # a chunk that holds only buffer points has nothing of its own to classify
+        chunks = sorted(owned, key=lambda cr: (cr[1], cr[0]))
+        yield SpilledChunks(lattice, folder, start, chunks)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _in_buffer(records: np.ndarray, col: np.ndarray, row: np.ndarray, lattice: ChunkLattice) -> np.ndarray:
+    """Which points lie in the buffered extent of chunk (col, row) of each point."""
+    ox, oy = lattice.origin
+    b = lattice.buffer
+    x0 = ox + col * lattice.size
+    y0 = oy + row * lattice.size
+    return ((records["x"] >= x0 - b) & (records["x"] < x0 + lattice.size + b)
+            & (records["y"] >= y0 - b) & (records["y"] < y0 + lattice.size + b))
+
+
+def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.ndarray,
+                     seen: set[tuple[int, int]]) -> None:
+    """Append each point of ``part`` to the spill file of its chunk, keeping input order."""
+    key = np.stack([col, row], axis=1)
+    order = np.lexsort((np.arange(len(part)), row, col))  # by chunk, input order within each
+    key = key[order]
+    part = part[order]
+    cuts = np.flatnonzero(np.any(np.diff(key, axis=0) != 0, axis=1)) + 1
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(part)]):
+        c, r = int(key[a, 0]), int(key[a, 1])
+        with open(folder / f"chunk_{c}_{r}.bin", "ab") as fh:
+            part[a:b].tofile(fh)
+        seen.add((c, r))
