@@ -118,9 +118,13 @@ class ChunkOption(SharedOption, Checked):
                               "reach", metavar="M|auto")
     tmpdir: str | None = param(None, "folder for the chunks' temporary files (default: the output folder)",
                                path=True, metavar="DIR")
+    catalog: bool = param(False, "with --chunk: take all inputs as one catalog (tiles without buffers of their "
+                          "own), so each chunk's buffer reaches into the neighbouring files; one output per input")
 
     def check(self) -> None:
         super().check()
+        if self.catalog and self.chunk is None:
+            raise ParamError("catalog: takes the inputs together in chunks; give --chunk SIZE too")
         if self.chunk_buffer != "auto":
             try:
                 value = float(self.chunk_buffer)

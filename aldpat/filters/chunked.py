@@ -20,6 +20,7 @@ their agreement with a whole-file run is measured (``bench/bench_chunks.py``), n
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
@@ -84,7 +85,28 @@ def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, pla
         return marks, classes, n, len(spilled.chunks)
 
 
+def on_cluster() -> bool:
+    """True inside a job running on a Dask worker (``--scheduler``): its chunks go to the cluster."""
+    distributed = sys.modules.get("distributed")  # never imported here: a worker has it already
+    if distributed is None:
+        return False
+    try:
+        distributed.get_worker()
+    except ValueError:
+        return False
+    return True
+
+
 def _run(jobs: list, workers: int):
+    if on_cluster():
+        # every chunk a unit of the cluster; the job waits for them without holding its thread
+        from distributed import worker_client
+
+        with worker_client() as client:
+            futures = [client.submit(_filter_one_chunk, *job, pure=False) for job in jobs]
+            for fut in futures:
+                yield fut.result()
+        return
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             yield _filter_one_chunk(*job)

@@ -27,7 +27,7 @@ import numpy as np
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.io.atomic import check_writable
-from aldpat.io.classified import GROUND, LOW_NOISE, UNCLASSIFIED, high_noise_class
+from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, high_noise_class
 from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
@@ -145,55 +145,88 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
 
 
 def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
-    """``--chunk``: the input spilled into chunks with buffers, each filtered on its own (in
-    ``-j`` processes when this is the run's one input), the outputs written in the input's
-    order with every attribute, as a whole-file run writes them (:mod:`aldpat.filters.chunked`)."""
-    from aldpat.filters.chunked import chunk_plan, filter_chunks
+    """``--chunk``: the input (with ``--catalog``, every input of the run, as one) spilled into
+    chunks with buffers, each filtered on its own (in ``-j`` processes when this is the run's one
+    job), and each input's outputs written in its order with every attribute, as a whole-file run
+    writes them (:mod:`aldpat.filters.chunked`)."""
+    from aldpat.filters.chunked import chunk_plan, filter_chunks, on_cluster
 
     if params.data_mode == "center":
         raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")
     if getattr(params, "auto", False):
         raise UsageError("--chunk with --auto: --auto derives its windows from all the points; derive them once "
                          "(aldpat filter gapm --auto on the file writes them to its log) and pass them")
-    reader = ctx.open_input(source)
+    sources = [source, *ctx.neighbours]  # the catalog's other inputs (--catalog), else none
+    readers = [ctx.open_input(s) for s in sources]
     plan = chunk_plan(algorithm, params, params.chunk, params.chunk_buffer)
-    point_format = _output_point_format(reader, ctx, source)
-    classes_of = functools.partial(point_classes, algorithm=algorithm, las_point_format=point_format)
-    outputs = _outputs(source, params, ctx, reader, algorithm)
-    for path, _ in outputs:  # refuse an existing output before the long part, not after it
+    outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers)]
+    for path, _ in (o for outs in outputs for o in outs):  # refuse an existing output before the long part
         check_writable(path, overwrite=ctx.overwrite)
-    place = Path(params.tmpdir) if params.tmpdir else outputs[0][0].parent
+    place = Path(params.tmpdir) if params.tmpdir else outputs[0][0][0].parent
     place.mkdir(parents=True, exist_ok=True)
     scratch = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
-    try:
-        marks, classes, n, chunks = filter_chunks(reader.chunks(), algorithm, params, plan, scratch,
-                                                  classes_of=classes_of, workers=ctx.workers)
-        ctx.note(f"--chunk: {chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
-                 f"{plan.lattice.buffer:g} m buffers, on {ctx.workers} process(es)")
-        names = _output_names(reader, params)
-        n_ground = 0
-        with contextlib.ExitStack() as stack:
-            writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
-                       for path, which in outputs]
-            start = 0
+    counts: list[int] = []
+
+    def every_table():
+        for reader in readers:
+            counts.append(0)
             for table in reader.chunks():
-                stop = start + len(table)
-                cls = np.asarray(classes[start:stop])
-                ground = cls == GROUND
-                n_ground += int(ground.sum())
-                rows = _with_classes(table, reader, params, np.asarray(marks[start:stop]),
-                                     cls if params.result == "classified" else None)
-                for writer, _, which in writers:
-                    writer.write(_part(rows, which, ground))
-                start = stop
-        for writer, path, _ in writers:
-            ctx.wrote(path, writer.count)
+                counts[-1] += len(table)
+                yield table
+
+    # noise classes as text and LAS 1.4 have them (18 high noise); formats 0-5 get 7 when written
+    classes_of = functools.partial(point_classes, algorithm=algorithm, las_point_format=None)
+    try:
+        marks, classes, n, chunks = filter_chunks(every_table(), algorithm, params, plan, scratch,
+                                                  classes_of=classes_of, workers=ctx.workers)
+        where = "the Dask cluster" if on_cluster() else f"{ctx.workers} process(es)"
+        ctx.note(f"--chunk: {chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
+                 f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {n} points, on {where}")
+        offset = 0
+        for src, reader, outs, count in zip(sources, readers, outputs, counts):
+            _write_from_classes(src, reader, outs, params, ctx, marks, classes, offset)
+            offset += count
         del marks, classes
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], params, ctx: JobContext,
+                        marks: np.ndarray, classes: np.ndarray, offset: int) -> None:
+    """One input's outputs, streamed from the input again with the classes of its rows."""
+    names = _output_names(reader, params)
+    point_format = _output_point_format(reader, ctx, source)
+    high_noise = high_noise_class(point_format)
+    n_ground = n = 0
+    with contextlib.ExitStack() as stack:
+        writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
+                   for path, which in outputs]
+        start = offset
+        for table in reader.chunks():
+            stop = start + len(table)
+            cls = np.array(classes[start:stop])
+            if high_noise != HIGH_NOISE:
+                cls[cls == HIGH_NOISE] = high_noise
+            ground = cls == GROUND
+            n_ground += int(ground.sum())
+            n += len(table)
+            rows = _with_classes(table, reader, params, np.asarray(marks[start:stop]),
+                                 cls if params.result == "classified" else None)
+            for writer, _, which in writers:
+                writer.write(_part(rows, which, ground))
+            start = stop
+    for writer, path, _ in writers:
+        ctx.wrote(path, writer.count)
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
-    log.info("%s: %d of %d points ground (%s, in chunks)", source, n_ground, n, algorithm)
+    log.info("%s: %d of %d points ground (in chunks)", source, n_ground, n)
+
+
+def plan_catalog(sources: list[Path], params, _input) -> list[list[str]]:
+    """``--catalog``: one job for all inputs (the chunks cross the files); else one per input."""
+    if params.chunk is not None and params.catalog:
+        return [[str(s) for s in sources]]
+    return [[str(s)] for s in sources]
 
 
 def _register_all() -> None:
@@ -202,7 +235,7 @@ def _register_all() -> None:
             filter_one(source, params, ctx, algorithm=_name)
 
         register_task(Task(name=name, group="filter", summary=spec.summary, params=spec.params,
-                           run_one=run))
+                           run_one=run, plan=plan_catalog))
 
 
 _register_all()

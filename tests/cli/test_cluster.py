@@ -160,3 +160,14 @@ def test_a_worker_killed_mid_run_changes_nothing(tmp_path, cluster):
     assert run.returncode == 0, err
     assert len(same_files(tmp_path / "one", tmp_path / "dask")) == 24
     assert leftovers(tmp_path) == []
+
+
+def test_chunks_of_one_file_are_units_of_the_cluster(tmp_path):
+    sample = DATA / "samp24.txt"
+    small = ["--window-series", "1,2,4,8", "--result", "classified"]
+    aldpat("filter", "pm", sample, *small, "--odir", tmp_path / "one").ok()
+    aldpat("filter", "pm", sample, *small, "--chunk", "20", "--scheduler", "local:2", "--odir", tmp_path / "dask").ok()
+    assert filecmp.cmp(tmp_path / "one" / "samp24_pm.txt", tmp_path / "dask" / "samp24_pm.txt", shallow=False)
+    assert "28 chunks of 20 m" in (tmp_path / "dask" / "samp24_pm.log").read_text()
+    assert "on the Dask cluster" in (tmp_path / "dask" / "samp24_pm.log").read_text()
+    assert not list(tmp_path.rglob(".aldpat-scratch-*")) and leftovers(tmp_path) == []

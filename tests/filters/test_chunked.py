@@ -109,3 +109,30 @@ def test_spill_puts_each_point_in_its_chunk_and_in_the_buffers_around_it(tmp_pat
         assert spilled.read(2, 2)["row"].tolist() == [3]
         folder = spilled.folder
     assert not folder.exists()
+
+
+def test_a_catalog_of_tiles_gives_the_whole_files_classes(tmp_path):
+    """Tiles without buffers of their own, taken together: each tile's output holds the whole
+    file's classes of its points, which the tiles filtered one by one do not."""
+    rows = np.loadtxt(SAMPLE)
+    xm, ym = (rows[:, :2].min(axis=0) + rows[:, :2].max(axis=0)) / 2
+    tiles = []
+    for i, west in enumerate((True, False)):
+        for j, south in enumerate((True, False)):
+            keep = ((rows[:, 0] < xm) == west) & ((rows[:, 1] < ym) == south)
+            tiles.append((tmp_path / f"t{i}{j}.txt", keep))
+            np.savetxt(tiles[-1][0], rows[keep], fmt=["%.2f", "%.2f", "%.2f", "%d"])
+    run("pm", SAMPLE, tmp_path / "whole", **SMALL["pm"])
+    whole = np.loadtxt(tmp_path / "whole" / "samp24_pm.txt")
+    report = get_task("filter", "pm")([p for p, _ in tiles], odir=str(tmp_path / "catalog"), result="classified",
+                                      marks=True, chunk=20.0, catalog=True, **SMALL["pm"])
+    assert report.exit_code == 0 and len(report.results) == 1  # one job for the catalog
+    alone = get_task("filter", "pm")([p for p, _ in tiles], odir=str(tmp_path / "alone"), result="classified",
+                                     marks=True, **SMALL["pm"])
+    assert alone.exit_code == 0
+    differ = 0
+    for path, keep in tiles:
+        got = np.loadtxt(tmp_path / "catalog" / f"{path.stem}_pm.txt")
+        np.testing.assert_array_equal(got, whole[keep])
+        differ += int((np.loadtxt(tmp_path / "alone" / f"{path.stem}_pm.txt")[:, -2] != whole[keep][:, -2]).sum())
+    assert differ > 10  # tiles filtered alone go wrong at their edges
