@@ -20,9 +20,7 @@ their agreement with a whole-file run is measured (``bench/bench_chunks.py``), n
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Iterable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -31,7 +29,7 @@ import numpy as np
 
 from aldpat.errors import UsageError
 from aldpat.filters.base import get_filter, ground_filter
-from aldpat.io.chunks import ChunkLattice, SpilledChunks, spill_chunks
+from aldpat.io.chunks import ChunkLattice, SpilledChunks, map_chunks, spill_chunks
 from aldpat.io.table import PointTable
 
 
@@ -77,51 +75,12 @@ def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, pla
         marks = np.lib.format.open_memmap(scratch / "marks.npy", mode="w+", dtype=np.int32, shape=(max(n, 1),))
         classes = np.lib.format.open_memmap(scratch / "classes.npy", mode="w+", dtype=np.uint8, shape=(max(n, 1),))
         jobs = [(spilled, col, row, algorithm, params, classes_of) for col, row in spilled.chunks]
-        for rows, m, c in _run(jobs, workers):
+        for rows, m, c in map_chunks(_filter_one_chunk, jobs, workers):
             marks[rows] = m
             classes[rows] = c
         marks.flush()
         classes.flush()
         return marks, classes, n, len(spilled.chunks)
-
-
-def on_cluster() -> bool:
-    """True inside a job running on a Dask worker (``--scheduler``): its chunks go to the cluster."""
-    distributed = sys.modules.get("distributed")  # never imported here: a worker has it already
-    if distributed is None:
-        return False
-    try:
-        distributed.get_worker()
-    except ValueError:
-        return False
-    return True
-
-
-def _run(jobs: list, workers: int):
-    if on_cluster():
-        # every chunk a unit of the cluster; the job waits for them without holding its thread
-        from distributed import worker_client
-
-        with worker_client() as client:
-            futures = [client.submit(_filter_one_chunk, *job, pure=False) for job in jobs]
-            for fut in futures:
-                yield fut.result()
-        return
-    if workers <= 1 or len(jobs) <= 1:
-        for job in jobs:
-            yield _filter_one_chunk(*job)
-        return
-    import multiprocessing
-
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        futures = [pool.submit(_filter_one_chunk, *job) for job in jobs]
-        try:
-            for fut in futures:
-                yield fut.result()
-        except BaseException:
-            for fut in futures:
-                fut.cancel()
-            raise
 
 
 def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of

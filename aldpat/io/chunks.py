@@ -8,6 +8,9 @@ chunk, and its neighbours' when it lies in their buffer), as records of its row 
 input and x, y, z. The spill files of one chunk therefore hold its points in input order. Peak
 memory is one read chunk; the spill files take 32 bytes a point (times the buffer's share) in a
 temporary folder, removed by the caller's ``with``.
+
+:func:`map_chunks` then runs the work of each chunk here, in worker processes, or on the Dask
+cluster the job itself runs on.
 """
 
 from __future__ import annotations
@@ -15,8 +18,10 @@ from __future__ import annotations
 import contextlib
 import math
 import shutil
+import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -56,8 +61,10 @@ class SpilledChunks:
         return self.folder / f"chunk_{col}_{row}.bin"
 
     def read(self, col: int, row: int) -> np.ndarray:
-        """The chunk's points with its buffer, in input order (a :data:`RECORD` array)."""
-        return np.fromfile(self.path(col, row), dtype=RECORD)
+        """The chunk's points with its buffer, in input order (a :data:`RECORD` array); none for
+        a chunk no point reached."""
+        path = self.path(col, row)
+        return np.fromfile(path, dtype=RECORD) if path.exists() else np.zeros(0, RECORD)
 
 
 @contextlib.contextmanager
@@ -117,3 +124,44 @@ def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.nd
         with open(folder / f"chunk_{c}_{r}.bin", "ab") as fh:
             part[a:b].tofile(fh)
         seen.add((c, r))
+
+
+def on_cluster() -> bool:
+    """True inside a job running on a Dask worker (``--scheduler``): its chunks go to the cluster."""
+    distributed = sys.modules.get("distributed")  # never imported here: a worker has it already
+    if distributed is None:
+        return False
+    try:
+        distributed.get_worker()
+    except ValueError:
+        return False
+    return True
+
+
+def map_chunks(fn: Callable, jobs: list[tuple], workers: int = 1) -> Iterator:
+    """``fn(*job)`` for each job, in order: here, in ``workers`` processes, or -- inside a job
+    running on a Dask worker -- each a unit of the cluster."""
+    if on_cluster():
+        # every chunk a unit of the cluster; the job waits for them without holding its thread
+        from distributed import worker_client
+
+        with worker_client() as client:
+            futures = [client.submit(fn, *job, pure=False) for job in jobs]
+            for fut in futures:
+                yield fut.result()
+        return
+    if workers <= 1 or len(jobs) <= 1:
+        for job in jobs:
+            yield fn(*job)
+        return
+    import multiprocessing
+
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        futures = [pool.submit(fn, *job) for job in jobs]
+        try:
+            for fut in futures:
+                yield fut.result()
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise

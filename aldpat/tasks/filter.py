@@ -149,7 +149,8 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     chunks with buffers, each filtered on its own (in ``-j`` processes when this is the run's one
     job), and each input's outputs written in its order with every attribute, as a whole-file run
     writes them (:mod:`aldpat.filters.chunked`)."""
-    from aldpat.filters.chunked import chunk_plan, filter_chunks, on_cluster
+    from aldpat.filters.chunked import chunk_plan, filter_chunks
+    from aldpat.io.chunks import on_cluster
 
     if params.data_mode == "center":
         raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")

@@ -11,6 +11,8 @@ extents: :mod:`aldpat.core.grid_extent`; files: :mod:`aldpat.io.surfer`.
 from __future__ import annotations
 
 import logging
+import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +27,8 @@ from aldpat.core.grid_extent import (
 from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
+from aldpat.io.bounds import point_bounds
+from aldpat.io.chunks import ChunkLattice, map_chunks, spill_chunks
 from aldpat.io.geotiff import DEFAULT_NODATA, geotiff_header, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.surfer import BLANK as SURFER_BLANK
@@ -34,14 +38,14 @@ from aldpat.io.tile_parameters import tile_row_for
 from aldpat.io.vrt import TileGrid, write_mosaic
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import CrsOption, OriginOption
+from aldpat.options import ChunkOption, CrsOption, OriginOption
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class GridParams(OriginOption, CrsOption):
+class GridParams(OriginOption, CrsOption, ChunkOption):
     cell: float = param(1.0, "grid cell size: spacing of the nodes", unit="m", gt=0)
     method: str = param("linear", "interpolation: nearest point, Delaunay TIN, inverse distance, ordinary "
                         "kriging, or the min/max/mean of the points in each node's cell", choices=METHODS)
@@ -125,13 +129,19 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     out = ctx.output_path(source, "", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
     spec = grid_spec_for(source, params, ctx)
-    if spec is not None and params.method in BINNING:
+    if params.chunk is not None and params.method not in BINNING:
+        if spec is None:
+            b = point_bounds(source, format=ctx.input.format if ctx.input is not None else None)
+            spec = from_data(np.array([b.minx, b.maxx]), np.array([b.miny, b.maxy]), params.cell,
+                             origin=params.origin or (0.0, 0.0))
+        values, count = grid_chunked(reader, spec, params, ctx, out.parent)
+    elif spec is not None and params.method in BINNING:
         binner = Binner(spec, params.method)  # streams: memory is the grid's, not the points'
         count = 0
         for chunk in reader.chunks():
             binner.add(chunk.x, chunk.y, chunk.z)
             count += len(chunk)
-        values = binner.result()
+        values = binner.result()  # binning streams already: --chunk changes nothing
     else:
         xs, ys, zs = [], [], []
         for chunk in reader.chunks():
@@ -163,6 +173,67 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if blank:
         ctx.warn(f"{out.name}: {blank} of {values.size} nodes are blank (no data near them)")
     ctx.wrote(out)
+
+
+def chunk_buffer_for(params: GridParams) -> float:
+    """``--chunk-buffer auto`` of a grid: the search radius or blanking distance where one is
+    given, else ten cells (a TIN, nearest point or IDW over data spaced less than that apart)."""
+    if params.chunk_buffer != "auto":
+        return float(params.chunk_buffer)
+    return max(params.radius or 0.0, params.max_distance or 0.0, 10.0 * params.cell)
+
+
+def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path
+                 ) -> tuple[np.ndarray, int]:
+    """``--chunk``: the nodes in squares of ``chunk`` (whole cells), each interpolated from the
+    points of its square and its buffer only (:mod:`aldpat.io.chunks`); memory is a chunk's points
+    and the grid. Returns the grid and the number of points."""
+    assert params.chunk is not None  # grid_one calls this only with --chunk
+    k = max(1, round(params.chunk / params.cell))
+    buffer = chunk_buffer_for(params)
+    # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1
+    lattice = ChunkLattice(k * params.cell, buffer, (spec.xmin - params.cell / 2, spec.ymin - params.cell / 2))
+    values = np.full(spec.shape, np.nan)
+    place = Path(params.tmpdir) if params.tmpdir else place
+    place.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
+    options = {"method": params.method, "power": params.power, "radius": params.radius,
+               "max_points": params.max_points, "max_distance": params.max_distance,
+               "variogram": params.variogram, "nugget": params.nugget, "drift": params.drift}
+    try:
+        with spill_chunks(reader.chunks(), lattice, tmpdir=scratch) as spilled:
+            jobs = []
+            for r in range(0, spec.ny, k):
+                for c in range(0, spec.nx, k):
+                    sub = GridSpec(spec.xmin + c * params.cell, spec.ymin + r * params.cell, params.cell,
+                                   params.cell, min(k, spec.nx - c), min(k, spec.ny - r))
+                    jobs.append((spilled, c // k, r // k, sub, options))
+            for (_, c, r, sub, _), part in zip(jobs, map_chunks(_grid_one_chunk, jobs, ctx.workers)):
+                values[r * k: r * k + sub.ny, c * k: c * k + sub.nx] = part
+            count = spilled.points
+        ctx.note(f"--chunk: {len(jobs)} chunks of {k * params.cell:g} m ({k} nodes a side) with {buffer:g} m "
+                 f"buffers, {count} points")
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    if count == 0:
+        raise DataError("no points to grid", path=reader.path)
+    return values, count
+
+
+def _grid_one_chunk(spilled, col: int, row: int, sub: GridSpec, options: dict) -> np.ndarray:
+    """The nodes of one chunk from its points and buffer (blank where too few points reach it)."""
+    points = spilled.read(col, row)
+    if len(points) == 0:
+        return np.full(sub.shape, np.nan)
+    x, y, z = points["x"], points["y"], points["z"]
+    if options["method"] in SURFACE_METHODS:
+        try:
+            check_spread(x, y, options["method"], Path(spilled.folder))
+        except DataError:
+            return np.full(sub.shape, np.nan)  # a chunk whose few points make no triangle
+    opts = dict(options)
+    method = opts.pop("method")
+    return interpolate(x, y, z, sub, method=method, **opts)
 
 
 def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -> None:

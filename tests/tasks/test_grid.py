@@ -200,3 +200,22 @@ def test_a_mosaic_opens_the_tile_grids_as_one_raster(tmp_path, samp24, grid_form
 
     shade = np.asarray(Image.open(tmp_path / "g" / "dtm_hillshade.png"))
     assert shade.shape == (81, 121, 4) and np.array_equal(shade[..., 3] == 255, covered)
+
+
+@pytest.mark.parametrize("method", ["linear", "nearest", "idw", "kriging"])
+def test_chunked_grid_agrees_with_the_whole(tmp_path, method):
+    """``--chunk 20``: 24 squares of nodes, each from its points and a 10 m buffer (the default
+    for these methods), written into one grid with the whole run's nodes."""
+    sample = Path(__file__).resolve().parents[2] / "jobs" / "data" / "samp24.txt"
+    for odir, options in (("whole", {}), ("chunks", {"chunk": 20.0, "jobs": 2})):
+        report = get_task("grid")([sample], cell=1.0, method=method, odir=str(tmp_path / odir), **options)
+        assert report.exit_code == 0, [r.error for r in report.results]
+    with rasterio.open(tmp_path / "whole" / "samp24.grd") as a, rasterio.open(tmp_path / "chunks" / "samp24.grd") as b:
+        assert (a.bounds, a.shape) == (b.bounds, b.shape)
+        whole, chunks = (ds.read(1, masked=True).filled(np.nan) for ds in (a, b))
+    same = np.isclose(whole, chunks, atol=1e-3) | (np.isnan(whole) & np.isnan(chunks))
+    # measured: idw and kriging 100 %, linear and nearest 99.95 % (5 nodes at the data's edge,
+    # whose nearest points lie farther than the buffer)
+    assert same.mean() >= 0.999
+    assert "chunks of 20 m" in (tmp_path / "chunks" / "samp24.log").read_text()
+    assert not list(tmp_path.rglob(".aldpat-scratch-*"))
