@@ -6,10 +6,16 @@ chunks of ``--chunk`` m with the automatic buffer (point filters, which have non
 share of points whose class agrees is reported per filter (the lowest over the files, and over
 all points).
 
-``python bench/bench_chunks.py memory --points 20 [--chunk 500]`` -- tiled copies of FSite5 as one
-LAS of about N million points (built once under ``bench/_work/``), filtered with ``gapm`` whole
-and with ``--chunk`` (-j 1 and -j 2), each in a fresh process: wall time, points per second and
-peak memory (with -j 2, the parent's; each chunk process holds one chunk with its buffer).
+``python bench/bench_chunks.py memory --points 100 --chunk 2000 [--whole]`` -- tiled copies of
+FSite5 as one LAZ of about N million points (built once under ``bench/_work/``), filtered with
+``gapm --chunk`` with ``-j 1``, ``-j 2`` and ``--scheduler local:2`` (and whole with ``--whole``),
+each in a fresh process: wall time, points per second, peak memory of the process (with -j 2
+and the cluster, the parent's; each chunk process holds one chunk with its buffer), and the sum
+of the chunks' own filtering times from the log.
+
+``python bench/bench_chunks.py tiles --tiles 16`` -- 16 LAS tiles of about 1 M points (copies of
+ISPRS samp12, urban, 1 point/m2, side by side) through a worksheet (gapm, then a 1 m TIN grid)
+with ``-j 1``, ``-j 2`` and ``--scheduler local:2``: wall time of each run.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import measure, mib
-from bench_filters import build_sites
+from bench_filters import build_isprs, build_sites
 from data_paths import FSITE5, ISPRS_SAMPLES
 
 SAMPLES = ("samp12", "samp21", "samp24", "samp42", "samp51", "samp53", "samp61")
@@ -68,21 +74,74 @@ def run_agree(chunk: float) -> None:
             print(f"| {algorithm} | {buffer} | {worst[0]:.4%} ({worst[1]}) | {same / total:.4%} | |")
 
 
-def run_memory(millions: float, chunk: float) -> None:
-    las = build_sites(int(millions * 1e6))
+def build_laz(millions: float) -> Path:
+    """FSite5 copies as one LAZ of about ``millions`` M points (made once from the LAS copies)."""
     import laspy
 
-    n = laspy.open(las).header.point_count
-    print(f"{las.name}: {n:,} points; aldpat filter gapm --result classified")
-    for label, options in (("whole", {}), (f"--chunk {chunk:g} -j 1", {"chunk": chunk, "jobs": 1}),
-                           (f"--chunk {chunk:g} -j 2", {"chunk": chunk, "jobs": 2})):
-        with tempfile.TemporaryDirectory(dir=las.parent) as out:
-            code = ("from aldpat.tasks import get_task\n"
-                    f"r = get_task('filter', 'gapm')([{str(las)!r}], odir={out!r}, result='classified', **{options!r})\n"
+    las = build_sites(int(millions * 1e6))
+    laz = las.with_suffix(".laz")
+    if not laz.exists():
+        tmp = laz.with_suffix(".part.laz")
+        with laspy.open(las) as src, laspy.open(tmp, mode="w", header=src.header, do_compress=True) as dst:
+            for points in src.chunk_iterator(2_000_000):
+                dst.write_points(points)
+        tmp.rename(laz)
+    return laz
+
+
+def run_memory(millions: float, chunk: float, whole: bool) -> None:
+    import laspy
+
+    laz = build_laz(millions)
+    n = laspy.open(laz).header.point_count
+    print(f"{laz.name}: {n:,} points; aldpat filter gapm --result classified, LAZ out")
+    runs = [(f"--chunk {chunk:g} -j 1", {"chunk": chunk, "jobs": 1}),
+            (f"--chunk {chunk:g} -j 2", {"chunk": chunk, "jobs": 2}),
+            (f"--chunk {chunk:g} --scheduler local:2", {"chunk": chunk, "scheduler": "local:2"})]
+    if whole:
+        runs.insert(0, ("whole", {}))
+    for label, options in runs:
+        with tempfile.TemporaryDirectory(dir=laz.parent) as out:
+            code = ("import re, time\n"
+                    "from aldpat.tasks import get_task\n"
+                    f"r = get_task('filter', 'gapm')([{str(laz)!r}], odir={out!r}, result='classified', **{options!r})\n"
                     "assert r.exit_code == 0, [x.error for x in r.results]\n"
+                    "result = {'notes': r.results[0].notes}\n")
+            m = measure(code)
+        print(f"  {label}: {m['seconds']:.1f} s, {n / m['seconds'] / 1e6:.2f} M points/s, peak {mib(m['peak_bytes'])}"
+              + (f"  [{m['notes'][0]}]" if m["notes"] else ""))
+
+
+def run_tiles(count: int) -> None:
+    import laspy
+
+    one = build_isprs(1_000_000, "samp12")
+    folder = one.parent / f"samp12_tiles_{count}"
+    if not folder.exists():
+        tmp = folder.with_suffix(".part")
+        tmp.mkdir(parents=True, exist_ok=True)
+        src = laspy.read(one)
+        width = float(np.ceil(src.header.maxs[0] - src.header.mins[0] + 1.0))
+        for k in range(count):
+            part = laspy.LasData(src.header)
+            part.points = src.points.copy()
+            part.x = np.asarray(src.x) + k * width
+            part.write(tmp / f"tile_{k:02d}.las")
+        tmp.rename(folder)
+    n = sum(laspy.open(p).header.point_count for p in folder.glob("*.las"))
+    print(f"{count} tiles, {n:,} points: worksheet of gapm then a 1 m TIN grid")
+    for label, setting in (("-j 1", "jobs = 1"), ("-j 2", "jobs = 2"), ("--scheduler local:2", 'scheduler = "local:2"')):
+        with tempfile.TemporaryDirectory(dir=folder.parent) as out:
+            sheet = Path(out) / "tiles.toml"
+            sheet.write_text(f"[settings]\n{setting}\n\n[[job]]\ntask = \"filter\"\nalgorithm = \"gapm\"\n"
+                             f"inputs = [\"{folder}/*.las\"]\nodir = \"ground\"\n\n[[job]]\ntask = \"grid\"\n"
+                             f"inputs = [\"ground/*.las\"]\nodir = \"grids\"\ncell = 1.0\n")
+            code = ("import subprocess, sys\n"
+                    f"p = subprocess.run([sys.executable, '-m', 'aldpat', 'run', {str(sheet)!r}, '-q'], capture_output=True, text=True)\n"
+                    "assert p.returncode == 0, p.stderr\n"
                     "result = {}\n")
             m = measure(code)
-        print(f"  {label}: {m['seconds']:.1f} s, {n / m['seconds'] / 1e6:.2f} M points/s, peak {mib(m['peak_bytes'])}")
+        print(f"  {label}: {m['seconds']:.1f} s, {n / m['seconds'] / 1e6:.2f} M points/s")
 
 
 def main() -> None:
@@ -90,14 +149,19 @@ def main() -> None:
     sub = ap.add_subparsers(dest="command", required=True)
     a = sub.add_parser("agree", help="chunked vs whole classes on the ISPRS samples and FSite5")
     a.add_argument("--chunk", type=float, default=100.0)
-    m = sub.add_parser("memory", help="gapm on a big LAS, whole and in chunks")
-    m.add_argument("--points", type=float, default=20.0, help="millions of points")
-    m.add_argument("--chunk", type=float, default=500.0)
+    m = sub.add_parser("memory", help="gapm on a big LAZ in chunks")
+    m.add_argument("--points", type=float, default=100.0, help="millions of points")
+    m.add_argument("--chunk", type=float, default=2000.0)
+    m.add_argument("--whole", action="store_true", help="also the whole file at once (memory grows with it)")
+    t = sub.add_parser("tiles", help="a worksheet over tiles with -j 1, -j 2 and a local Dask cluster")
+    t.add_argument("--tiles", type=int, default=16)
     args = ap.parse_args()
     if args.command == "agree":
         run_agree(args.chunk)
+    elif args.command == "memory":
+        run_memory(args.points, args.chunk, args.whole)
     else:
-        run_memory(args.points, args.chunk)
+        run_tiles(args.tiles)
 
 
 if __name__ == "__main__":

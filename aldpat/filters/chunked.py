@@ -20,6 +20,7 @@ their agreement with a whole-file run is measured (``bench/bench_chunks.py``), n
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -59,12 +60,11 @@ def chunk_plan(algorithm: str, params: Any, size: float, buffer: float | str) ->
 
 
 def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, plan: ChunkPlan, scratch: Path, *,
-                  classes_of, workers: int = 1) -> tuple[np.memmap, np.memmap, int, int]:
+                  classes_of, workers: int = 1) -> ChunkRun:
     """Filter the points of ``tables`` (one input, in row order) chunk by chunk.
 
     ``classes_of(result, z, params) -> uint8`` gives each point's ASPRS class. Returns the marks
-    and classes of every row (memory-mapped files in ``scratch``), the number of points and the
-    number of chunks.
+    and classes of every row (memory-mapped files in ``scratch``) and what the run did.
     """
     # every chunk's grid on the file's lattice: a grid aligned to the data's own minimum would
     # shift with each chunk's extent
@@ -75,21 +75,34 @@ def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, pla
         marks = np.lib.format.open_memmap(scratch / "marks.npy", mode="w+", dtype=np.int32, shape=(max(n, 1),))
         classes = np.lib.format.open_memmap(scratch / "classes.npy", mode="w+", dtype=np.uint8, shape=(max(n, 1),))
         jobs = [(spilled, col, row, algorithm, params, classes_of) for col, row in spilled.chunks]
-        for rows, m, c in map_chunks(_filter_one_chunk, jobs, workers):
+        seconds = 0.0
+        for rows, m, c, t in map_chunks(_filter_one_chunk, jobs, workers):
             marks[rows] = m
             classes[rows] = c
+            seconds += t
         marks.flush()
         classes.flush()
-        return marks, classes, n, len(spilled.chunks)
+        return ChunkRun(marks, classes, n, len(spilled.chunks), seconds)
+
+
+@dataclass
+class ChunkRun:
+    marks: np.ndarray  # int32 per input row (memory-mapped)
+    classes: np.ndarray  # uint8 per input row (memory-mapped)
+    points: int
+    chunks: int
+    seconds: float  # the chunks' own filtering time, summed over them
 
 
 def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The rows, marks and classes of the points of chunk (col, row), filtered with its buffer."""
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The rows, marks and classes of the points of chunk (col, row), filtered with its buffer,
+    and the seconds it took."""
+    start = time.perf_counter()
     points = spilled.read(col, row)
     x, y, z = points["x"], points["y"], points["z"]
     own_col, own_row = spilled.lattice.index(x, y)
     own = (own_col == col) & (own_row == row)
     res = ground_filter(x, y, z, algorithm, params)
     cls = classes_of(res, z, params)
-    return points["row"][own], res.point_marks[own], cls[own]
+    return points["row"][own], res.point_marks[own], cls[own], time.perf_counter() - start

@@ -178,16 +178,17 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     # noise classes as text and LAS 1.4 have them (18 high noise); formats 0-5 get 7 when written
     classes_of = functools.partial(point_classes, algorithm=algorithm, las_point_format=None)
     try:
-        marks, classes, n, chunks = filter_chunks(every_table(), algorithm, params, plan, scratch,
-                                                  classes_of=classes_of, workers=ctx.workers)
+        done = filter_chunks(every_table(), algorithm, params, plan, scratch, classes_of=classes_of,
+                             workers=ctx.workers)
         where = "the Dask cluster" if on_cluster() else f"{ctx.workers} process(es)"
-        ctx.note(f"--chunk: {chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
-                 f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {n} points, on {where}")
+        ctx.note(f"--chunk: {done.chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
+                 f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {done.points} points, on "
+                 f"{where}; the chunks' own filtering {done.seconds:.1f} s")
         offset = 0
         for src, reader, outs, count in zip(sources, readers, outputs, counts):
-            _write_from_classes(src, reader, outs, params, ctx, marks, classes, offset)
+            _write_from_classes(src, reader, outs, params, ctx, done.marks, done.classes, offset)
             offset += count
-        del marks, classes
+        del done
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
