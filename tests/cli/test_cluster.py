@@ -131,8 +131,11 @@ def worksheet(folder: Path, inputs: list[Path], scheduler: str | None) -> Path:
 def test_worksheet_on_a_scheduler_and_two_workers(parts, tmp_path, cluster):
     address, _ = cluster
     aldpat("run", worksheet(tmp_path / "one", parts, None)).ok()
-    aldpat("run", worksheet(tmp_path / "dask", parts, address)).ok()
+    sheet = worksheet(tmp_path / "dask", parts, address)
+    aldpat("run", sheet).ok()
     assert len(same_files(tmp_path / "one", tmp_path / "dask")) == 8
+    again = aldpat("run", sheet, "--resume").ok()  # resume is the runner's: the same on a cluster
+    assert again.stderr.count("Skipped") == 2
 
 
 def test_a_worker_killed_mid_run_changes_nothing(tmp_path, cluster):
