@@ -1,7 +1,7 @@
 """``aldpat filter --chunk``: agreement with whole-file runs, and memory on a big file.
 
-``python bench/bench_chunks.py agree [--chunk 100]`` -- reads the seven ISPRS samples and the
-raw ISPRS site FSite5 (``bench/data_paths.py``). Every filter runs on each file whole and in
+``python bench/bench_chunks.py agree [--chunk 100]`` -- reads the seven ISPRS samples
+(``bench/data_paths.py``) and the FSite5 strip in ``tests/data/``. Every filter runs on each file whole and in
 chunks of ``--chunk`` m with the automatic buffer (point filters, which have none: 40 m); the
 share of points whose class agrees is reported per filter (the lowest over the files, and over
 all points).
@@ -30,7 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import measure, mib
 from bench_filters import build_isprs, build_sites
-from data_paths import FSITE5, ISPRS_SAMPLES
+from data_paths import ISPRS_SAMPLES
 
 SAMPLES = ("samp12", "samp21", "samp24", "samp42", "samp51", "samp53", "samp61")
 
@@ -57,7 +57,7 @@ def run_agree(chunk: float) -> None:
             rows = np.loadtxt(ISPRS_SAMPLES / f"{name}.txt")
             np.savetxt(root / f"{name}.txt", rows[:, :3], fmt="%.2f")
             files.append(root / f"{name}.txt")
-        files.append(FSITE5)
+        files.append(Path(__file__).resolve().parents[1] / "tests" / "data" / "fsite5_strip.laz")
         print(f"| filter | buffer | lowest agreement (file) | all points | chunks {chunk:g} m |")
         print("|---|---|---|---|---|")
         for algorithm in sorted(FILTERS):
