@@ -121,12 +121,11 @@ def run_tiles(count: int) -> None:
     if not folder.exists():
         tmp = folder.with_suffix(".part")
         tmp.mkdir(parents=True, exist_ok=True)
-        src = laspy.read(one)
-        width = float(np.ceil(src.header.maxs[0] - src.header.mins[0] + 1.0))
+        header = laspy.open(one).header
+        width = float(np.ceil(header.maxs[0] - header.mins[0] + 1.0))
         for k in range(count):
-            part = laspy.LasData(src.header)
-            part.points = src.points.copy()
-            part.x = np.asarray(src.x) + k * width
+            part = laspy.read(one)
+            part.x = np.asarray(part.x) + k * width
             part.write(tmp / f"tile_{k:02d}.las")
         tmp.rename(folder)
     n = sum(laspy.open(p).header.point_count for p in folder.glob("*.las"))

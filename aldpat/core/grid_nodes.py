@@ -3,11 +3,10 @@ of whole rows, and the number of worker threads."""
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from aldpat.core.grid_extent import GridSpec
+from aldpat.core.threads import thread_budget
 from aldpat.errors import DataError
 
 #: nodes queried at once by the KD-tree methods (bounds the neighbour arrays)
@@ -15,8 +14,8 @@ NODE_BLOCK = 262_144
 
 
 def worker_count(workers: int | None) -> int:
-    """Threads to use: all cores unless a number is given."""
-    return max(1, os.cpu_count() or 1) if not workers else int(workers)
+    """Threads to use: the process's budget (:mod:`aldpat.core.threads`) unless a number is given."""
+    return thread_budget() if not workers else int(workers)
 
 
 def grid_points(x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.threads import thread_budget
 from aldpat.core.trend import candidate_thresholds
 from aldpat.errors import ParamError
 from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
@@ -198,7 +199,7 @@ def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, ax
     return removed, zo
 
 
-def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int = 2) -> np.ndarray:
+def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = None) -> np.ndarray:
     """``AdaptiveMorphFilter`` as printed (§6.2.4 lines 2-21): at every window of the series the
     rows (if the window is a row window) and then the columns (if a column window) are opened,
     each on the surface the previous pass left, marking into one mark matrix.
@@ -233,7 +234,7 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int = 2) -> np
         zc[:, a:b] = zo.T
         np.copyto(m, k, where=removed.T)
 
-    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+    with ThreadPoolExecutor(max_workers=max(1, workers or thread_budget())) as pool:
         for k in p.window_series:
             ct = lookup[k]
             for block, use, lines, step in ((row_block, rows, nr, BLOCK_ROWS),
@@ -257,7 +258,7 @@ def combine_directions(row_marks: np.ndarray | None, column_marks: np.ndarray | 
 def run_directions(z: np.ndarray, row_fn, column_fn) -> np.ndarray:
     """Filter rows and columns independently (two threads: numpy and scipy release the GIL)."""
     jobs = []
-    with ThreadPoolExecutor(max_workers=2) as pool:
+    with ThreadPoolExecutor(max_workers=min(2, thread_budget())) as pool:
         if row_fn is not None:
             jobs.append(("row", pool.submit(row_fn, z)))
         if column_fn is not None:

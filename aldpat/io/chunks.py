@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.threads import set_budget, share_for
+
 #: one spilled point: its row in the input, and its coordinates
 RECORD = np.dtype([("row", "<i8"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8")])
 
@@ -156,7 +158,8 @@ def map_chunks(fn: Callable, jobs: list[tuple], workers: int = 1) -> Iterator:
         return
     import multiprocessing
 
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
+                             initializer=set_budget, initargs=(share_for(workers),)) as pool:
         futures = [pool.submit(fn, *job) for job in jobs]
         try:
             for fut in futures:

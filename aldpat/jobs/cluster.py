@@ -28,6 +28,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aldpat import interrupt
+from aldpat.core.threads import ENV as THREADS_ENV
+from aldpat.core.threads import share_for
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
@@ -77,8 +79,17 @@ def client_for(scheduler: str) -> Any:
         m = LOCAL_SCHEDULER.match(scheduler)
         if m:
             workers = int(m.group(1) or os.cpu_count() or 1)
-            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                               dashboard_address=":0")
+            # the worker processes inherit the environment: each takes its part of the cores
+            before = os.environ.get(THREADS_ENV)
+            os.environ[THREADS_ENV] = str(share_for(workers))
+            try:
+                cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                   dashboard_address=":0")
+            finally:
+                if before is None:
+                    os.environ.pop(THREADS_ENV, None)
+                else:
+                    os.environ[THREADS_ENV] = before
             client = distributed.Client(cluster)
         else:
             try:

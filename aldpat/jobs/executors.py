@@ -14,6 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import TYPE_CHECKING
 
 from aldpat import interrupt
+from aldpat.core.threads import set_budget, share_for
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import execute, job_names, report_result
 
@@ -42,6 +43,11 @@ def _execute_in_worker(task: Task, sources: list[str], run: ResolvedRun, command
         os._exit(128 + exc.signum)
 
 
+def _start_worker(threads: int) -> None:
+    interrupt.install_in_worker()
+    set_budget(threads)  # the workers share the cores: each takes its part of them
+
+
 def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, workers: int,
                  results: list[JobResult], progress) -> None:
     """Run ``jobs`` in ``workers`` processes, collecting results in input order.
@@ -52,7 +58,8 @@ def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, comman
     import multiprocessing
 
     ctx = multiprocessing.get_context("spawn" if sys.platform == "darwin" else "fork")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=interrupt.install_in_worker)
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_start_worker,
+                               initargs=(share_for(workers),))
     try:
         futures = [pool.submit(_execute_in_worker, task, job, run, command) for job in jobs]
         for job, fut in zip(jobs, futures):  # in input order, so output and logs do not depend on -j

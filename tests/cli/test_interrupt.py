@@ -103,3 +103,23 @@ def test_killed_at_random_instants_and_resumed_ends_identical(tmp_path):
         assert instant.ok, instant
         landed += instant.mid_run
     assert landed >= 2  # most kills hit the run while it was going
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_signal_mid_chunk_removes_the_chunks_files(two_big, tmp_path, jobs):
+    out = tmp_path / "out"
+    proc = subprocess.Popen(aldpat_command() + ["filter", "pm", str(two_big[0]), "--chunk", "50", "-j", str(jobs),
+                                                "--odir", str(out)],
+                            stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None and not list(out.glob(".aldpat-scratch-*/*/chunk_*")):
+        time.sleep(0.01)
+    assert proc.poll() is None, "the command ended before it could be interrupted"
+    family = [p.pid for p in psutil.Process(proc.pid).children(recursive=True)]
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    time.sleep(0.3)
+    assert proc.returncode == 128 + signal.SIGINT, err
+    assert "Traceback" not in err and "interrupted by SIGINT" in err
+    assert list(out.glob(".aldpat-scratch-*")) == [] and leftovers(out) == []
+    assert [pid for pid in family if psutil.pid_exists(pid) and psutil.Process(pid).status() != psutil.STATUS_ZOMBIE] == []
