@@ -6,7 +6,8 @@ import pytest
 
 from aldpat.cli.main import cli
 from aldpat.jobs.resolve import resolve_run
-from aldpat.params import format_value
+from aldpat.options import RunParams
+from aldpat.params import format_value, specs
 from aldpat.tasks import TASKS
 
 TASK_KEYS = sorted(TASKS)
@@ -41,6 +42,9 @@ def test_cli_options_are_derived_from_the_declaration(key):
     assert {p.name for p in cmd.params if getattr(p, "hidden", False)} == renamed
 
 
+RUN_OPTIONS = {s.name for s in specs(RunParams)}
+
+
 @pytest.mark.parametrize("key", TASK_KEYS)
 def test_toml_keys_and_log_record_match_the_declaration(key):
     task = TASKS[key]
@@ -49,8 +53,8 @@ def test_toml_keys_and_log_record_match_the_declaration(key):
     run = resolve_run(task, [("worksheet", defaults), ("cli", given)])
     record = {name: (value, source) for name, value, source in run.record()}
     for spec in task.all_specs():
-        if spec.name == "jobs":
-            continue  # how jobs run is not a task parameter
+        if spec.name in RUN_OPTIONS:
+            continue  # how jobs run (-j, --scheduler) is not a task parameter
         assert spec.name in record, f"{key}: {spec.name} missing from the log record"
         if spec.required:
             assert record[spec.name] == (REQUIRED_FILE, "cli")
