@@ -44,11 +44,6 @@ class ChunkLattice:
         ox, oy = self.origin
         return (np.floor((x - ox) / self.size).astype(np.int64), np.floor((y - oy) / self.size).astype(np.int64))
 
-    def bounds(self, col: int, row: int) -> tuple[float, float, float, float]:
-        """The chunk's own square: minx, miny, maxx, maxy."""
-        ox, oy = self.origin
-        return (ox + col * self.size, oy + row * self.size, ox + (col + 1) * self.size, oy + (row + 1) * self.size)
-
 
 @dataclass
 class SpilledChunks:
@@ -70,12 +65,24 @@ class SpilledChunks:
 
 
 @contextlib.contextmanager
+def scratch_folder(tmpdir: str | Path | None, beside: Path) -> Iterator[Path]:
+    """A hidden temporary folder for a chunked run's files, in ``tmpdir`` (default: ``beside``,
+    the output folder), removed when the block ends, however it ends."""
+    place = Path(tmpdir) if tmpdir else Path(beside)
+    place.mkdir(parents=True, exist_ok=True)
+    folder = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextlib.contextmanager
 def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = None) -> Iterator[SpilledChunks]:
     """Spill the point tables ``tables`` (an input's chunks of rows, in order) by chunk; the
     folder is removed when the block ends, however it ends."""
     folder = Path(tempfile.mkdtemp(prefix="aldpat-chunks-", dir=tmpdir))
     try:
-        seen: set[tuple[int, int]] = set()
         owned: set[tuple[int, int]] = set()
         start = 0
         reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
@@ -94,7 +101,7 @@ def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = N
                     part = records[take]
                     if not len(part):
                         continue
-                    _append_by_chunk(folder, part, (col + dc)[take], (row + dr)[take], seen)
+                    _append_by_chunk(folder, part, (col + dc)[take], (row + dr)[take])
             start += n
         # a chunk that holds only buffer points has nothing of its own to classify
         chunks = sorted(owned, key=lambda cr: (cr[1], cr[0]))
@@ -113,8 +120,7 @@ def _in_buffer(records: np.ndarray, col: np.ndarray, row: np.ndarray, lattice: C
             & (records["y"] >= y0 - b) & (records["y"] < y0 + lattice.size + b))
 
 
-def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.ndarray,
-                     seen: set[tuple[int, int]]) -> None:
+def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
     """Append each point of ``part`` to the spill file of its chunk, keeping input order."""
     key = np.stack([col, row], axis=1)
     order = np.lexsort((np.arange(len(part)), row, col))  # by chunk, input order within each
@@ -125,7 +131,6 @@ def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.nd
         c, r = int(key[a, 0]), int(key[a, 1])
         with open(folder / f"chunk_{c}_{r}.bin", "ab") as fh:
             part[a:b].tofile(fh)
-        seen.add((c, r))
 
 
 def on_cluster() -> bool:

@@ -18,8 +18,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import logging
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -150,7 +148,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     job), and each input's outputs written in its order with every attribute, as a whole-file run
     writes them (:mod:`aldpat.filters.chunked`)."""
     from aldpat.filters.chunked import chunk_plan, filter_chunks
-    from aldpat.io.chunks import on_cluster
+    from aldpat.io.chunks import on_cluster, scratch_folder
 
     if params.data_mode == "center":
         raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")
@@ -163,9 +161,6 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers)]
     for path, _ in (o for outs in outputs for o in outs):  # refuse an existing output before the long part
         check_writable(path, overwrite=ctx.overwrite)
-    place = Path(params.tmpdir) if params.tmpdir else outputs[0][0][0].parent
-    place.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
     counts: list[int] = []
 
     def every_table():
@@ -177,7 +172,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
 
     # noise classes as text and LAS 1.4 have them (18 high noise); formats 0-5 get 7 when written
     classes_of = functools.partial(point_classes, algorithm=algorithm, las_point_format=None)
-    try:
+    with scratch_folder(params.tmpdir, outputs[0][0][0].parent) as scratch:
         done = filter_chunks(every_table(), algorithm, params, plan, scratch, classes_of=classes_of,
                              workers=ctx.workers)
         where = "the Dask cluster" if on_cluster() else f"{ctx.workers} process(es)"
@@ -188,9 +183,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
         for src, reader, outs, count in zip(sources, readers, outputs, counts):
             _write_from_classes(src, reader, outs, params, ctx, done.marks, done.classes, offset)
             offset += count
-        del done
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
+        del done  # the memory maps close before their folder goes
 
 
 def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], params, ctx: JobContext,

@@ -11,8 +11,6 @@ extents: :mod:`aldpat.core.grid_extent`; files: :mod:`aldpat.io.surfer`.
 from __future__ import annotations
 
 import logging
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,7 +26,7 @@ from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.errors import DataError, ParamError
 from aldpat.io.bounds import point_bounds
-from aldpat.io.chunks import ChunkLattice, map_chunks, spill_chunks
+from aldpat.io.chunks import ChunkLattice, map_chunks, scratch_folder, spill_chunks
 from aldpat.io.geotiff import DEFAULT_NODATA, geotiff_header, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.surfer import BLANK as SURFER_BLANK
@@ -194,27 +192,22 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
     # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1
     lattice = ChunkLattice(k * params.cell, buffer, (spec.xmin - params.cell / 2, spec.ymin - params.cell / 2))
     values = np.full(spec.shape, np.nan)
-    place = Path(params.tmpdir) if params.tmpdir else place
-    place.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
     options = {"method": params.method, "power": params.power, "radius": params.radius,
                "max_points": params.max_points, "max_distance": params.max_distance,
                "variogram": params.variogram, "nugget": params.nugget, "drift": params.drift}
-    try:
-        with spill_chunks(reader.chunks(), lattice, tmpdir=scratch) as spilled:
-            jobs = []
-            for r in range(0, spec.ny, k):
-                for c in range(0, spec.nx, k):
-                    sub = GridSpec(spec.xmin + c * params.cell, spec.ymin + r * params.cell, params.cell,
-                                   params.cell, min(k, spec.nx - c), min(k, spec.ny - r))
-                    jobs.append((spilled, c // k, r // k, sub, options))
-            for (_, c, r, sub, _), part in zip(jobs, map_chunks(_grid_one_chunk, jobs, ctx.workers)):
-                values[r * k: r * k + sub.ny, c * k: c * k + sub.nx] = part
-            count = spilled.points
-        ctx.note(f"--chunk: {len(jobs)} chunks of {k * params.cell:g} m ({k} nodes a side) with {buffer:g} m "
-                 f"buffers, {count} points")
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
+    with scratch_folder(params.tmpdir, place) as scratch, \
+            spill_chunks(reader.chunks(), lattice, tmpdir=scratch) as spilled:
+        jobs = []
+        for r in range(0, spec.ny, k):
+            for c in range(0, spec.nx, k):
+                sub = GridSpec(spec.xmin + c * params.cell, spec.ymin + r * params.cell, params.cell,
+                               params.cell, min(k, spec.nx - c), min(k, spec.ny - r))
+                jobs.append((spilled, c // k, r // k, sub, options))
+        for (_, c, r, sub, _), part in zip(jobs, map_chunks(_grid_one_chunk, jobs, ctx.workers)):
+            values[r * k: r * k + sub.ny, c * k: c * k + sub.nx] = part
+        count = spilled.points
+    ctx.note(f"--chunk: {len(jobs)} chunks of {k * params.cell:g} m ({k} nodes a side) with {buffer:g} m "
+             f"buffers, {count} points")
     if count == 0:
         raise DataError("no points to grid", path=reader.path)
     return values, count
