@@ -68,15 +68,10 @@ def coordinate_keys(x: np.ndarray, y: np.ndarray, z: np.ndarray, tolerance: floa
                     axis=1).astype(np.int64)
 
 
-def match_accuracy(ref_keys: np.ndarray, ref_ground: np.ndarray, res_keys: np.ndarray,
-                   res_ground: np.ndarray) -> tuple[Accuracy, int]:
-    """Accuracy of result points matched to reference points by coordinate key.
-
-    Duplicates count as many times as they occur: a key seen r times in the reference is called
-    ground as often as the result holds it as ground (at most r times); ground labels are served
-    first. Reference points absent from the result count as rejected (object). Returns the
-    accuracy and the number of result points that match no reference point.
-    """
+def _key_counts(ref_keys: np.ndarray, ref_ground: np.ndarray, res_keys: np.ndarray, res_ground: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each reference point's key number, and per key: reference points, ground-labelled ones,
+    result points, result points called ground."""
     both = np.concatenate([ref_keys, res_keys])
     _, group = np.unique(both, axis=0, return_inverse=True)
     group = group.ravel()
@@ -86,6 +81,19 @@ def match_accuracy(ref_keys: np.ndarray, ref_ground: np.ndarray, res_keys: np.nd
     ref_g = np.bincount(g_ref, weights=np.asarray(ref_ground, dtype=float), minlength=m).astype(np.int64)
     res_total = np.bincount(g_res, minlength=m)
     res_g = np.bincount(g_res, weights=np.asarray(res_ground, dtype=float), minlength=m).astype(np.int64)
+    return g_ref, ref_total, ref_g, res_total, res_g
+
+
+def match_accuracy(ref_keys: np.ndarray, ref_ground: np.ndarray, res_keys: np.ndarray,
+                   res_ground: np.ndarray) -> tuple[Accuracy, int]:
+    """Accuracy of result points matched to reference points by coordinate key.
+
+    Duplicates count as many times as they occur: a key seen r times in the reference is called
+    ground as often as the result holds it as ground (at most r times); ground labels are served
+    first. Reference points absent from the result count as rejected (object). Returns the
+    accuracy and the number of result points that match no reference point.
+    """
+    _, ref_total, ref_g, res_total, res_g = _key_counts(ref_keys, ref_ground, res_keys, res_ground)
     called_ground = np.minimum(res_g, ref_total)
     a = np.minimum(called_ground, ref_g)
     c = called_ground - a
@@ -102,14 +110,7 @@ def reference_calls(ref_keys: np.ndarray, ref_ground: np.ndarray, res_keys: np.n
     ground-labelled ones first, in input order. ``accuracy(ref_ground, reference_calls(...))``
     equals the accuracy :func:`match_accuracy` returns."""
     ref_ground = np.asarray(ref_ground, dtype=bool)
-    both = np.concatenate([ref_keys, res_keys])
-    _, group = np.unique(both, axis=0, return_inverse=True)
-    group = group.ravel()
-    g_ref, g_res = group[: len(ref_keys)], group[len(ref_keys):]
-    m = int(group.max()) + 1 if len(group) else 0
-    ref_total = np.bincount(g_ref, minlength=m)
-    ref_g = np.bincount(g_ref, weights=ref_ground.astype(float), minlength=m).astype(np.int64)
-    res_g = np.bincount(g_res, weights=np.asarray(res_ground, dtype=float), minlength=m).astype(np.int64)
+    g_ref, ref_total, ref_g, _, res_g = _key_counts(ref_keys, ref_ground, res_keys, res_ground)
     called_ground = np.minimum(res_g, ref_total)
     ground_quota = np.minimum(called_ground, ref_g)  # ground points called ground, per key
     object_quota = called_ground - ground_quota  # object points called ground, per key

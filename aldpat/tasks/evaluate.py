@@ -124,14 +124,15 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     table = reader.read()
     res_ground = _result_ground(reader, table, params)
-    acc, unmatched = match_accuracy(ref_keys, ref_ground, coordinate_keys(table.x, table.y, table.z, tol), res_ground)
+    res_keys = coordinate_keys(table.x, table.y, table.z, tol)
+    acc, unmatched = match_accuracy(ref_keys, ref_ground, res_keys, res_ground)
     if unmatched:
         ctx.warn(f"{source}: {unmatched} result points match no reference point (not counted)")
     record = AccuracyRecord({"path": str(source), "reference": str(ref_path)})
     record.update(acc.as_dict())
     record["unmatched"] = unmatched
     if params.map is not None:
-        calls = reference_calls(ref_keys, ref_ground, coordinate_keys(table.x, table.y, table.z, tol), res_ground)
+        calls = reference_calls(ref_keys, ref_ground, res_keys, res_ground)
         ref_x, ref_y = ref_keys[:, 0] * tol, ref_keys[:, 1] * tol  # the reference's points, snapped
         out = map_path(params.map, source)
         out.parent.mkdir(parents=True, exist_ok=True)
