@@ -18,9 +18,12 @@ HIGH_NOISE = 18
 CLASSES = (UNCLASSIFIED, GROUND, LOW_NOISE, HIGH_NOISE)
 
 
-def high_noise_class(las_point_format: int | None) -> int:
-    """The class of high noise: 18 in text and LAS point formats 6-10, 7 in formats 0-5."""
-    return HIGH_NOISE if las_point_format is None or las_point_format >= 6 else LOW_NOISE
+def for_point_format(classes: np.ndarray, las_point_format: int | None) -> np.ndarray:
+    """``classes`` as an output of ``las_point_format`` may hold them: high noise (18) stays 18 in
+    text (None) and LAS point formats 6-10, and becomes 7 in formats 0-5."""
+    if las_point_format is None or las_point_format >= 6:
+        return classes
+    return np.where(classes == HIGH_NOISE, LOW_NOISE, classes).astype(classes.dtype)
 
 
 def class_column_of(reader, table) -> int | None:

@@ -25,7 +25,7 @@ import numpy as np
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.io.atomic import check_writable
-from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, high_noise_class
+from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, for_point_format
 from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
@@ -34,15 +34,16 @@ from aldpat.jobs.registry import Task, register_task
 log = logging.getLogger(__name__)
 
 
-def point_classes(res, z: np.ndarray, params, algorithm: str, las_point_format: int | None) -> np.ndarray:
+def point_classes(res, z: np.ndarray, params, algorithm: str) -> np.ndarray:
     """ASPRS classes of every point: 2 ground, 1 unclassified, and for a filter that finds noise
-    (``outlier``) 7 low noise and 18 high noise (7 in LAS point formats 0-5, which reserve 18)."""
+    (``outlier``) 7 low noise and 18 high noise (made 7 where written to LAS point formats 0-5,
+    which reserve 18: :func:`aldpat.io.classified.for_point_format`)."""
     cls = np.where(res.is_ground, GROUND, UNCLASSIFIED).astype(np.uint8)
     noise = FILTERS[algorithm].noise
     if noise is not None:
         kind = noise(res, z, params)
         cls[kind < 0] = LOW_NOISE
-        cls[kind > 0] = high_noise_class(las_point_format)
+        cls[kind > 0] = HIGH_NOISE
     return cls
 
 
@@ -128,8 +129,8 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     rows, origin_rows, ground, marks = _output_table(table, res, params)
     cls = None
     if params.result == "classified":
-        point_format = _output_point_format(reader, ctx, source)
-        cls = point_classes(res, table.z, params, algorithm, point_format)[origin_rows]
+        cls = for_point_format(point_classes(res, table.z, params, algorithm)[origin_rows],
+                               _output_point_format(reader, ctx, source))
     rows = _with_classes(rows, reader, params, marks, cls)
     names = _output_names(reader, params)
     n_ground = int(ground.sum())
@@ -170,8 +171,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
                 counts[-1] += len(table)
                 yield table
 
-    # noise classes as text and LAS 1.4 have them (18 high noise); formats 0-5 get 7 when written
-    classes_of = functools.partial(point_classes, algorithm=algorithm, las_point_format=None)
+    classes_of = functools.partial(point_classes, algorithm=algorithm)
     with scratch_folder(params.tmpdir, outputs[0][0][0].parent) as scratch:
         done = filter_chunks(every_table(), algorithm, params, plan, scratch, classes_of=classes_of,
                              workers=ctx.workers)
@@ -191,7 +191,6 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
     """One input's outputs, streamed from the input again with the classes of its rows."""
     names = _output_names(reader, params)
     point_format = _output_point_format(reader, ctx, source)
-    high_noise = high_noise_class(point_format)
     n_ground = n = 0
     with contextlib.ExitStack() as stack:
         writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
@@ -199,9 +198,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
         start = offset
         for table in reader.chunks():
             stop = start + len(table)
-            cls = np.array(classes[start:stop])
-            if high_noise != HIGH_NOISE:
-                cls[cls == HIGH_NOISE] = high_noise
+            cls = for_point_format(np.asarray(classes[start:stop]), point_format)
             ground = cls == GROUND
             n_ground += int(ground.sum())
             n += len(table)
