@@ -29,21 +29,19 @@ from typing import Any
 
 import numpy as np
 
-from aldpat.core.grid_extent import GridSpec, from_bounds, from_data
 from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.geotiff import write_geotiff
-from aldpat.io.tile_parameters import tile_row_for
 from aldpat.io.toml import load_toml
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
 from aldpat.tasks.filter import apply_auto
-from aldpat.tasks.grid import check_spread, grid_mosaic
+from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for
 
 log = logging.getLogger(__name__)
 
@@ -113,13 +111,6 @@ def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> lis
     return jobs
 
 
-def _extent(source: Path, params: DtmParams, x: np.ndarray, y: np.ndarray) -> GridSpec:
-    if params.tile_params:
-        row = tile_row_for(params.tile_params, source)
-        return from_bounds(row.minx, row.miny, row.maxx, row.maxy, params.cell)
-    return from_data(x, y, params.cell, origin=params.origin or (0.0, 0.0))
-
-
 def _buffer_points(ctx: JobContext, region: Bounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x, y, z of the neighbours' points inside ``region``, read chunk by chunk."""
     xs, ys, zs = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
@@ -137,7 +128,8 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     table = reader.read()
     if len(table) == 0:
         raise DataError("no points", path=source)
-    spec = _extent(source, params, table.x, table.y)
+    spec = grid_spec_for(source, params, ctx, xy=(table.x, table.y))
+    assert spec is not None  # from the tile row, else from the points
     region = Bounds(spec.xmin, spec.ymin, spec.xmax, spec.ymax).grown(params.buffer)
     bx, by, bz = _buffer_points(ctx, region)
     x = np.concatenate([np.asarray(table.x, np.float64), bx])

@@ -81,14 +81,17 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
             raise ParamError("nodata: applies to surfer7 and GeoTIFF grids; Surfer 6 grids always use 1.70141e38")
 
 
-def grid_spec_for(source: Path, params: GridParams, ctx: JobContext | None = None,
+def grid_spec_for(source: Path, params, ctx: JobContext | None = None,
                   xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
-    """The grid range from the tile row or the bounds; None when it must come from the data."""
+    """The grid range from the tile row or the bounds; None when it must come from the data.
+    ``params`` has ``cell``, ``origin`` and ``tile_params``, and may have ``bounds`` (``grid``'s,
+    ``dtm``'s)."""
+    bounds = getattr(params, "bounds", None)
     if params.tile_params:
         row = tile_row_for(params.tile_params, source)
         lo_hi = (row.minx, row.maxx, row.miny, row.maxy)
-    elif params.bounds:
-        minx, miny, maxx, maxy = params.bounds
+    elif bounds:
+        minx, miny, maxx, maxy = bounds
         lo_hi = (minx, maxx, miny, maxy)
     elif xy is not None:
         return from_data(*xy, params.cell, origin=params.origin or (0.0, 0.0))
