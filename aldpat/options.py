@@ -176,6 +176,8 @@ class RunParams(Checked):
             check_scheduler(self.scheduler)
 
 
+#: scheduler values that mean "no cluster" (to override ``$ALDPAT_SCHEDULER``)
+NO_SCHEDULER = ("none", "off", "")
 #: ``local`` or ``local:N`` (a Dask cluster of N workers here), or a Dask scheduler's address
 LOCAL_SCHEDULER = re.compile(r"^local(?::(\d+))?$")
 SCHEDULER_ADDRESS = re.compile(r"^(tcp|tls|ucx|inproc|ws|wss)://\S+$")
@@ -184,7 +186,7 @@ SCHEDULER_ADDRESS = re.compile(r"^(tcp|tls|ucx|inproc|ws|wss)://\S+$")
 def check_scheduler(text: str) -> None:
     """Refuse, before anything runs, a scheduler that is none of ``none``, ``local[:N]`` and an
     address (the option, a worksheet's setting and ``$ALDPAT_SCHEDULER`` alike)."""
-    if text.lower() in ("none", "off", ""):
+    if text.lower() in NO_SCHEDULER:
         return
     m = LOCAL_SCHEDULER.match(text)
     if m:

@@ -34,7 +34,7 @@ from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import execute, job_names, report_result
-from aldpat.options import LOCAL_SCHEDULER, check_scheduler
+from aldpat.options import LOCAL_SCHEDULER, NO_SCHEDULER, check_scheduler
 
 if TYPE_CHECKING:
     from aldpat.jobs.registry import Task
@@ -48,7 +48,7 @@ ENV = "ALDPAT_SCHEDULER"
 def scheduler_for(given: str | None) -> str | None:
     """The scheduler a run uses: the option's, else ``$ALDPAT_SCHEDULER``; ``none`` means none."""
     value = given if given is not None else os.environ.get(ENV) or None
-    if value is None or value.lower() in ("none", "off", ""):
+    if value is None or value.lower() in NO_SCHEDULER:
         return None
     try:
         check_scheduler(value)
