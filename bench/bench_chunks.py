@@ -1,10 +1,10 @@
 """``aldpat filter --chunk``: agreement with whole-file runs, and memory on a big file.
 
-``python bench/bench_chunks.py agree [--chunk 100]`` -- reads the seven ISPRS samples
-(``bench/data_paths.py``) and the FSite5 strip in ``tests/data/``. Every filter runs on each file whole and in
-chunks of ``--chunk`` m with the automatic buffer (point filters, which have none: 40 m); the
-share of points whose class agrees is reported per filter (the lowest over the files, and over
-all points).
+``python bench/bench_chunks.py agree [--chunk 100] [--point-buffer 40] [--filters ...]`` -- reads
+the seven ISPRS samples (``bench/data_paths.py``) and the FSite5 strip in ``tests/data/``. Every
+filter (or those named) runs on each file whole and in chunks of ``--chunk`` m with the automatic
+buffer (point filters, which have none: ``--point-buffer`` m); the share of points whose class
+agrees is reported per filter (the lowest over the files, and over all points).
 
 ``python bench/bench_chunks.py memory --points 100 --chunk 2000 [--whole]`` -- tiled copies of
 FSite5 as one LAZ of about N million points (built once under ``bench/_work/``), filtered with
@@ -47,7 +47,7 @@ def _classes(algorithm: str, source: Path, odir: Path, **options) -> np.ndarray:
     return np.asarray(laspy.read(odir / f"{source.stem}_{algorithm}.las").classification)
 
 
-def run_agree(chunk: float) -> None:
+def run_agree(chunk: float, point_buffer: float, names: list[str] | None) -> None:
     from aldpat.filters import FILTERS
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -60,8 +60,8 @@ def run_agree(chunk: float) -> None:
         files.append(Path(__file__).resolve().parents[1] / "tests" / "data" / "fsite5_strip.laz")
         print(f"| filter | buffer | lowest agreement (file) | all points | chunks {chunk:g} m |")
         print("|---|---|---|---|---|")
-        for algorithm in sorted(FILTERS):
-            buffer = "auto" if FILTERS[algorithm].reach is not None else "40"
+        for algorithm in sorted(names or FILTERS):
+            buffer = "auto" if FILTERS[algorithm].reach is not None else f"{point_buffer:g}"
             same = total = 0
             worst: tuple[float, str] = (1.0, "")
             for source in files:
@@ -149,6 +149,8 @@ def main() -> None:
     sub = ap.add_subparsers(dest="command", required=True)
     a = sub.add_parser("agree", help="chunked vs whole classes on the ISPRS samples and FSite5")
     a.add_argument("--chunk", type=float, default=100.0)
+    a.add_argument("--point-buffer", type=float, default=40.0, help="buffer of the point filters (m)")
+    a.add_argument("--filters", nargs="+", help="only these filters")
     m = sub.add_parser("memory", help="gapm on a big LAZ in chunks")
     m.add_argument("--points", type=float, default=100.0, help="millions of points")
     m.add_argument("--chunk", type=float, default=2000.0)
@@ -157,7 +159,7 @@ def main() -> None:
     t.add_argument("--tiles", type=int, default=16)
     args = ap.parse_args()
     if args.command == "agree":
-        run_agree(args.chunk)
+        run_agree(args.chunk, args.point_buffer, args.filters)
     elif args.command == "memory":
         run_memory(args.points, args.chunk, args.whole)
     else:
