@@ -105,8 +105,8 @@ def client_for(scheduler: str) -> Any:
 def _keep_malloc_defaults() -> None:
     """Dask starts its local workers with glibc's trim threshold at 64 kB, so that they hand memory
     back at once; the filters allocate and free large arrays all the time, and at that setting
-    a worksheet of 16 tiles took 55.8 s on ``local:2`` against 45.1 s without it
-    (``bench/bench_chunks.py tiles``). The workers keep the C library's own threshold."""
+    a worksheet of 16 tiles took 1.56 times its ``-j 1`` time on ``local:2``, and 1.07 times
+    without it (``bench/bench_chunks.py tiles``). The workers keep the C library's own threshold."""
     import dask
 
     environ = dask.config.get("distributed.nanny.pre-spawn-environ", default={})
