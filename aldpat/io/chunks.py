@@ -18,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import math
 import shutil
-import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -27,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.core.threads import set_budget, share_for
 
 #: one spilled point: its row in the input, and its coordinates
@@ -133,22 +133,18 @@ def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.nd
             part[a:b].tofile(fh)
 
 
-def on_cluster() -> bool:
-    """True inside a job running on a Dask worker (``--scheduler``): its chunks go to the cluster."""
-    distributed = sys.modules.get("distributed")  # never imported here: a worker has it already
-    if distributed is None:
-        return False
-    try:
-        distributed.get_worker()
-    except ValueError:
-        return False
-    return True
-
-
 def map_chunks(fn: Callable, jobs: list[tuple], workers: int = 1) -> Iterator:
     """``fn(*job)`` for each job, in order: here, in ``workers`` processes, or -- inside a job
-    running on a Dask worker -- each a unit of the cluster."""
-    if on_cluster():
+    running on a Dask worker -- each a unit of the cluster. Each chunk is a unit of the run's
+    progress (:mod:`aldpat.core.units`)."""
+    units.planned(len(jobs))
+    for result in _map(fn, jobs, workers):
+        units.finished()
+        yield result
+
+
+def _map(fn: Callable, jobs: list[tuple], workers: int) -> Iterator:
+    if units.on_dask_worker():
         # every chunk a unit of the cluster; the job waits for them without holding its thread
         from distributed import worker_client
 

@@ -30,10 +30,11 @@ from typing import TYPE_CHECKING, Any
 from aldpat import interrupt
 from aldpat.core.threads import ENV as THREADS_ENV
 from aldpat.core.threads import share_for
+from aldpat.core.units import TOPIC as UNITS_TOPIC
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.execute import execute, job_names, report_result
+from aldpat.jobs.execute import Progress, execute, job_names, report_result
 from aldpat.options import LOCAL_SCHEDULER, NO_SCHEDULER, check_scheduler
 
 if TYPE_CHECKING:
@@ -141,9 +142,10 @@ def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command:
     client = client_for(scheduler)
     folder = os.getcwd()
     tag = uuid.uuid4().hex[:8]
-    futures = [client.submit(_execute_in_folder, folder, task, job, run, command, pure=False,
-                             key=f"aldpat-{task.key.replace(' ', '-')}-{k}-{tag}")
-               for k, job in enumerate(jobs)]
+    keys = [f"aldpat-{task.key.replace(' ', '-')}-{k}-{tag}" for k in range(len(jobs))]
+    heard = _hear_units(client, set(keys), progress) if progress is not None else None
+    futures = [client.submit(_execute_in_folder, folder, task, job, run, command, pure=False, key=key)
+               for key, job in zip(keys, jobs)]
     try:
         for job, fut in zip(jobs, futures):
             def state(done: int = len(results)) -> str:
@@ -161,9 +163,45 @@ def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command:
             client.cancel(futures)
         raise
     finally:
+        if heard is not None:
+            heard.close(client)
         for fut in futures:  # the results are here: the cluster need not keep them
             fut.release()
         _remove_lost_writers_files(results, run)
+
+
+class _Units:
+    """Counts on ``progress`` the units (chunks) the jobs ``keys`` of this run tell of from the
+    workers (:mod:`aldpat.core.units`); other runs on the same cluster are not counted."""
+
+    def __init__(self, keys: set[str], progress: Progress):
+        self.keys, self.progress = keys, progress
+        self.open = 0  # units planned and not yet finished
+        self.changed = threading.Condition()
+
+    def __call__(self, event: tuple[float, dict]) -> None:
+        message = event[1]
+        if message.get("job") not in self.keys:
+            return
+        n = int(message["n"])
+        self.progress.units(message["kind"], n)
+        with self.changed:
+            self.open += n if message["kind"] == "planned" else -n
+            self.changed.notify_all()
+
+    def close(self, client, wait: float = 2.0) -> None:
+        """Stop listening, once the events still on their way (they travel apart from the jobs'
+        results) have come, or after ``wait`` seconds."""
+        with self.changed:
+            self.changed.wait_for(lambda: self.open <= 0, timeout=wait)
+        with contextlib.suppress(Exception):
+            client.unsubscribe_topic(UNITS_TOPIC)
+
+
+def _hear_units(client, keys: set[str], progress: Progress) -> _Units:
+    heard = _Units(keys, progress)
+    client.subscribe_topic(UNITS_TOPIC, heard)
+    return heard
 
 
 def _remove_lost_writers_files(results: list[JobResult], run: ResolvedRun) -> None:

@@ -8,7 +8,7 @@ import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from aldpat import interrupt
 from aldpat.errors import AldpatError, UsageError
@@ -80,7 +80,18 @@ def job_names(job: list[str]) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
-def report_result(result: JobResult, progress) -> None:
+class Progress(Protocol):
+    """What shows a run's progress: the jobs planned, each job's result, and the units of work
+    inside the jobs (their chunks, :mod:`aldpat.core.units`)."""
+
+    def started(self, jobs: int) -> None: ...
+
+    def job_done(self, result: JobResult) -> None: ...
+
+    def units(self, kind: str, n: int) -> None: ...
+
+
+def report_result(result: JobResult, progress: Progress | None) -> None:
     for w in result.warnings:
         log.warning(w)
     if not result.ok:
@@ -88,4 +99,4 @@ def report_result(result: JobResult, progress) -> None:
         if result.detail:
             log.debug(result.detail)
     if progress is not None:
-        progress(result)
+        progress.job_done(result)

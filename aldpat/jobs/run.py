@@ -11,10 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aldpat.core import units
 from aldpat.errors import UsageError
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.context import JobResult, Written
-from aldpat.jobs.execute import execute_finish, report_result
+from aldpat.jobs.execute import Progress, execute_finish, report_result
 from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
@@ -57,7 +58,7 @@ def plan_jobs(task: Task, sources: list[Path], run: ResolvedRun) -> list[list[st
 
 
 def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
-             command: str | None = None, base: Path | None = None, progress=None,
+             command: str | None = None, base: Path | None = None, progress: Progress | None = None,
              resolved: ResolvedRun | None = None) -> RunReport:
     """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
     run = resolved or resolve_run(task, layers)
@@ -77,14 +78,17 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     workers = max(1, min(workers, len(jobs)))
     results: list[JobResult] = []
     scheduler = scheduler_for(run.run.values.scheduler)
-    if scheduler is not None:
-        from aldpat.jobs.cluster import run_on_cluster
+    if progress is not None:
+        progress.started(len(jobs))
+    with units.listening(progress.units if progress is not None else None):
+        if scheduler is not None:
+            from aldpat.jobs.cluster import run_on_cluster
 
-        run_on_cluster(task, jobs, run, command, scheduler, results, progress)
-    elif workers == 1:
-        run_in_this_process(task, jobs, run, command, results, progress)
-    else:
-        run_in_processes(task, jobs, run, command, workers, results, progress)
+            run_on_cluster(task, jobs, run, command, scheduler, results, progress)
+        elif workers == 1:
+            run_in_this_process(task, jobs, run, command, results, progress)
+        else:
+            run_in_processes(task, jobs, run, command, workers, results, progress)
     if task.finish is not None:
         last = execute_finish(task, results, run, command)
         if last.outputs or not last.ok:  # a finish step with nothing to do is not a job

@@ -148,8 +148,9 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     chunks with buffers, each filtered on its own (in ``-j`` processes when this is the run's one
     job), and each input's outputs written in its order with every attribute, as a whole-file run
     writes them (:mod:`aldpat.filters.chunked`)."""
+    from aldpat.core.units import on_dask_worker
     from aldpat.filters.chunked import chunk_plan, filter_chunks
-    from aldpat.io.chunks import on_cluster, scratch_folder
+    from aldpat.io.chunks import scratch_folder
 
     if params.data_mode == "center":
         raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")
@@ -175,7 +176,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     with scratch_folder(params.tmpdir, outputs[0][0][0].parent) as scratch:
         done = filter_chunks(every_table(), algorithm, params, plan, scratch, classes_of=classes_of,
                              workers=ctx.workers)
-        where = "the Dask cluster" if on_cluster() else f"{ctx.workers} process(es)"
+        where = "the Dask cluster" if on_dask_worker() else f"{ctx.workers} process(es)"
         ctx.note(f"--chunk: {done.chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
                  f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {done.points} points, on "
                  f"{where}; the chunks' own filtering {done.seconds:.1f} s")

@@ -174,3 +174,16 @@ def test_chunks_of_one_file_are_units_of_the_cluster(tmp_path):
     assert "28 chunks of 20 m" in (tmp_path / "dask" / "samp24_pm.log").read_text()
     assert "on the Dask cluster" in (tmp_path / "dask" / "samp24_pm.log").read_text()
     assert not list(tmp_path.rglob(".aldpat-scratch-*")) and leftovers(tmp_path) == []
+
+
+def test_the_progress_counts_the_chunks_finished_on_the_cluster(tmp_path):
+    from aldpat.jobs.registry import get_task
+    from aldpat.jobs.run import run_task
+    from tests.filters.test_chunked import Recorder
+
+    progress = Recorder()
+    options = {"odir": str(tmp_path), "chunk": 20.0, "window_series": (1, 2, 4, 8), "scheduler": "local:2"}
+    report = run_task(get_task("filter", "pm"), [DATA / "samp24.txt"], [("python", options)], progress=progress)
+    assert report.exit_code == 0
+    assert (progress.jobs, progress.done) == (1, 1)
+    assert progress.planned == progress.finished == 28  # told by the worker, heard by this client

@@ -136,3 +136,57 @@ def test_a_catalog_of_tiles_gives_the_whole_files_classes(tmp_path):
         np.testing.assert_array_equal(got, whole[keep])
         differ += int((np.loadtxt(tmp_path / "alone" / f"{path.stem}_pm.txt")[:, -2] != whole[keep][:, -2]).sum())
     assert differ > 10  # tiles filtered alone go wrong at their edges
+
+
+class Recorder:
+    """A run's progress as :func:`aldpat.jobs.run.run_task` tells it."""
+
+    def __init__(self):
+        self.jobs, self.done, self.planned, self.finished = 0, 0, 0, 0
+
+    def started(self, jobs: int) -> None:
+        self.jobs += jobs
+
+    def job_done(self, result) -> None:
+        self.done += 1
+
+    def units(self, kind: str, n: int) -> None:
+        if kind == "planned":
+            self.planned += n
+        else:
+            self.finished += n
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_each_chunk_is_a_unit_of_the_runs_progress(tmp_path, jobs):
+    from aldpat.jobs.run import run_task
+
+    progress = Recorder()
+    options = {"odir": str(tmp_path), "chunk": 20.0, "jobs": jobs, **SMALL["pm"]}
+    report = run_task(get_task("filter", "pm"), [SAMPLE], [("python", options)], progress=progress)
+    assert report.exit_code == 0
+    assert (progress.jobs, progress.done) == (1, 1)
+    assert progress.planned == progress.finished == 28  # "28 chunks of 20 m", as the log says
+    # a whole-file run has no units inside its one job
+    whole = Recorder()
+    run_task(get_task("filter", "pm"), [SAMPLE], [("python", {"odir": str(tmp_path / "whole")})], progress=whole)
+    assert (whole.jobs, whole.done, whole.planned) == (1, 1, 0)
+
+
+def test_the_progress_bar_grows_with_the_units_and_counts_them():
+    import io
+
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from aldpat.cli.progress import _Bar
+
+    with Progress(console=Console(file=io.StringIO(), force_terminal=True)) as rich_bar:
+        task_id = rich_bar.add_task("filter pm", total=None)
+        bar = _Bar(rich_bar, task_id)
+        bar.started(2)
+        bar.units("planned", 5)
+        bar.units("finished", 5)
+        bar.job_done(None)
+        state = rich_bar.tasks[0]
+        assert (state.total, state.completed) == (7, 6)

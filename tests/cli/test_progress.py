@@ -1,0 +1,39 @@
+"""The progress bar a user sees in a terminal: one step per job and one per chunk."""
+
+from __future__ import annotations
+
+import os
+import pty
+import re
+import subprocess
+
+from tests.cli.fresh import DATA, aldpat_command
+
+
+def in_a_terminal(*args, cwd) -> tuple[int, str]:
+    """Run ``aldpat ARGS`` with a pseudo-terminal as stdin, stdout and stderr; what it drew."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(aldpat_command() + [str(a) for a in args], stdin=slave, stdout=slave, stderr=slave,
+                            cwd=cwd, close_fds=True)
+    os.close(slave)
+    drawn = b""
+    while True:
+        try:
+            part = os.read(master, 65536)
+        except OSError:  # the terminal closed with the process
+            break
+        if not part:
+            break
+        drawn += part
+    os.close(master)
+    return proc.wait(timeout=300), drawn.decode(errors="replace")
+
+
+def test_the_bar_counts_the_chunks_of_one_file(tmp_path):
+    code, drawn = in_a_terminal("filter", "pm", DATA / "samp24.txt", "--chunk", "20", "--window-series", "1,2,4,8",
+                                "--odir", tmp_path, cwd=tmp_path)
+    assert code == 0, drawn
+    counts = set(re.findall(r"(\d+)/(\d+)", drawn))
+    assert ("29", "29") in counts  # 28 chunks and their job: the bar's last refresh
+    assert all(total == "29" for _, total in counts if total != "1")  # total 1 before the chunks are planned
+    assert "Traceback" not in drawn
