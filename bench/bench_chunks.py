@@ -1,10 +1,11 @@
 """``aldpat filter --chunk``: agreement with whole-file runs, and memory on a big file.
 
-``python bench/bench_chunks.py agree [--chunk 100] [--point-buffer 40] [--filters ...]`` -- reads
-the seven ISPRS samples (``bench/data_paths.py``) and the FSite5 strip in ``tests/data/``. Every
+``python bench/bench_chunks.py agree [--chunk 100] [--point-buffer M] [--filters ...] [--sites]`` --
+reads the seven ISPRS samples (``bench/data_paths.py``) and the FSite5 strip in ``tests/data/``
+(with ``--sites``: the ISPRS sites FSite5 and CSite1 whole, 1.6 x 1.3 km and 1.1 x 1.0 km). Every
 filter (or those named) runs on each file whole and in chunks of ``--chunk`` m with the automatic
-buffer (point filters, which have none: ``--point-buffer`` m); the share of points whose class
-agrees is reported per filter (the lowest over the files, and over all points).
+buffer (``--point-buffer``: the point filters' buffer in metres instead); the share of points
+whose class agrees is reported per filter (the lowest over the files, and over all points).
 
 ``python bench/bench_chunks.py memory --points 100 --chunk 2000 [--whole]`` -- tiled copies of
 FSite5 as one LAZ of about N million points (built once under ``bench/_work/``), filtered with
@@ -30,7 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import measure, mib
 from bench_filters import build_isprs, build_sites
-from data_paths import ISPRS_SAMPLES
+from data_paths import ISPRS_SAMPLES, ISPRS_SITES
 
 SAMPLES = ("samp12", "samp21", "samp24", "samp42", "samp51", "samp53", "samp61")
 
@@ -47,21 +48,28 @@ def _classes(algorithm: str, source: Path, odir: Path, **options) -> np.ndarray:
     return np.asarray(laspy.read(odir / f"{source.stem}_{algorithm}.las").classification)
 
 
-def run_agree(chunk: float, point_buffer: float, names: list[str] | None) -> None:
+def run_agree(chunk: float, point_buffer: float | None, names: list[str] | None, sites: bool) -> None:
     from aldpat.filters import FILTERS
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         files = []
-        for name in SAMPLES:
-            rows = np.loadtxt(ISPRS_SAMPLES / f"{name}.txt")
-            np.savetxt(root / f"{name}.txt", rows[:, :3], fmt="%.2f")
-            files.append(root / f"{name}.txt")
-        files.append(Path(__file__).resolve().parents[1] / "tests" / "data" / "fsite5_strip.laz")
+        if sites:  # whole ISPRS sites, the size of a tile people chunk
+            files = [ISPRS_SITES / "FSite5_orig-utm.laz", ISPRS_SITES / "CSite1_red2-utm.laz"]
+        else:
+            for name in SAMPLES:
+                rows = np.loadtxt(ISPRS_SAMPLES / f"{name}.txt")
+                np.savetxt(root / f"{name}.txt", rows[:, :3], fmt="%.2f")
+                files.append(root / f"{name}.txt")
+            files.append(Path(__file__).resolve().parents[1] / "tests" / "data" / "fsite5_strip.laz")
         print(f"| filter | buffer | lowest agreement (file) | all points | chunks {chunk:g} m |")
         print("|---|---|---|---|---|")
         for algorithm in sorted(names or FILTERS):
-            buffer = "auto" if FILTERS[algorithm].reach is not None else f"{point_buffer:g}"
+            spec = FILTERS[algorithm]
+            buffer = "auto" if point_buffer is None or spec.reach is not None else f"{point_buffer:g}"
+            shown = buffer
+            if buffer == "auto" and spec.reach is None and spec.buffer is not None:
+                shown = f"auto ({spec.buffer(spec.params()):g} m)"
             same = total = 0
             worst: tuple[float, str] = (1.0, "")
             for source in files:
@@ -72,7 +80,7 @@ def run_agree(chunk: float, point_buffer: float, names: list[str] | None) -> Non
                 total += len(whole)
                 worst = min(worst, (agree, source.stem))
             lowest = f"{worst[0]:.4%} ({worst[1]})" if worst[1] else "100% (every file)"
-            print(f"| {algorithm} | {buffer} | {lowest} | {same / total:.4%} | |")
+            print(f"| {algorithm} | {shown} | {lowest} | {same / total:.4%} | |", flush=True)
 
 
 def build_laz(millions: float) -> Path:
@@ -149,7 +157,8 @@ def main() -> None:
     sub = ap.add_subparsers(dest="command", required=True)
     a = sub.add_parser("agree", help="chunked vs whole classes on the ISPRS samples and FSite5")
     a.add_argument("--chunk", type=float, default=100.0)
-    a.add_argument("--point-buffer", type=float, default=40.0, help="buffer of the point filters (m)")
+    a.add_argument("--point-buffer", type=float, help="buffer of the point filters (m; default: auto)")
+    a.add_argument("--sites", action="store_true", help="the ISPRS sites FSite5 and CSite1 instead of the samples")
     a.add_argument("--filters", nargs="+", help="only these filters")
     m = sub.add_parser("memory", help="gapm on a big LAZ in chunks")
     m.add_argument("--points", type=float, default=100.0, help="millions of points")
@@ -159,7 +168,7 @@ def main() -> None:
     t.add_argument("--tiles", type=int, default=16)
     args = ap.parse_args()
     if args.command == "agree":
-        run_agree(args.chunk, args.point_buffer, args.filters)
+        run_agree(args.chunk, args.point_buffer, args.filters, args.sites)
     elif args.command == "memory":
         run_memory(args.points, args.chunk, args.whole)
     else:

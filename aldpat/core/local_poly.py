@@ -47,6 +47,14 @@ def _box_sum(a: np.ndarray, k: int) -> np.ndarray:
     return ndimage.uniform_filter(a, size=size, mode="constant", cval=0.0) * (size * size)
 
 
+def _window_counts(count: np.ndarray, k: int) -> np.ndarray:
+    """Points in the window around every cell, as whole numbers. The box filter's running sums
+    leave roundoff that depends on where the grid starts (3 points read as 2.9999999996 in one
+    grid and 3.0000000002 in a grid cut from it): every test of a count against a threshold would
+    then depend on the grid's extent, and a file filtered in chunks would not match the whole."""
+    return np.rint(_box_sum(count, k))
+
+
 class PointSums:
     """Sums of the powers of a point set's position (in cells) per cell, ready to fit.
 
@@ -127,7 +135,7 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
     band = max(64, BAND_CELLS // max(cols, 1))
     for growth in range(MAX_GROWTH + 1):
         last = growth == MAX_GROWTH
-        count = _box_sum(count_all, k)
+        count = _window_counts(count_all, k)
         ready = todo & (count >= (1 if last else min_points))
         for r0 in range(0, rows, band):
             r1 = min(rows, r0 + band)
@@ -175,7 +183,7 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
         rhs[:, p] = centred(raw_z, a1, b1)
         for q, (a2, b2) in enumerate(terms[p:], start=p):
             normal[:, p, q] = normal[:, q, p] = centred(raw, a1 + a2, b1 + b2)
-    count = normal[:, 0, 0]
+    normal[:, 0, 0] = count = np.rint(normal[:, 0, 0])  # a count (see _window_counts)
     ridge = RIDGE * np.maximum(count, 1.0)
     for p in range(1, m):
         normal[:, p, p] += ridge
@@ -192,7 +200,7 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
 def _plane_at_nodes(raw: dict, raw_z: dict, centred) -> np.ndarray:
     """The plane's value at each node by Cramer's rule on the 3 x 3 normal equations: no
     stacked matrices (as many nodes as points at 1 m cells), same answer as the general solve."""
-    n = centred(raw, 0, 0)
+    n = np.rint(centred(raw, 0, 0))  # a count (see _window_counts)
     su, sv = centred(raw, 1, 0), centred(raw, 0, 1)
     ridge = RIDGE * np.maximum(n, 1.0)
     suu = centred(raw, 2, 0) + ridge

@@ -257,7 +257,13 @@ class _Buckets:
         return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
-@register_filter("atin", params=AtinParams, on_points=True,
+def atin_buffer(params: AtinParams) -> float:
+    """A chunk's buffer: the manual's own Tile Buffer, the surroundings each rectangle is filtered
+    with (ground spreads from the seeds round after round, so no buffer is exact)."""
+    return params.tile_buffer
+
+
+@register_filter("atin", params=AtinParams, on_points=True, buffer=atin_buffer,
                  summary="adaptive TIN densification (manual appendix ATIN; Axelsson 2000)")
 def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: AtinParams) -> np.ndarray:
     """Point marks of the adaptive TIN filter (manual appendix ATIN, Fig. 16); ``grid`` holds the

@@ -169,8 +169,12 @@ class FilterSpec:
     noise: Callable[..., np.ndarray] | None = None
     #: ``reach(params) -> cells``: how far from a cell the cells its mark depends on may lie
     #: (the windows of the morphological steps, each opening reaching twice its half window);
-    #: ``--chunk-buffer auto`` is this many cells. ``None``: the filter does not know (point filters).
+    #: ``--chunk-buffer auto`` is this many cells. ``None``: the filter does not know.
     reach: Callable[[Any], int] | None = None
+    #: ``buffer(params) -> metres``: for a filter without a bounded reach (a point filter whose
+    #: steps spread without a limit), the chunk buffer ``--chunk-buffer auto`` gives it: measured,
+    #: not proven (``bench/bench_chunks.py agree``).
+    buffer: Callable[[Any], float] | None = None
 
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
@@ -179,7 +183,8 @@ FILTERS: dict[str, FilterSpec] = {}
 
 def register_filter(name: str, *, params: type, summary: str,
                     rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False,
-                    noise: Callable[..., np.ndarray] | None = None, reach: Callable[[Any], int] | None = None):
+                    noise: Callable[..., np.ndarray] | None = None, reach: Callable[[Any], int] | None = None,
+                    buffer: Callable[[Any], float] | None = None):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
@@ -190,7 +195,8 @@ def register_filter(name: str, *, params: type, summary: str,
         if name in FILTERS and FILTERS[name].fn is not fn:
             raise ValueError(f"filter {name!r} is registered twice")
         FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
-                                   on_points=on_points, noise=noise, reach=reach)
+                                   on_points=on_points, noise=noise, reach=reach,
+                                   buffer=buffer)
         return fn
 
     return deco

@@ -46,13 +46,15 @@ def chunk_plan(algorithm: str, params: Any, size: float, buffer: float | str) ->
     whole cells), or with ``"auto"`` the filter's reach."""
     cell = float(getattr(params, "cell", None) or 1.0)  # point filters' chunks: on whole metres
     cells = max(1, round(size / cell))
-    if buffer == "auto":
-        reach = get_filter(algorithm).reach
-        if reach is None:
-            raise UsageError(f"--chunk-buffer auto: {algorithm} has no bounded reach; give the buffer in metres")
+    spec = get_filter(algorithm)
+    if buffer == "auto" and spec.reach is not None:
         # empty cells are filled from their nearest point: for a cell within the reach of a point
         # that point lies within twice the reach, so twice the reach sees every value used
-        buffer_cells = 2 * int(reach(params)) + 1
+        buffer_cells = 2 * int(spec.reach(params)) + 1
+    elif buffer == "auto":
+        if spec.buffer is None:
+            raise UsageError(f"--chunk-buffer auto: {algorithm} has no bounded reach; give the buffer in metres")
+        buffer_cells = math.ceil(spec.buffer(params) / cell - 1e-9)
     else:
         buffer_cells = math.ceil(float(buffer) / cell - 1e-9)
     origin = getattr(params, "origin", None) or (0.0, 0.0)

@@ -125,7 +125,13 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, 
     return steep
 
 
-@register_filter("slope", params=SlopeParams, on_points=True,
+def slope_buffer(params: SlopeParams) -> float:
+    """A chunk's buffer: a point's class depends on the lowest points of the cells within its
+    search radius, each the lowest of its whole cell: the radius and two cells."""
+    return params.search_radius + 2 * max(params.cell_shape())
+
+
+@register_filter("slope", params=SlopeParams, on_points=True, buffer=slope_buffer,
                  summary="maximum local slope (manual appendix MLS; Vosselman 2000)")
 def slope(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: SlopeParams) -> np.ndarray:
     """Point marks of the maximum local slope filter (manual appendix MLS, eq. 4)."""
