@@ -85,17 +85,25 @@ class LowestGrid:
         return self.lowest < 0
 
 
-def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float, float] | None = None) -> CellGridSpec:
-    """The smallest aligned grid covering the points."""
+#: An extent ``(xmin, ymin, xmax, ymax)`` a grid is to cover, as the points' own would be.
+Extent = tuple[float, float, float, float]
+
+
+def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float, float] | None = None,
+              extent: Extent | None = None) -> CellGridSpec:
+    """The smallest aligned grid covering the points, or the cells of ``extent`` (which must hold
+    them): a chunk of a file gets the whole file's cells there, its edges where the file's are."""
     if not cell > 0:
         raise ValueError(f"cell must be > 0, got {cell!r}")
     ox, oy = origin if origin is not None else (0.0, 0.0)
-    if len(x) == 0:
+    if len(x) == 0 and extent is None:
         return CellGridSpec(ox, oy, float(cell), 0, 0)
-    c0 = math.floor((float(np.min(x)) - ox) / cell)
-    c1 = math.floor((float(np.max(x)) - ox) / cell)
-    r0 = math.floor((float(np.min(y)) - oy) / cell)
-    r1 = math.floor((float(np.max(y)) - oy) / cell)
+    xmin, ymin, xmax, ymax = extent if extent is not None else (
+        float(np.min(x)), float(np.min(y)), float(np.max(x)), float(np.max(y)))
+    c0 = math.floor((xmin - ox) / cell)
+    c1 = math.floor((xmax - ox) / cell)
+    r0 = math.floor((ymin - oy) / cell)
+    r1 = math.floor((ymax - oy) / cell)
     rows, cols = r1 - r0 + 1, c1 - c0 + 1
     if rows * cols > MAX_CELLS:
         raise DataError(
@@ -131,7 +139,7 @@ def cell_indices(x: np.ndarray, y: np.ndarray, spec: CellGridSpec, *, origin: tu
 
 
 def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
-                origin: tuple[float, float] | None = None) -> LowestGrid:
+                origin: tuple[float, float] | None = None, extent: Extent | None = None) -> LowestGrid:
     """Keep the lowest point of every cell (dissertation ch. 3, §3.1 "Resampling Data").
 
     Vectorized: a running minimum per cell with ``np.minimum.at``, then the index of the point
@@ -142,7 +150,7 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     z = np.asarray(z, dtype=np.float64)
     if not (len(x) == len(y) == len(z)):
         raise ValueError("x, y and z must have the same length")
-    spec = grid_spec(x, y, cell, origin=origin)
+    spec = grid_spec(x, y, cell, origin=origin, extent=extent)
     if len(x) == 0:
         shape = spec.shape
         return LowestGrid(spec, np.full(shape, np.nan), np.full(shape, -1, np.int32), np.zeros(0, np.int64))

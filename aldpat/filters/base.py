@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, lowest_grid
+from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError, ParamError
 from aldpat.options import ChunkOption, OriginOption
 from aldpat.params import Checked, SharedOption, param, validate_instance
@@ -405,12 +405,13 @@ def _surface_classes(grid: LowestGrid, marks: np.ndarray, x, y, z, params, point
     return is_ground
 
 
-def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin) -> LowestGrid:
+def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin, extent: Extent | None = None
+                    ) -> LowestGrid:
     """The lowest-point grid with the points ``set_aside`` left out (a cell holding nothing
     else is empty); same cells as with them."""
     if set_aside is None or not set_aside.any():
-        return lowest_grid(x, y, z, cell, origin=origin)
-    grid = lowest_grid(x, y, np.where(set_aside, np.inf, z), cell, origin=origin)
+        return lowest_grid(x, y, z, cell, origin=origin, extent=extent)
+    grid = lowest_grid(x, y, np.where(set_aside, np.inf, z), cell, origin=origin, extent=extent)
     only = np.isinf(grid.z)
     if only.any():
         grid.z[only] = np.nan
@@ -426,7 +427,7 @@ def low_outlier_reach(params) -> int:
     return params.low_outlier_window * LOW_OUTLIER_ROUNDS
 
 
-def low_outliers(x, y, z, params) -> tuple[np.ndarray | None, LowestGrid]:
+def low_outliers(x, y, z, params, extent: Extent | None = None) -> tuple[np.ndarray | None, LowestGrid]:
     """Points set aside as low outliers (``None`` when the test is off) and the axis-aligned
     lowest-point grid without them.
 
@@ -439,13 +440,13 @@ def low_outliers(x, y, z, params) -> tuple[np.ndarray | None, LowestGrid]:
     clump of multipath points drains within ``LOW_OUTLIER_ROUNDS`` rounds.
     """
     if params.low_outliers is None or len(z) == 0:
-        return None, lowest_grid(x, y, z, params.cell, origin=params.origin)
+        return None, lowest_grid(x, y, z, params.cell, origin=params.origin, extent=extent)
     from scipy import ndimage
 
     out = np.zeros(len(z), bool)
     size = 2 * params.low_outlier_window + 1
     for _ in range(LOW_OUTLIER_ROUNDS):
-        grid = _lowest_without(x, y, z, out, params.cell, params.origin)
+        grid = _lowest_without(x, y, z, out, params.cell, params.origin, extent)
         if grid.empty.all():
             return out, grid
         filled = fill_nearest(grid.z, grid.empty)
@@ -455,7 +456,7 @@ def low_outliers(x, y, z, params) -> tuple[np.ndarray | None, LowestGrid]:
         if not deep.any():
             return out, grid
         out[grid.lowest[deep]] = True
-    return out, _lowest_without(x, y, z, out, params.cell, params.origin)
+    return out, _lowest_without(x, y, z, out, params.cell, params.origin, extent)
 
 
 def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
@@ -465,7 +466,7 @@ def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, n
     return x * c - y * s, x * s + y * c
 
 
-def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
+def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None = None) -> FilterResult:
     """Classify points as ground / non-ground with the registered grid filter ``algorithm``.
 
     Parameters
@@ -474,6 +475,9 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
     algorithm : str
         a name in :data:`FILTERS`.
     params : the filter's params dataclass, optional (defaults when omitted).
+    extent : (xmin, ymin, xmax, ymax), optional
+        the extent the grid covers (default: the points'); a chunk of a file passes the file's
+        extent clipped to the chunk's buffer, so that its grid has the file's cells and edges.
 
     With the manual's Rotate Angle / Rotate Times (filters registered with ``rotations``),
     the data are rotated, gridded and filtered at each angle; a point is ground only when every
@@ -493,12 +497,12 @@ def ground_filter(x, y, z, algorithm: str, params=None) -> FilterResult:
     if len(z) and not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(z).all()):
         raise DataError("points with non-finite coordinates cannot be filtered")
     if spec.on_points:
-        return _point_filter(spec, x, y, z, params)
+        return _point_filter(spec, x, y, z, params, extent)
     angles = tuple(float(a) for a in spec.rotations(params)) if spec.rotations else (0.0,)
     if not angles:
         angles = (0.0,)
 
-    set_aside, base = low_outliers(x, y, z, params)
+    set_aside, base = low_outliers(x, y, z, params, extent)
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
                             np.full(base.z.shape, MARK_INTERPOLATED, np.int32), angles, algorithm, params)
@@ -538,19 +542,21 @@ def _cell_marks(grid: LowestGrid, point_marks: np.ndarray) -> np.ndarray:
     return marks
 
 
-def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params) -> LowestGrid:
+def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Extent | None = None) -> LowestGrid:
     """The lowest point of each of a point filter's cells (``params.cell_shape()``). Rectangular
     cells are square cells of the width over y divided by height / width (the result's
     ``y_stretch``), so every grid tool applies unchanged."""
     width, height = params.cell_shape()
     stretch = height / width
-    return lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width)
+    if extent is not None and stretch != 1.0:
+        extent = (extent[0], extent[1] / stretch, extent[2], extent[3] / stretch)
+    return lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width, extent=extent)
 
 
-def _point_filter(spec: FilterSpec, x, y, z, params) -> FilterResult:
+def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None = None) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
-    grid = cell_grid(x, y, z, params)  # the filter's own grid: gridded once, for it and the report
+    grid = cell_grid(x, y, z, params, extent)  # the filter's own grid: gridded once, for it and the report
     if len(z) == 0:
         point_marks = np.zeros(0, np.int32)
     else:

@@ -10,11 +10,13 @@ back in input order.
 Chunks lie on whole multiples of the cell from the filter's origin, so a chunk's cells are the
 whole file's cells. With a buffer of twice the filter's reach (:attr:`FilterSpec.reach`: the
 cells its marks depend on; twice, because an empty cell within that reach takes the height of
-its nearest point, which lies within twice the reach), the filters whose marks depend only on the cells within their windows
--- ``etew``, ``pm``, ``pm2d``, ``pmcircle`` without rotation -- give exactly the whole file's
-classes. The others have steps that are not bounded (gapm's raised segments and surface test,
-cluster-pm's recovery along a row, multipass's interpolation, the point filters' searches), so
-their agreement with a whole-file run is measured (``bench/bench_chunks.py``), not promised.
+its nearest point, which lies within twice the reach), the filters whose marks depend only on
+the cells within their windows -- ``etew``, ``pm``, ``pm2d``, ``pmcircle`` without rotation --
+give exactly the whole file's classes, and so does ``slope`` with its buffer (its search radius
+and two cells, :attr:`FilterSpec.buffer`). The others have steps that are not bounded (gapm's
+raised segments and surface test, cluster-pm's recovery along a row, multipass's interpolation,
+the spreading of ipf's, poly2's and atin's ground sets from window to window or round to round),
+so their agreement with a whole-file run is measured (``bench/bench_chunks.py``), not promised.
 """
 
 from __future__ import annotations
@@ -105,6 +107,8 @@ def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str
     x, y, z = points["x"], points["y"], points["z"]
     own_col, own_row = spilled.lattice.index(x, y)
     own = (own_col == col) & (own_row == row)
-    res = ground_filter(x, y, z, algorithm, params)
+    # the grid of the whole file's cells there, edges included: a grid on the chunk's own points
+    # would end where they end, and an opening at a grid's edge sees other cells than inside it
+    res = ground_filter(x, y, z, algorithm, params, extent=spilled.extent(col, row))
     cls = classes_of(res, z, params)
     return points["row"][own], res.point_marks[own], cls[own], time.perf_counter() - start

@@ -53,6 +53,22 @@ class SpilledChunks:
     folder: Path
     points: int
     chunks: list[tuple[int, int]]
+    bounds: tuple[float, float, float, float] | None = None  # of every point: xmin, ymin, xmax, ymax
+
+    def extent(self, col: int, row: int) -> tuple[float, float, float, float] | None:
+        """The input's extent clipped to chunk (col, row) with its buffer (its last cell's edge
+        kept out): where a whole-file grid has cells there, and its edges."""
+        if self.bounds is None:
+            return None
+        ox, oy = self.lattice.origin
+        size, b = self.lattice.size, self.lattice.buffer
+        x0, y0 = ox + col * size - b, oy + row * size - b
+        x1, y1 = x0 + size + 2 * b, y0 + size + 2 * b
+        # the far edge belongs to the next chunk: a micrometre inside it lies in the last cell
+        # (chunks are whole cells; a cell is far wider, the coordinates' rounding far finer)
+        inside = 1e-6
+        xmin, ymin, xmax, ymax = self.bounds
+        return (max(xmin, x0), max(ymin, y0), min(xmax, x1 - inside), min(ymax, y1 - inside))
 
     def path(self, col: int, row: int) -> Path:
         return self.folder / f"chunk_{col}_{row}.bin"
@@ -85,6 +101,7 @@ def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = N
     try:
         owned: set[tuple[int, int]] = set()
         start = 0
+        low, high = np.array([np.inf, np.inf]), np.array([-np.inf, -np.inf])
         reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
         for table in tables:
             n = len(table)
@@ -93,6 +110,8 @@ def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = N
             records = np.empty(n, RECORD)
             records["row"] = np.arange(start, start + n)
             records["x"], records["y"], records["z"] = table.x, table.y, table.z
+            low = np.minimum(low, [records["x"].min(), records["y"].min()])
+            high = np.maximum(high, [records["x"].max(), records["y"].max()])
             col, row = lattice.index(records["x"], records["y"])
             owned.update(zip(col.tolist(), row.tolist()))
             for dc in range(-reach, reach + 1):
@@ -105,7 +124,8 @@ def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = N
             start += n
         # a chunk that holds only buffer points has nothing of its own to classify
         chunks = sorted(owned, key=lambda cr: (cr[1], cr[0]))
-        yield SpilledChunks(lattice, folder, start, chunks)
+        bounds = (float(low[0]), float(low[1]), float(high[0]), float(high[1])) if start else None
+        yield SpilledChunks(lattice, folder, start, chunks, bounds)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
