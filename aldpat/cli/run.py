@@ -80,7 +80,10 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, report, 
                  as_json=bool(getattr(st.job.run.params.values, "json", False)))
 
     command = "aldpat run " + " ".join(sys.argv[2:])
-    statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status, command=command)
+    from aldpat.cli.progress import job_progress
+
+    statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status, command=command,
+                             progress=lambda job: job_progress(job.task, enabled=not quiet))
     if report:
         from aldpat.worksheet.report import write_report
 

@@ -30,6 +30,7 @@ import aldpat
 from aldpat import interrupt
 from aldpat.io.atomic import atomic_output, remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
+from aldpat.jobs.execute import Progress
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
 from aldpat.jobs.run import run_task
@@ -104,8 +105,10 @@ def _remove_stray_temporaries(job: Job) -> None:
 
 def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool = False, jobs: int | None = None,
                   on_status: Callable[[JobStatus], None] | None = None,
-                  command: str = "aldpat run") -> list[JobStatus]:
-    """Run the jobs of ``ws`` in order; return their final statuses (and write state and log)."""
+                  command: str = "aldpat run",
+                  progress: Callable[[Job], contextlib.AbstractContextManager[Progress | None]] | None = None) -> list[JobStatus]:
+    """Run the jobs of ``ws`` in order; return their final statuses (and write state and log).
+    ``progress(job)`` opens what shows each job's progress while it runs (its inputs and chunks)."""
     statuses = [JobStatus(job) for job in ws.jobs]
     state = _load_state(ws) if resume else {}
     if not resume:
@@ -146,9 +149,10 @@ def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool =
         _save_state(ws, state)
         start = time.perf_counter()
         try:
-            with interrupt.doing(f"worksheet job {job.number} ({job.task.key})"):
+            with interrupt.doing(f"worksheet job {job.number} ({job.task.key})"), \
+                    (progress(job) if progress is not None else contextlib.nullcontext()) as bar:
                 report = run_task(job.task, job.inputs, [], resolved=run,
-                                  command=f"{command}  # job {job.number}")
+                                  command=f"{command}  # job {job.number}", progress=bar)
         except aldpat.errors.AldpatError as exc:
             status.state, status.message = FAILED, str(exc)
             report = None

@@ -37,3 +37,13 @@ def test_the_bar_counts_the_chunks_of_one_file(tmp_path):
     assert ("29", "29") in counts  # 28 chunks and their job: the bar's last refresh
     assert all(total == "29" for _, total in counts if total != "1")  # total 1 before the chunks are planned
     assert "Traceback" not in drawn
+
+
+def test_a_worksheet_shows_each_jobs_bar(tmp_path):
+    sheet = tmp_path / "chunks.toml"
+    sheet.write_text(f'[[job]]\ntask = "filter"\nalgorithm = "pm"\ninputs = ["{DATA / "samp24.txt"}"]\n'
+                     f'odir = "out"\nchunk = 20.0\nwindow_series = [1, 2, 4, 8]\n')
+    code, drawn = in_a_terminal("run", sheet, cwd=tmp_path)
+    assert code == 0, drawn
+    assert ("29", "29") in set(re.findall(r"(\d+)/(\d+)", drawn))  # the job's 28 chunks and the job
+    assert "job 1 filter pm: Done" in drawn
