@@ -140,15 +140,22 @@ def _passes(tin: _Tin, x, y, z, params: AtinParams) -> np.ndarray:
     return _tested(tin, x, y, z, params)[0]
 
 
-def _tested(tin: _Tin, x, y, z, params: AtinParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pass flags, triangle below and distance to it (the mirror point's, for a point passing
-    through it) of every point."""
+#: ``_Tested.mirror`` of a point that was not mirrored.
+NOT_MIRRORED = -2
+
+
+def _tested(tin: _Tin, x, y, z, params: AtinParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pass flags, triangle below, distance to it (the mirror point's, for a point passing
+    through it) and the triangle below the mirror point (-1 outside the TIN,
+    :data:`NOT_MIRRORED`) of every point."""
     s = tin.locate(x, y)
     ok = np.zeros(len(x), bool)
     score = np.full(len(x), np.inf)
+    mirror = np.full(len(x), NOT_MIRRORED, np.int64)
     inside = s >= 0
     if not inside.any():
-        return ok, s, score
+        return ok, s, score, mirror
+    mirror_inside = np.full(int(inside.sum()), NOT_MIRRORED, np.int64)
     xi, yi, zi, si = x[inside], y[inside], z[inside], s[inside]
     dist = tin.distance(si, xi, yi, zi)
     good = np.abs(dist) < params.z_difference
@@ -164,6 +171,7 @@ def _tested(tin: _Tin, x, y, z, params: AtinParams) -> tuple[np.ndarray, np.ndar
         bad, v = bad[level], v[level]
         mx, my = 2 * tin.px[v] - xi[bad], 2 * tin.py[v] - yi[bad]
         ms = tin.locate(mx, my)
+        mirror_inside[bad] = ms
         has = ms >= 0
         if has.any():
             b, mz = bad[has], (2 * tin.pz[v] - zi[bad])[has]
@@ -177,7 +185,8 @@ def _tested(tin: _Tin, x, y, z, params: AtinParams) -> tuple[np.ndarray, np.ndar
             dist[b[mgood]] = mdist[mgood]
     ok[inside] = good
     score[inside] = np.abs(dist)
-    return ok, s, score
+    mirror[inside] = mirror_inside
+    return ok, s, score, mirror
 
 
 def _best_of_each_triangle(ok: np.ndarray, tri: np.ndarray, score: np.ndarray) -> np.ndarray:
@@ -199,9 +208,31 @@ def _seeds(x: np.ndarray, y: np.ndarray, z: np.ndarray, size: float) -> np.ndarr
     return g.lowest[~g.empty]
 
 
+def _triangle_keys(tin: _Tin, ids: np.ndarray, virtual: int) -> np.ndarray:
+    """One number per triangle of ``tin`` naming its three points (``ids``: each TIN point's
+    number in the rectangle's candidates; numbers from ``virtual`` on are the virtual corners,
+    whose heights change from round to round: their triangles get -1, never equal)."""
+    v = np.sort(ids[tin.tri.simplices], axis=1)
+    base = virtual + 4
+    keys = (v[:, 0] * base + v[:, 1]) * base + v[:, 2]
+    keys[v[:, 2] >= virtual] = -1
+    return keys
+
+
+def _still_there(old: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Which of the triangle numbers ``old`` (-1: none) are triangles of the new TIN."""
+    return (old >= 0) & np.isin(old, keys)
+
+
 def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
             bounds: tuple[float, float, float, float]) -> tuple[np.ndarray, _Tin | None]:
-    """Ground flags of candidates x, y, z (one rectangle with its buffer) and the final TIN."""
+    """Ground flags of candidates x, y, z (one rectangle with its buffer) and the final TIN.
+
+    A candidate that failed stays failed while the triangle below it and the one below its
+    mirror point are still triangles of the TIN (same points, so same planes): each round tests
+    again only the candidates whose triangles the points just added broke up, and gives the
+    same answer as testing them all.
+    """
     n = len(z)
     ground = np.zeros(n, bool)
     if n == 0:
@@ -210,6 +241,10 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
     x0, y0, x1, y1 = bounds
     corners_x = np.array([x0, x1, x0, x1])
     corners_y = np.array([y0, y0, y1, y1])
+    # numbers fit in an int64 key of three: checked, else every candidate is tested every round
+    keep_keys = (n + 4) ** 3 < 2 ** 63 and not params.best_per_triangle
+    below = np.full(n, -1, np.int64)  # the triangle key below each failed candidate (-1: test it)
+    behind = np.full(n, -1, np.int64)  # that below its mirror point (-1: test it; -2: not mirrored)
     tin = None
     for _ in range(MAX_ROUNDS):
         gi = np.flatnonzero(ground)
@@ -225,9 +260,21 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
         rest = np.flatnonzero(~ground)
         if len(rest) == 0:
             break
-        add, tri, score = _tested(tin, x[rest], y[rest], z[rest], params)
+        if keep_keys:
+            keys = _triangle_keys(tin, np.concatenate([gi, n + np.arange(4)]), n)
+            same = _still_there(below[rest], keys)
+            same &= (behind[rest] == NOT_MIRRORED) | _still_there(behind[rest], keys)
+            rest = rest[~same]
+            if len(rest) == 0:
+                break
+        add, tri, score, mirror = _tested(tin, x[rest], y[rest], z[rest], params)
         if params.best_per_triangle:
             add = _best_of_each_triangle(add, tri, score)
+        if keep_keys:
+            failed = rest[~add]
+            below[failed] = np.where(tri[~add] >= 0, keys[tri[~add]], -1)
+            m = mirror[~add]
+            behind[failed] = np.where(m >= 0, keys[np.maximum(m, 0)], np.where(m == NOT_MIRRORED, NOT_MIRRORED, -1))
         if not add.any():
             break
         ground[rest[add]] = True
