@@ -162,6 +162,7 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
     vn = rr + r0 - sums.v0
     moments, z_moments = sums.band(lo, hi)
     raw = {key: _box_sum(m, k)[at, cc] for key, m in moments.items()}
+    raw[0, 0] = np.rint(raw[0, 0])  # the points in each window, a count (see _window_counts)
     raw_z = {key: _box_sum(m, k)[at, cc] for key, m in z_moments.items()}
     del moments, z_moments
 
@@ -183,7 +184,7 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
         rhs[:, p] = centred(raw_z, a1, b1)
         for q, (a2, b2) in enumerate(terms[p:], start=p):
             normal[:, p, q] = normal[:, q, p] = centred(raw, a1 + a2, b1 + b2)
-    normal[:, 0, 0] = count = np.rint(normal[:, 0, 0])  # a count (see _window_counts)
+    count = normal[:, 0, 0]
     ridge = RIDGE * np.maximum(count, 1.0)
     for p in range(1, m):
         normal[:, p, p] += ridge
@@ -200,7 +201,7 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
 def _plane_at_nodes(raw: dict, raw_z: dict, centred) -> np.ndarray:
     """The plane's value at each node by Cramer's rule on the 3 x 3 normal equations: no
     stacked matrices (as many nodes as points at 1 m cells), same answer as the general solve."""
-    n = np.rint(centred(raw, 0, 0))  # a count (see _window_counts)
+    n = centred(raw, 0, 0)
     su, sv = centred(raw, 1, 0), centred(raw, 0, 1)
     ridge = RIDGE * np.maximum(n, 1.0)
     suu = centred(raw, 2, 0) + ridge
