@@ -140,7 +140,7 @@ def _passes(tin: _Tin, x, y, z, params: AtinParams) -> np.ndarray:
     return _tested(tin, x, y, z, params)[0]
 
 
-#: ``_Tested.mirror`` of a point that was not mirrored.
+#: What :func:`_tested` gives as the mirror point's triangle of a point that was not mirrored.
 NOT_MIRRORED = -2
 
 
@@ -244,7 +244,7 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
     # numbers fit in an int64 key of three: checked, else every candidate is tested every round
     keep_keys = (n + 4) ** 3 < 2 ** 63 and not params.best_per_triangle
     below = np.full(n, -1, np.int64)  # the triangle key below each failed candidate (-1: test it)
-    behind = np.full(n, -1, np.int64)  # that below its mirror point (-1: test it; -2: not mirrored)
+    behind = np.full(n, -1, np.int64)  # that below its mirror point (-1: test it; or NOT_MIRRORED)
     tin = None
     for _ in range(MAX_ROUNDS):
         gi = np.flatnonzero(ground)
@@ -272,8 +272,8 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
             add = _best_of_each_triangle(add, tri, score)
         if keep_keys:
             failed = rest[~add]
-            below[failed] = np.where(tri[~add] >= 0, keys[tri[~add]], -1)
-            m = mirror[~add]
+            t, m = tri[~add], mirror[~add]
+            below[failed] = np.where(t >= 0, keys[np.maximum(t, 0)], -1)
             behind[failed] = np.where(m >= 0, keys[np.maximum(m, 0)], np.where(m == NOT_MIRRORED, NOT_MIRRORED, -1))
         if not add.any():
             break
