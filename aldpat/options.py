@@ -114,8 +114,8 @@ class ChunkOption(SharedOption, Checked):
     chunk: float | None = param(None, "process each input in square chunks of this size (rounded to whole cells), "
                                 "each with a buffer, in bounded memory and in parallel with -j; none: whole",
                                 unit="m", gt=0)
-    chunk_buffer: str = param("auto", "buffer around each chunk in metres, or auto: what the filter's windows "
-                              "reach", metavar="M|auto")
+    chunk_buffer: str = param("auto", "buffer around each chunk in metres, or auto: what the filter needs "
+                              "(twice its windows' reach; a point filter's own buffer)", metavar="M|auto")
     tmpdir: str | None = param(None, "folder for the chunks' temporary files (default: the output folder)",
                                path=True, metavar="DIR")
     catalog: bool = param(False, "with --chunk: take all inputs as one catalog (tiles without buffers of their "
