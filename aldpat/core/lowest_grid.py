@@ -112,7 +112,7 @@ def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     return CellGridSpec(ox + c0 * cell, oy + r0 * cell, float(cell), rows, cols)
 
 
-def _floor_index(v: np.ndarray, origin: float, cell: float) -> np.ndarray:
+def floor_index(v: np.ndarray, origin: float, cell: float) -> np.ndarray:
     """floor((v - origin) / cell) as int64, in one scratch array (fresh pages are slow here)."""
     t = np.subtract(np.asarray(v, dtype=np.float64), origin)
     t /= cell
@@ -130,8 +130,8 @@ def cell_indices(x: np.ndarray, y: np.ndarray, spec: CellGridSpec, *, origin: tu
     ox, oy = origin if origin is not None else (0.0, 0.0)
     c0 = round((spec.x0 - ox) / spec.cell)
     r0 = round((spec.y0 - oy) / spec.cell)
-    col = _floor_index(x, ox, spec.cell) - c0
-    row = _floor_index(y, oy, spec.cell) - r0
+    col = floor_index(x, ox, spec.cell) - c0
+    row = floor_index(y, oy, spec.cell) - r0
     # floor((x - ox) / cell) can land one cell outside at the extreme after rounding
     np.clip(col, 0, spec.cols - 1, out=col)
     np.clip(row, 0, spec.rows - 1, out=row)
@@ -171,7 +171,7 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     return LowestGrid(spec, zmin.reshape(spec.shape), lowest.reshape(spec.shape), flat)
 
 
-def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None) -> np.ndarray:
+def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndarray | None = None) -> np.ndarray:
     """Fill empty cells with the value of the nearest non-empty cell.
 
     Dissertation §4.2.1 "Grid-Based Nearest Neighbor Interpolation" (the layer-by-layer
@@ -180,24 +180,33 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None) -> np.ndarray:
 
     Parameters
     ----------
-    z : 2-D array
+    z : 2-D array (float64 heights, or any dtype of values such as height codes)
     empty : bool array of the same shape, optional
         cells to fill; default: the NaN cells of ``z``.
+    out : array, optional
+        where the result goes; ``out=z`` fills in place (no second grid).
 
     Returns
     -------
-    A new array. If no cell holds a value, a copy of ``z`` is returned unchanged.
+    The filled grid (a new array unless ``out`` is given). If no cell holds a value, the values
+    are returned unchanged.
     """
-    z = np.asarray(z, dtype=np.float64)
+    z = np.asarray(z)
+    if not (np.issubdtype(z.dtype, np.floating) or np.issubdtype(z.dtype, np.integer)):
+        z = z.astype(np.float64)
     if empty is None:
         empty = np.isnan(z)
     else:
         empty = np.asarray(empty, dtype=bool)
         if empty.shape != z.shape:
             raise ValueError(f"empty mask shape {empty.shape} differs from grid shape {z.shape}")
+    if out is None:
+        out = z.copy()
+    elif out is not z:
+        np.copyto(out, z)
     if not empty.any() or empty.all():
-        return z.copy()
-    idx = ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
+        return out
+    idx = nearest_indices(empty)
     # one flat gather is about twice as fast as indexing with the two index planes; the flat
     # index is built in place in the row plane (MAX_CELLS keeps it within int32)
     flat = idx[0]
@@ -205,4 +214,28 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None) -> np.ndarray:
         flat = flat.astype(np.int64)
     flat *= z.shape[1]
     flat += idx[1]
-    return z.ravel()[flat]
+    source = out.ravel()
+    # row blocks, in place: a cell's nearest non-empty cell is itself when it holds a value, so
+    # the values read are never ones written
+    step = max(1, (1 << 22) // max(1, z.shape[1]))
+    for a in range(0, z.shape[0], step):
+        np.take(source, flat[a:a + step], out=out[a:a + step])
+    return out
+
+
+def nearest_indices(empty: np.ndarray) -> np.ndarray:
+    """Row and column (int32, ``(2, rows, cols)``) of the nearest cell that is not ``empty``: the
+    feature transform of ``scipy.ndimage.distance_transform_edt``.
+
+    scipy's function first turns the mask into int64 and then int8 (8 bytes a cell of fresh
+    memory, about a third of its time on a large grid); its transform is called here on the
+    mask's own bytes when that entry point exists, and through the public function otherwise --
+    the same indices either way (``tests/core/test_lowest_grid.py``).
+    """
+    empty = np.ascontiguousarray(empty, dtype=bool)
+    transform = getattr(getattr(ndimage, "_nd_image", None), "euclidean_feature_transform", None)
+    if transform is None or empty.ndim != 2:
+        return ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
+    indices = np.zeros((2, *empty.shape), np.int32)
+    transform(empty.view(np.int8), None, indices)
+    return indices

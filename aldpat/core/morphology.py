@@ -58,7 +58,7 @@ def disk_footprint(k: int) -> np.ndarray:
 
 def _check(z: np.ndarray, k: int, window: str, axis: int) -> np.ndarray:
     z = np.asarray(z)
-    if z.dtype not in (np.float32, np.float64):
+    if z.dtype not in (np.float32, np.float64, np.int32):
         z = z.astype(np.float64)
     if z.ndim != 2:
         raise ValueError(f"expected a 2-D grid, got {z.ndim} dimensions")
@@ -109,8 +109,8 @@ def erosion(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1,
     """Running minimum over the window of half size ``k`` (``k = 0``: a copy).
 
     ``out``: an array of the same shape and dtype to write into (saves an allocation per call
-    on large grids); it must not share memory with ``z``. float32 and float64 grids keep their
-    dtype; other dtypes are computed as float64.
+    on large grids); it must not share memory with ``z``. float32, float64 and int32 grids (height
+    codes) keep their dtype; other dtypes are computed as float64.
     """
     z = _check(z, k, window, axis)
     return _running(z, int(k), window, axis, False, _out(z, out))

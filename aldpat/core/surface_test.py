@@ -14,15 +14,23 @@ The surface keeps the ground cells' lowest points and fills every other cell har
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 
 from aldpat.core.lowest_grid import CellGridSpec
+from aldpat.core.memory import release_free_memory
 
 #: Points tested at once (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
 #: Jacobi sweeps at each level of the pyramid on the way back up (more change the result
 #: by under 0.01 points of ISPRS error: the coarse levels have already carried the far field).
 SWEEPS = 4
+
+
+#: Rows of the finest level handled at a time (even: a strip pulls into whole coarser rows).
+STRIP_ROWS = 128
 
 
 def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: CellGridSpec) -> np.ndarray:
@@ -42,9 +50,40 @@ def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: CellGridSpec) -
     """
     if not ground.any():
         return np.full(z.shape, np.nan)
-    # float32: a tolerance test needs no finer than 0.1 mm, and the pyramid is grid-sized
-    value = np.where(ground, z, 0.0).astype(np.float32)
-    weight = ground.astype(np.float32)
+    surface = relaxed_surface(lambda a, b: np.asarray(z[a:b], dtype=np.float64), ground).astype(np.float64)
+    surface[ground] = z[ground]  # the ground cells' own heights, to the last digit
+    return surface
+
+
+def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarray) -> np.ndarray:
+    """The pull-push fill of :func:`provisional_surface` as float32 (a tolerance test needs no
+    finer than 0.1 mm), ground cells holding their heights rounded to float32;
+    ``heights(a, b)`` gives rows ``a:b`` of the heights as float64, ``ground`` is the mask of
+    ground cells or any grid whose zero cells are the ground ones (a mark matrix).
+
+    The finest level -- all but a third of the pyramid's cells -- is made and relaxed a strip of
+    rows at a time (each strip with ``SWEEPS`` rows of margin, the reach of its sweeps), so that
+    only the result is held whole: the values are those of relaxing the whole level at once.
+    """
+    rows, cols = ground.shape
+
+    def ground_rows(a: int, b: int) -> np.ndarray:
+        return ground[a:b] if ground.dtype == bool else ground[a:b] == 0
+
+    def finest(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        on = ground_rows(a, b)
+        return np.where(on, heights(a, b), 0.0).astype(np.float32), on.astype(np.float32)
+
+    everywhere = all(ground_rows(a, a + STRIP_ROWS).all() for a in range(0, rows, STRIP_ROWS))
+    if min(rows, cols) <= 2 or everywhere:  # the finest level is the coarsest: relax it whole
+        value, weight = finest(0, rows)
+        return _relax(value, weight >= 1.0, 4 * SWEEPS)
+    value = np.empty(((rows + 1) // 2, (cols + 1) // 2), np.float32)
+    weight = np.empty_like(value)
+    for a in range(0, rows, STRIP_ROWS):
+        strip_value, strip_weight = _pull(*finest(a, min(rows, a + STRIP_ROWS)))
+        value[a // 2:a // 2 + len(strip_value)] = strip_value
+        weight[a // 2:a // 2 + len(strip_weight)] = strip_weight
     levels = []
     while True:
         levels.append((value, weight))
@@ -53,13 +92,27 @@ def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: CellGridSpec) -
         value, weight = _pull(value, weight)
     value = _relax(levels[-1][0], levels[-1][1] >= 1.0, 4 * SWEEPS)
     for fine_value, fine_weight in reversed(levels[:-1]):
-        rows, cols = fine_value.shape
-        up = np.repeat(np.repeat(value, 2, axis=0), 2, axis=1)[:rows, :cols]
+        value = _push(value, fine_value, fine_weight >= 1.0)
+    del levels
+    release_free_memory()  # the coarser levels' scratch, before the finest level's grid
+    out = np.empty((rows, cols), np.float32)
+    parent_cols = np.arange(cols) // 2
+    for a in range(0, rows, STRIP_ROWS):
+        b = min(rows, a + STRIP_ROWS)
+        lo, hi = max(0, a - SWEEPS), min(rows, b + SWEEPS)
+        fine_value, fine_weight = finest(lo, hi)
         fixed = fine_weight >= 1.0
-        value = _relax(np.where(fixed, fine_value, up), fixed, SWEEPS)
-    surface = value.astype(np.float64)
-    surface[ground] = z[ground]  # the ground cells' own heights, to the last digit
-    return surface
+        up = value[np.arange(lo, hi) // 2][:, parent_cols]
+        out[a:b] = _relax(np.where(fixed, fine_value, up), fixed, SWEEPS)[a - lo:b - lo]
+    return out
+
+
+def _push(value: np.ndarray, fine_value: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """One level up: the parent's values spread to their 2 x 2 children, the fixed cells' own
+    kept, then ``SWEEPS`` Jacobi sweeps."""
+    rows, cols = fine_value.shape
+    up = np.repeat(np.repeat(value, 2, axis=0), 2, axis=1)[:rows, :cols]
+    return _relax(np.where(fixed, fine_value, up), fixed, SWEEPS)
 
 
 def _pull(value: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -94,15 +147,27 @@ def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:
 def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
     """Gradient magnitude of a grid surface (m/m, float32: a tolerance needs no more), central
     differences."""
-    if min(surface.shape) < 2:
-        return np.zeros(surface.shape, np.float32)
-    gy, gx = np.gradient(surface, cell)
-    return np.hypot(gx, gy, out=gx).astype(np.float32)
+    return _slope(lambda a, b: np.asarray(surface[a:b], dtype=np.float64), surface.shape, cell)
+
+
+def _slope(rows_of: Callable[[int, int], np.ndarray], shape: tuple[int, int], cell: float) -> np.ndarray:
+    """:func:`slope_of` of the surface whose rows ``a:b`` ``rows_of(a, b)`` gives (float64), a strip
+    at a time with a row of margin: the central differences of the whole grid."""
+    rows, cols = shape
+    if min(rows, cols) < 2:
+        return np.zeros(shape, np.float32)
+    out = np.empty(shape, np.float32)
+    for a in range(0, rows, STRIP_ROWS):
+        b = min(rows, a + STRIP_ROWS)
+        lo, hi = max(0, a - 1), min(rows, b + 1)
+        gy, gx = np.gradient(rows_of(lo, hi), cell)
+        out[a:b] = np.hypot(gx, gy, out=gx)[a - lo:b - lo]
+    return out
 
 
 def bilinear(grid: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``grid`` (values at cell centres) at points x, y, bilinearly; edges held constant."""
-    return _blend(grid, _corners(grid.shape, spec, x, y))
+    return _blend(lambda r, c: grid[r, c], _corners(grid.shape, spec, x, y))
 
 
 def _corners(shape: tuple[int, int], spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> tuple:
@@ -115,21 +180,91 @@ def _corners(shape: tuple[int, int], spec: CellGridSpec, x: np.ndarray, y: np.nd
     return r0, np.minimum(r0 + 1, rows - 1), c0, np.minimum(c0 + 1, cols - 1), fr - r0, fc - c0
 
 
-def _blend(grid: np.ndarray, corners: tuple) -> np.ndarray:
+def _blend(at: Callable[[np.ndarray, np.ndarray], np.ndarray], corners: tuple) -> np.ndarray:
+    """Bilinear blend of the values ``at(rows, cols)`` gives at the four corners."""
     r0, r1, c0, c1, tr, tc = corners
-    return ((grid[r0, c0] * (1 - tc) + grid[r0, c1] * tc) * (1 - tr)
-            + (grid[r1, c0] * (1 - tc) + grid[r1, c1] * tc) * tr)
+    return ((at(r0, c0) * (1 - tc) + at(r0, c1) * tc) * (1 - tr)
+            + (at(r1, c0) * (1 - tc) + at(r1, c1) * tc) * tr)
+
+
+@dataclass
+class SurfaceTest:
+    """The final test of SMRF against a provisional surface, ready for points in any pieces:
+    a point is ground when ``|z - surface| <= threshold + slope_scalar * slope`` at it (a fixed
+    tolerance when ``slope_scalar`` is 0). No surface (nothing was ground): no point is.
+
+    The surface is held as float32 (:func:`relaxed_surface`) with, where ``marks`` is given,
+    the ground cells' (mark 0) exact heights read from ``heights`` (a grid and a function
+    turning rows of it into float64 heights): the values of the float64 surface of
+    :func:`provisional_surface` at half its memory.
+    """
+
+    surface: np.ndarray | None
+    slope: np.ndarray | None
+    spec: CellGridSpec
+    threshold: float
+    slope_scalar: float
+    marks: np.ndarray | None = None  # ground where 0
+    heights: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]] | None = None
+
+    @classmethod
+    def build(cls, cells, marks: np.ndarray, *, threshold: float, slope_scalar: float) -> SurfaceTest:
+        """The test over the provisional surface of the ground cells (``marks`` 0) of ``cells``
+        (:class:`aldpat.filters.base.CellHeights`: their heights are read from its codes)."""
+        if not (marks == 0).any():
+            return cls(None, None, cells.spec, threshold, slope_scalar)
+        codes, decode = cells.codes, cells.heights.decode
+        surface = relaxed_surface(lambda a, b: decode(codes[a:b]), marks)
+        release_free_memory()  # the pyramid's and the strips' scratch, before the slope's grid
+        test = cls(surface, None, cells.spec, threshold, slope_scalar, marks, (codes, decode))
+        if slope_scalar:
+            test.slope = _slope(test._rows, surface.shape, cells.spec.cell)
+        return test
+
+    @classmethod
+    def over(cls, surface: np.ndarray, spec: CellGridSpec, *, threshold: float, slope_scalar: float) -> SurfaceTest:
+        """The test over a given surface grid."""
+        slope = slope_of(surface, spec.cell) if slope_scalar else None
+        return cls(surface, slope, spec, threshold, slope_scalar)
+
+    def _at(self, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+        assert self.surface is not None
+        flat = r * self.surface.shape[1]
+        flat += c
+        values = self.surface.ravel().take(flat).astype(np.float64)
+        if self.marks is not None and self.heights is not None:
+            codes, decode = self.heights
+            exact = self.marks.ravel().take(flat) == 0
+            values[exact] = decode(codes.ravel().take(flat[exact]))
+        return values
+
+    def _rows(self, a: int, b: int) -> np.ndarray:
+        assert self.surface is not None
+        values = self.surface[a:b].astype(np.float64)
+        if self.marks is not None and self.heights is not None:
+            codes, decode = self.heights
+            exact = self.marks[a:b] == 0
+            values[exact] = decode(codes[a:b][exact])
+        return values
+
+    def test(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        out = np.zeros(len(z), bool)
+        if self.surface is None:
+            return out
+        slope = self.slope
+        for a in range(0, len(z), _CHUNK):
+            b = min(len(z), a + _CHUNK)
+            corners = _corners(self.surface.shape, self.spec, x[a:b], y[a:b])  # once for both grids
+            h = np.abs(z[a:b] - _blend(self._at, corners))
+            tolerance = self.threshold if slope is None else (
+                self.threshold + self.slope_scalar * _blend(
+                    lambda r, c: slope.ravel().take(r * slope.shape[1] + c), corners))
+            out[a:b] = h <= tolerance
+        return out
 
 
 def within_surface(x: np.ndarray, y: np.ndarray, z: np.ndarray, surface: np.ndarray, spec: CellGridSpec, *,
                    threshold: float, slope_scalar: float) -> np.ndarray:
     """True where ``|z - surface| <= threshold + slope_scalar * slope`` at the point (a fixed
     tolerance when ``slope_scalar`` is 0)."""
-    slope = slope_of(surface, spec.cell) if slope_scalar else None
-    out = np.empty(len(z), bool)
-    for a in range(0, len(z), _CHUNK):
-        b = min(len(z), a + _CHUNK)
-        corners = _corners(surface.shape, spec, x[a:b], y[a:b])  # once for both grids
-        h = np.abs(z[a:b] - _blend(surface, corners))
-        out[a:b] = h <= (threshold if slope is None else threshold + slope_scalar * _blend(slope, corners))
-    return out
+    return SurfaceTest.over(surface, spec, threshold=threshold, slope_scalar=slope_scalar).test(x, y, z)

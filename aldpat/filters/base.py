@@ -21,6 +21,7 @@ lies amid removed cells and is not ground.
 from __future__ import annotations
 
 import difflib
+import functools
 import logging
 import math
 from collections.abc import Callable, Sequence
@@ -29,7 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_nearest, lowest_grid
+from aldpat.core.height_codes import FloatHeights, Heights
+from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, cell_indices, fill_nearest, lowest_grid
+from aldpat.core.memory import one_arena, release_free_memory
+from aldpat.core.surface_test import SurfaceTest
 from aldpat.errors import DataError, ParamError
 from aldpat.options import ChunkOption, OriginOption
 from aldpat.params import Checked, SharedOption, param, validate_instance
@@ -175,6 +179,10 @@ class FilterSpec:
     #: steps spread without a limit), the chunk buffer ``--chunk-buffer auto`` gives it: measured,
     #: not proven (``bench/bench_chunks.py agree``).
     buffer: Callable[[Any], float] | None = None
+    #: ``fn(codes, empty, params, in_place=True, decode=...)`` takes the filled grid as height
+    #: codes (:mod:`aldpat.core.height_codes`; ``decode`` gives their heights) and may overwrite
+    #: them: the filter's working surface at the codes' size, without a float64 copy.
+    takes_codes: bool = False
 
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
@@ -184,7 +192,7 @@ FILTERS: dict[str, FilterSpec] = {}
 def register_filter(name: str, *, params: type, summary: str,
                     rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False,
                     noise: Callable[..., np.ndarray] | None = None, reach: Callable[[Any], int] | None = None,
-                    buffer: Callable[[Any], float] | None = None):
+                    buffer: Callable[[Any], float] | None = None, takes_codes: bool = False):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
@@ -196,7 +204,7 @@ def register_filter(name: str, *, params: type, summary: str,
             raise ValueError(f"filter {name!r} is registered twice")
         FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
                                    on_points=on_points, noise=noise, reach=reach,
-                                   buffer=buffer)
+                                   buffer=buffer, takes_codes=takes_codes)
         return fn
 
     return deco
@@ -290,119 +298,198 @@ def ground_surface(z: np.ndarray, ground: np.ndarray) -> np.ndarray:
     return fill_nearest(np.where(ground, z, np.nan), ~ground)
 
 
-def _ground_height(ground_z: np.ndarray, ground: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray
-                   ) -> np.ndarray:
-    """Ground surface at points x, y: bilinear between the centres of the four cells around
-    each point, over those that are ground, weights renormalised.
+@dataclass
+class CellHeights:
+    """The lowest height of every cell of a grid, kept as codes (:mod:`aldpat.core.height_codes`).
 
-    ``ground_z`` holds the ground cells' lowest elevations (0 elsewhere: their weight is 0),
-    ``ground`` flags ground cells (both flat).
-    NaN where none of the four is ground: such a point sits in a cell whose lowest point was
-    removed, amid removed or empty cells, so it cannot be ground either. Local by design -- a
-    nearest-ground search over the whole grid would cost a distance transform per run.
+    ``owned``: the codes belong to the filter run, which may fill the empty cells in place
+    (``empty`` keeps which they were); otherwise they are copied first.
     """
-    # in place wherever possible: on large inputs fresh scratch arrays cost more than arithmetic
-    fc = np.subtract(x, spec.x0)
-    fc /= spec.cell
-    fc -= 0.5
-    fr = np.subtract(y, spec.y0)
-    fr /= spec.cell
-    fr -= 0.5
-    np.clip(fc, 0.0, max(spec.cols - 1.0, 0.0), out=fc)
-    np.clip(fr, 0.0, max(spec.rows - 1.0, 0.0), out=fr)
-    c0 = fc.astype(np.int64)
-    np.minimum(c0, max(spec.cols - 2, 0), out=c0)
-    r0 = fr.astype(np.int64)
-    np.minimum(r0, max(spec.rows - 2, 0), out=r0)
-    fc -= c0  # now the fraction across the cell pair (tc)
-    fr -= r0  # (tr)
-    dc = 1 if spec.cols > 1 else 0
-    dr = spec.cols if spec.rows > 1 else 0
-    i00 = r0
-    i00 *= spec.cols
-    i00 += c0
-    del c0
-    num = np.zeros(len(x))
-    den = np.zeros(len(x))
-    one_c = 1.0 - fc
-    one_r = 1.0 - fr
-    for offset, wr, wc in ((0, one_r, one_c), (dc, one_r, fc), (dr, fr, one_c), (dr + dc, fr, fc)):
-        idx = i00 + offset if offset else i00
-        w = wr * wc
-        w *= ground[idx]  # 0 unless the corner cell is ground
-        den += w
-        w *= ground_z[idx]
-        num += w
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return num / den
+
+    spec: CellGridSpec
+    codes: np.ndarray
+    heights: Heights
+    owned: bool = False
+
+    @functools.cached_property
+    def empty(self) -> np.ndarray:
+        return self.heights.is_empty(self.codes)
+
+    @classmethod
+    def of(cls, grid: LowestGrid) -> CellHeights:
+        """The float64 heights of a lowest-point grid (NaN where empty), not owned."""
+        return cls(grid.spec, grid.z, FloatHeights())
 
 
-def _classify(grid: LowestGrid, marks: np.ndarray, x, y, z, tolerance: float):
-    """Point marks and classes from a cell mark matrix.
+@dataclass
+class CellClasses:
+    """What the grid stage decided, and the classes it gives any point of the gridded area.
 
-    The lowest point of a cell takes the cell's mark. Points exactly as low share it: which of
-    them the grid kept is an accident of input order, and classes must not depend on it. Any
-    other point is ground when it lies no more than ``tolerance`` above the final ground
-    surface, interpolated bilinearly between ground cell centres so that a sloping cell does
-    not push its upper points out of the ground.
+    :meth:`classify` takes the points in any number of pieces (a whole array, or a file read
+    chunk by chunk: the same points get the same classes either way).
     """
-    n = len(z)
-    flat_marks = marks.ravel()
-    flat_z = grid.z.ravel()
-    ground = flat_marks == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
-    ground_z = np.where(ground, flat_z, 0.0)  # once per grid, not per chunk and corner
-    point_marks = np.empty(n, np.int32)
-    is_ground = np.empty(n, bool)
-    for a in range(0, n, _CHUNK):
-        b = min(n, a + _CHUNK)
-        ci = grid.cell_index[a:b]
-        cm = flat_marks[ci]
-        pm = cm.copy()
-        other = np.flatnonzero(z[a:b] != flat_z[ci])
-        if len(other):
-            h = z[a:b][other] - _ground_height(ground_z, ground, grid.spec, x[a:b][other], y[a:b][other])
-            ok = h <= tolerance  # NaN (no ground around) compares False
-            pm[other] = np.where(ok, MARK_GROUND, np.maximum(cm[other], MARK_ABOVE_SURFACE))
-        point_marks[a:b] = pm
-        is_ground[a:b] = pm == MARK_GROUND
-    return point_marks, is_ground
+
+    cells: CellHeights
+    marks: np.ndarray  # (rows, cols) int16 or int32, MARK_INTERPOLATED where empty
+    tolerance: float
+    origin: tuple[float, float] | None = None
+    surface: SurfaceTest | None = None
+
+    def classify(self, x, y, z, cell_index: np.ndarray | None = None, *, marks: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(point marks int32, is ground) of points x, y, z (``cell_index``: their flat cells when
+        already known). ``marks=False``: the marks are not wanted, only the classes (with the
+        final surface test the points above their cell's lowest are then not compared with the
+        ground cells, which only their marks would use).
+
+        The lowest point of a cell takes the cell's mark. Points exactly as low share it: which of
+        them the grid kept is an accident of input order, and classes must not depend on it. Any
+        other point is ground when it lies no more than ``tolerance`` above the final ground
+        surface, interpolated bilinearly between ground cell centres so that a sloping cell does
+        not push its upper points out of the ground. With the final surface test
+        (``surface``), that test decides every point's class instead.
+        """
+        spec = self.cells.spec
+        n = len(z)
+        point_marks = np.empty(n, np.int32)
+        is_ground = np.empty(n, bool)
+        flat_marks = self.marks.ravel()
+        codes = self.cells.codes.ravel()
+        decode = self.cells.heights.decode
+        for a in range(0, n, _CHUNK):
+            b = min(n, a + _CHUNK)
+            xs, ys, zs = x[a:b], y[a:b], z[a:b]
+            if cell_index is None:
+                row, col = cell_indices(xs, ys, spec, origin=self.origin)
+                ci = row
+                ci *= spec.cols
+                ci += col
+                del col
+            else:
+                ci = cell_index[a:b]
+            cm = flat_marks[ci]
+            pm = cm.astype(np.int32)
+            other = np.flatnonzero(zs != decode(codes[ci]))
+            del ci
+            if len(other) and (marks or self.surface is None):
+                h = zs[other] - self._ground_height(xs[other], ys[other])
+                ok = h <= self.tolerance  # NaN (no ground around) compares False
+                pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_ABOVE_SURFACE))
+            if self.surface is not None:
+                ig = self.surface.test(xs, ys, zs)
+                pm[ig] = MARK_GROUND
+                pm[~ig & (pm == MARK_GROUND)] = MARK_ABOVE_SURFACE
+            else:
+                ig = pm == MARK_GROUND
+            point_marks[a:b] = pm
+            is_ground[a:b] = ig
+        return point_marks, is_ground
+
+    def _ground_height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Ground surface at points x, y: bilinear between the centres of the four cells around
+        each point, over those that are ground, weights renormalised.
+
+        NaN where none of the four is ground: such a point sits in a cell whose lowest point was
+        removed, amid removed or empty cells, so it cannot be ground either. Local by design -- a
+        nearest-ground search over the whole grid would cost a distance transform per run.
+        """
+        spec = self.cells.spec
+        flat_marks = self.marks.ravel()
+        codes = self.cells.codes.ravel()
+        # in place wherever possible: on large inputs fresh scratch arrays cost more than arithmetic
+        fc = np.subtract(x, spec.x0)
+        fc /= spec.cell
+        fc -= 0.5
+        fr = np.subtract(y, spec.y0)
+        fr /= spec.cell
+        fr -= 0.5
+        np.clip(fc, 0.0, max(spec.cols - 1.0, 0.0), out=fc)
+        np.clip(fr, 0.0, max(spec.rows - 1.0, 0.0), out=fr)
+        c0 = fc.astype(np.int64)
+        np.minimum(c0, max(spec.cols - 2, 0), out=c0)
+        r0 = fr.astype(np.int64)
+        np.minimum(r0, max(spec.rows - 2, 0), out=r0)
+        fc -= c0  # now the fraction across the cell pair (tc)
+        fr -= r0  # (tr)
+        dc = 1 if spec.cols > 1 else 0
+        dr = spec.cols if spec.rows > 1 else 0
+        i00 = r0
+        i00 *= spec.cols
+        i00 += c0
+        del c0
+        num = np.zeros(len(x))
+        den = np.zeros(len(x))
+        one_c = 1.0 - fc
+        one_r = 1.0 - fr
+        for offset, wr, wc in ((0, one_r, one_c), (dc, one_r, fc), (dr, fr, one_c), (dr + dc, fr, fc)):
+            idx = i00 + offset if offset else i00
+            ground = flat_marks[idx] == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
+            w = wr * wc
+            w *= ground  # 0 unless the corner cell is ground
+            den += w
+            height = self.cells.heights.decode(codes[idx])
+            height[~ground] = 0.0  # another cell's height may be anything (NaN where empty)
+            w *= height
+            num += w
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return num / den
 
 
-def _run_grid(spec: FilterSpec, grid: LowestGrid, params) -> np.ndarray:
-    """Fill, filter and return the cell mark matrix of one grid."""
-    empty = grid.empty
-    filled = fill_nearest(grid.z, empty)
-    marks = np.asarray(spec.fn(filled, empty.copy(), params))
-    if marks.shape != grid.z.shape:
-        raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {grid.z.shape}")
-    if marks.dtype != np.int32 or not marks.flags.writeable or marks is filled:
-        marks = marks.astype(np.int32)
+def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
+    """Fill, filter and return the cell mark matrix (int16 or int32) of one grid.
+
+    Peak memory is what makes 1 m cells over a large survey possible, so the steps hold as
+    little at once as they can: the empty cells are filled in the codes themselves when the
+    run owns them (``empty`` remembers which they were), the filter gets the one float64 grid
+    and may overwrite it, and it never sees a second copy.
+    """
+    one_arena()  # before the filter's threads start: their scratch is then returned with the rest
+    empty = cells.empty
+    filled = cells.codes if cells.owned else cells.codes.copy()
+    fill_nearest(filled, empty, out=filled)
+    raised = None
     if params.object_step > 0:
         from aldpat.core.segments import raised_segments
 
-        raised = raised_segments(filled, params.object_step, params.object_share)
+        raised = raised_segments(filled, params.object_step, params.object_share, decode=cells.heights.decode)
+        release_free_memory()
+    read_only = empty.view()
+    read_only.flags.writeable = False
+    if spec.takes_codes:
+        work = filled.copy() if filled is cells.codes else filled  # the cells' own codes are kept
+        del filled
+        marks = np.asarray(spec.fn(work, read_only, params, in_place=True, decode=cells.heights.decode))
+    else:
+        work = cells.heights.decode(filled)
+        if work is cells.codes:  # float heights owned by the run: the filter gets a copy
+            work = work.copy()
+        del filled
+        marks = np.asarray(spec.fn(work, read_only, params))
+    if marks.shape != empty.shape:
+        raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {empty.shape}")
+    if marks.dtype not in (np.int16, np.int32) or not marks.flags.writeable or marks is work:
+        marks = marks.astype(np.int32)
+    del work
+    release_free_memory()  # the filter's scratch, before the surface and the points' pass
+    if raised is not None:
         marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
-    marks[empty] = MARK_INTERPOLATED
-    del filled
+    marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
+    del empty
+    cells.__dict__.pop("empty", None)
     return marks
 
 
-def _surface_classes(grid: LowestGrid, marks: np.ndarray, x, y, z, params, point_marks: np.ndarray
-                     ) -> np.ndarray:
-    """SMRF's final test (:mod:`aldpat.core.surface_test`) over every point; updates
-    ``point_marks`` to agree and returns the classes."""
-    from aldpat.core.surface_test import provisional_surface, within_surface
-
-    ground_cells = (marks == MARK_GROUND) & ~grid.empty
-    if ground_cells.any():
-        surface = provisional_surface(grid.z, ground_cells, grid.spec)
-        is_ground = within_surface(x, y, z, surface, grid.spec, threshold=params.surface_threshold,
-                                   slope_scalar=params.surface_slope)
-    else:
-        is_ground = np.zeros(len(z), bool)
-    point_marks[is_ground] = MARK_GROUND
-    point_marks[~is_ground & (point_marks == MARK_GROUND)] = MARK_ABOVE_SURFACE
-    return is_ground
+def cell_classes(spec: FilterSpec, cells: CellHeights, params, *, origin: tuple[float, float] | None = None
+                 ) -> CellClasses:
+    """The grid stage of a grid filter: fill, filter, the raised-segment test and, with
+    ``surface_threshold``, the provisional surface of SMRF's final test."""
+    marks = _run_grid(spec, cells, params)
+    surface = None
+    if params.surface_threshold is not None:
+        surface = SurfaceTest.build(cells, marks, threshold=params.surface_threshold,
+                                    slope_scalar=params.surface_slope)
+        release_free_memory()
+    return CellClasses(cells, marks, params.ground_tolerance, origin, surface)
 
 
 def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin, extent: Extent | None = None
@@ -514,17 +601,15 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
         else:
             xr, yr = _rotate(x, y, angle)
             grid = _lowest_without(xr, yr, z, set_aside, params.cell, None)
-        marks = _run_grid(spec, grid, params)
-        pm, ig = _classify(grid, marks, xr, yr, z, params.ground_tolerance)
-        if params.surface_threshold is not None:
-            ig = _surface_classes(grid, marks, xr, yr, z, params, pm)
+        classes = cell_classes(spec, CellHeights.of(grid), params)
+        pm, ig = classes.classify(xr, yr, z, grid.cell_index)
         if point_marks is None:
             point_marks, is_ground = pm, ig
         else:
             is_ground &= ig
             np.maximum(point_marks, pm, out=point_marks)
         log.debug("%s at %g deg: %d of %d points ground", algorithm, angle, int(ig.sum()), len(ig))
-        del marks, pm, ig
+        del classes, pm, ig
 
     assert point_marks is not None and is_ground is not None  # one angle at least
     if set_aside is not None:

@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 SET01_CELL = 0.75
 
 #: Rows of a direction pass processed together: bounds temporaries, keeps them in cache.
-BLOCK_ROWS = 128
+BLOCK_ROWS = 32
 #: Columns of a column pass processed together: the block's transposed copy stays in cache.
 BLOCK_COLUMNS = 32
 
@@ -166,13 +166,19 @@ def _adaptive_block(z, windows, cts, init_bin, divisor, use_cluster_diff) -> np.
     return mark
 
 
-def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1):
+def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, axis: int = 1, decode=None):
     """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``).
 
-    Returns (cells removed, opened surface).
+    Returns (cells removed, opened surface). ``decode``: ``zc`` holds height codes
+    (:mod:`aldpat.core.height_codes`) and the opened surface is returned as codes; an opening
+    only moves values, so it is the same opening of the heights.
     """
     zo = morphology.opening(zc, k, window="line", axis=axis)
-    diff = np.subtract(zc, zo)
+    if decode is not None:
+        zc = decode(zc)
+        diff = np.subtract(zc, decode(zo))
+    else:
+        diff = np.subtract(zc, zo)
     if k >= init_bin:
         # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines
         # 16-20): beyond that band the answer is known without the analysis, so clusters and
@@ -199,7 +205,8 @@ def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, ax
     return removed, zo
 
 
-def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = None) -> np.ndarray:
+def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = None, in_place: bool = False,
+                        decode=None) -> np.ndarray:
     """``AdaptiveMorphFilter`` as printed (§6.2.4 lines 2-21): at every window of the series the
     rows (if the window is a row window) and then the columns (if a column window) are opened,
     each on the surface the previous pass left, marking into one mark matrix.
@@ -209,20 +216,27 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
     block reads. One surface grid therefore serves all passes and no pass allocates a grid
     (fresh pages cost more than the filtering itself on large grids). A column pass copies a
     narrow block of columns at a time into a transposed, contiguous array, so that every line
-    is read whole and the grid itself is never transposed.
+    is read whole and the grid itself is never transposed. ``in_place``: ``z`` (C-contiguous)
+    is that surface grid, overwritten, instead of a copy of it. ``decode``: ``z`` holds height
+    codes (:mod:`aldpat.core.height_codes`), and so does the surface: 4 bytes a cell instead
+    of 8, each block's heights decoded as it is filtered.
     """
     lookup = dict(zip(p.window_series, p.cluster_thresholds))
     rows = set(p.row_windows or ())
     cols = set(p.column_windows or ())
-    zc = np.array(z, dtype=np.float64, copy=True)
-    mark = np.zeros(zc.shape, np.int32)
+    dtype = z.dtype if decode is not None else np.dtype(np.float64)
+    usable = in_place and z.dtype == dtype and z.flags.c_contiguous and z.flags.writeable
+    zc = z if usable else np.array(z, dtype=dtype, copy=True)
+    # int16: the largest mark is a half window in cells (at most a few hundred), and a mark
+    # matrix of 1 m cells over a survey is tens of millions of cells
+    mark = np.zeros(zc.shape, np.int16)
     opts = (p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)
     nr, nc = zc.shape
 
     def row_block(a, k, ct):
         b = min(a + BLOCK_ROWS, nr)
         m = mark[a:b]
-        removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, *opts)
+        removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, *opts, decode=decode)
         zc[a:b] = zo
         np.copyto(m, k, where=removed)
 
@@ -230,7 +244,7 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
         b = min(a + BLOCK_COLUMNS, nc)
         m = mark[:, a:b]
         zt = np.ascontiguousarray(zc[:, a:b].T)
-        removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, *opts)
+        removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, *opts, decode=decode)
         zc[:, a:b] = zo.T
         np.copyto(m, k, where=removed.T)
 
@@ -275,22 +289,26 @@ def gapm_reach(p: GapmParams) -> int:
     return sum(2 * k for k in p.window_series) + max(rows, columns) + low_outlier_reach(p)
 
 
-@register_filter("gapm", params=GapmParams, reach=gapm_reach,
+@register_filter("gapm", params=GapmParams, reach=gapm_reach, takes_codes=True,
                  summary="generalized adaptive morphological filter with cluster and trend analysis "
                          "(dissertation ch. 6)")
-def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams) -> np.ndarray:
+def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams, *, in_place: bool = False, decode=None
+         ) -> np.ndarray:
     """Mark matrix of the generalized adaptive morphological filter (dissertation ch. 6).
 
     Empty cells take part as interpolated ground candidates (mark -7777 of Table 5-1); the
-    driver marks them interpolated afterwards.
+    driver marks them interpolated afterwards. ``in_place``: ``z`` may be overwritten.
+    ``decode``: ``z`` holds height codes that it turns into heights.
     """
     p = params  # series checked when the params were made (GapmParams.check)
     rw, rt = _direction_series(p, "row")
     cw, ctc = _direction_series(p, "column")
     if p.directions == "sequential":
-        marks = adaptive_sequential(z, p)
+        marks = adaptive_sequential(z, p, in_place=in_place, decode=decode)
         log.debug("gapm: %d of %d cells removed", int((marks > 0).sum()), marks.size)
         return marks
+    if decode is not None:
+        z = decode(z)
     opts: dict[str, Any] = {"init_thresh_bin": p.init_thresh_bin, "max_threshold_divisor": p.max_threshold_divisor,
                             "use_cluster_diff": p.use_cluster_diff}
     row_fn = (lambda a: adaptive_rows(a, rw, rt, axis=1, **opts)) if rw else None

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aldpat.core.height_codes import ScaledHeights
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.table import PointTable
 
@@ -70,6 +71,16 @@ class LasReader:
             raise InputFormatError(f"header says {self.count} points, the file holds {held} point records",
                                    path=self.path)
 
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) as the header declares them."""
+        mins, maxs = self.header.mins, self.header.maxs
+        return float(mins[0]), float(mins[1]), float(maxs[0]), float(maxs[1])
+
+    def height_codes(self) -> ScaledHeights:
+        """How heights are stored: ``Z * scale + offset``, the integers :func:`z_codes` gives."""
+        return ScaledHeights(float(self.header.scales[2]), float(self.header.offsets[2]))
+
     def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
         if self.count == 0:
             raise InputFormatError("no points in file", path=self.path)
@@ -98,6 +109,12 @@ class LasReader:
     def read(self) -> PointTable:
         """The whole file as one table (one chunk: no concatenation, no second copy)."""
         return next(iter(self.chunks(size=max(self.count, 1))))
+
+
+def z_codes(table: PointTable) -> np.ndarray:
+    """The stored integers of a LAS chunk's heights (``z == Z * scale + offset``)."""
+    assert table.record is not None, "a table read from LAS/LAZ"
+    return np.asarray(table.record.Z)
 
 
 def new_point_format(names) -> int:

@@ -24,6 +24,7 @@ import numpy as np
 
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, ground_filter
+from aldpat.filters.streamed import streamable
 from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, for_point_format
 from aldpat.io.las import new_point_format
@@ -32,6 +33,10 @@ from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 
 log = logging.getLogger(__name__)
+
+#: Points per chunk of a file filtered in two streaming passes: small enough that a chunk's
+#: scratch arrays stay a fraction of the grid's memory.
+STREAM_CHUNK = 200_000
 
 
 def point_classes(res, z: np.ndarray, params, algorithm: str) -> np.ndarray:
@@ -123,6 +128,9 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
         filter_chunked(source, params, ctx, algorithm=algorithm)
         return
     reader = ctx.open_input(source)
+    if (reader.format == "las" and params.data_mode == "real" and streamable(algorithm, params)
+            and filter_streamed(source, reader, params, ctx, algorithm=algorithm)):
+        return
     table = reader.read()
     params = apply_auto(params, table.x, table.y, table.z, ctx)
     res = ground_filter(table.x, table.y, table.z, algorithm, params)
@@ -141,6 +149,36 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
             writer.write(_part(rows, which, ground))
         ctx.wrote(path, writer.count)
     log.info("%s: %d of %d points ground (%s)", source, n_ground, len(ground), algorithm)
+
+
+def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm: str) -> bool:
+    """A LAS/LAZ file in two streaming passes (:mod:`aldpat.filters.streamed`): the grid from the
+    first, the classes and outputs from the second; memory holds the grid, not the points.
+    False (nothing written) when a point lies outside the header's bounds: the caller then
+    reads the file whole."""
+    from aldpat.filters.streamed import OutsideBounds, stream_classes
+    from aldpat.io.las import z_codes
+
+    outputs = _outputs(source, params, ctx, reader, algorithm)
+    for path, _ in outputs:  # refuse an existing output before the long part
+        check_writable(path, overwrite=ctx.overwrite)
+
+    def coded_chunks():
+        for table in reader.chunks(STREAM_CHUNK):
+            yield table.x, table.y, z_codes(table)
+
+    try:
+        classes = stream_classes(coded_chunks, reader.bounds, reader.height_codes(), algorithm, params)
+    except OutsideBounds:
+        log.info("%s: points outside the header's bounds; reading the file whole", source)
+        return False
+
+    def classes_of(table, _start, _stop):
+        marks, ground = classes.classify(table.x, table.y, table.z, marks=params.marks)
+        return marks, np.where(ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+
+    _write_from_classes(source, reader, outputs, params, ctx, classes_of, STREAM_CHUNK)
+    return True
 
 
 def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> None:
@@ -182,29 +220,38 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
                  f"{where}; the chunks' own filtering {done.seconds:.1f} s")
         offset = 0
         for src, reader, outs, count in zip(sources, readers, outputs, counts):
-            _write_from_classes(src, reader, outs, params, ctx, done.marks, done.classes, offset)
+            _write_from_classes(src, reader, outs, params, ctx, functools.partial(
+                _stored_classes, done.marks, done.classes, offset))
             offset += count
         del done  # the memory maps close before their folder goes
 
 
+def _stored_classes(marks: np.ndarray, classes: np.ndarray, offset: int, _table, start: int, stop: int
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The marks and classes of input rows ``start:stop`` from arrays of the whole run (which
+    begin at the run's row ``offset``)."""
+    return np.asarray(marks[offset + start:offset + stop]), np.asarray(classes[offset + start:offset + stop])
+
+
 def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], params, ctx: JobContext,
-                        marks: np.ndarray, classes: np.ndarray, offset: int) -> None:
-    """One input's outputs, streamed from the input again with the classes of its rows."""
+                        classes_of, chunk: int | None = None) -> None:
+    """One input's outputs, streamed from the input again; ``classes_of(table, start, stop)``
+    gives the marks and classes of its rows ``start:stop`` (the table)."""
     names = _output_names(reader, params)
     point_format = _output_point_format(reader, ctx, source)
     n_ground = n = 0
     with contextlib.ExitStack() as stack:
         writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
                    for path, which in outputs]
-        start = offset
-        for table in reader.chunks():
+        start = 0
+        for table in (reader.chunks() if chunk is None else reader.chunks(chunk)):
             stop = start + len(table)
-            cls = for_point_format(np.asarray(classes[start:stop]), point_format)
+            marks, classes = classes_of(table, start, stop)
+            cls = for_point_format(classes, point_format)
             ground = cls == GROUND
             n_ground += int(ground.sum())
             n += len(table)
-            rows = _with_classes(table, reader, params, np.asarray(marks[start:stop]),
-                                 cls if params.result == "classified" else None)
+            rows = _with_classes(table, reader, params, marks, cls if params.result == "classified" else None)
             for writer, _, which in writers:
                 writer.write(_part(rows, which, ground))
             start = stop

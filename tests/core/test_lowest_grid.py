@@ -107,3 +107,27 @@ def test_fill_nearest_all_or_nothing_empty():
     assert np.array_equal(fill_nearest(z), z)
     with pytest.raises(ValueError):
         fill_nearest(z, np.zeros((3, 3), bool))
+
+
+@pytest.mark.parametrize("share", [0.1, 0.5, 0.9, 0.999])
+def test_nearest_indices_are_scipys_feature_transform(share):
+    """The transform on the mask's own bytes gives scipy's indices, ties included."""
+    from scipy import ndimage
+
+    from aldpat.core.lowest_grid import nearest_indices
+
+    empty = np.random.default_rng(7).random((211, 347)) < share
+    empty[::17, ::13] = False  # regular ties: cells halfway between two holders
+    expected = ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
+    assert np.array_equal(nearest_indices(empty), expected)
+
+
+def test_fill_nearest_in_place_on_height_codes():
+    """In place (no second grid) and on integer codes: the values of the copy on float heights."""
+    rng = np.random.default_rng(3)
+    codes = rng.integers(-5000, 90000, (157, 203)).astype(np.int32)
+    empty = rng.random(codes.shape) < 0.8
+    expected = fill_nearest(np.where(empty, np.nan, codes * 0.01), empty)
+    filled = fill_nearest(codes, empty, out=codes)
+    assert filled is codes and filled.dtype == np.int32
+    assert np.array_equal(codes * 0.01, expected)

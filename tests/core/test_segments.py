@@ -50,3 +50,36 @@ def test_hand_computed_small_grid():
     # a bump of 0.5 m is not a step of 1 m: one segment, the terrain
     z[1:3, 2:4] = 0.5
     assert not raised_segments(z, step=1.0, down_share=0.5).any()
+
+
+def test_strips_label_the_grid_as_a_whole():
+    """Labelled a few rows at a time (segments joined across the strips' edges), the raised cells
+    are those of labelling the whole grid at once; heights given as codes give the same."""
+    from pathlib import Path
+
+    import laspy
+
+    from aldpat.core.height_codes import ScaledHeights
+    from aldpat.core.lowest_grid import fill_nearest, lowest_grid
+
+    las = laspy.read(Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz")
+    grid = lowest_grid(np.asarray(las.x), np.asarray(las.y), np.asarray(las.z), 1.0)
+    z = fill_nearest(grid.z, grid.empty)
+    whole = raised_segments(z, 2.5, 0.4, strip_rows=z.shape[0])
+    assert 0 < whole.sum() < whole.size // 4  # objects found, terrain left
+    for rows in (1, 2, 7, 64):
+        assert np.array_equal(raised_segments(z, 2.5, 0.4, strip_rows=rows), whole)
+    heights = ScaledHeights(float(las.header.scales[2]), float(las.header.offsets[2]))
+    codes = np.rint((z - heights.offset) / heights.scale).astype(np.int32)
+    assert np.array_equal(heights.decode(codes), z)
+    assert np.array_equal(raised_segments(codes, 2.5, 0.4, decode=heights.decode, strip_rows=5), whole)
+
+
+def test_equal_largest_segments_keep_the_first_as_terrain():
+    """Two terrain halves of equal size split by a wall: the first in row order is the terrain,
+    as one labelling of the whole grid numbers it -- whichever strip each starts in."""
+    z = np.zeros((12, 9))
+    z[6:, :] = 5.0  # the upper half is raised, bounded by down-steps on one side
+    for rows in (1, 3, 5, 12):
+        raised = raised_segments(z, 1.0, 0.1, strip_rows=rows)
+        assert not raised[:6].any() and raised[6:].all()

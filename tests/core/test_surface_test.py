@@ -54,3 +54,36 @@ def test_points_within_threshold_plus_slope_term():
     got = within_surface(x, y, z, surface, spec, threshold=0.3, slope_scalar=1.0)
     assert got.tolist() == [True, True, False, True, False]
     assert bilinear(surface, spec, np.array([3.0]), np.array([7.0]))[0] == 50.0 + 0.5 * 3.0
+
+
+def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
+    """The finest level relaxed a strip of rows at a time, and the slope taken a strip at a time,
+    are bit for bit those of the whole grid at once; the float32 surface with exact ground heights
+    of the surface test is the float64 surface."""
+    import aldpat.core.surface_test as module
+
+    rng = np.random.default_rng(11)
+    spec = CellGridSpec(0.0, 0.0, 0.75, 131, 97)
+    z = plane(spec) + rng.normal(0, 0.3, (131, 97))
+    ground = rng.random(z.shape) < 0.3
+    ground[40:80, 20:60] = False  # a building's footprint
+    monkeypatch.setattr(module, "STRIP_ROWS", 10_000)
+    surface = provisional_surface(z, ground, spec)
+    slope = slope_of(surface, spec.cell)
+    for rows in (2, 6, 64):
+        monkeypatch.setattr(module, "STRIP_ROWS", rows)
+        np.testing.assert_array_equal(provisional_surface(z, ground, spec), surface)
+        np.testing.assert_array_equal(slope_of(surface, spec.cell), slope)
+    marks = np.where(ground, 0, 4).astype(np.int16)
+
+    from aldpat.core.height_codes import FloatHeights
+
+    cells = type("Cells", (), {"codes": z, "heights": FloatHeights(), "spec": spec})()
+    test = module.SurfaceTest.build(cells, marks, threshold=0.3, slope_scalar=1.0)
+    np.testing.assert_array_equal(test._rows(0, z.shape[0]), surface)
+    np.testing.assert_array_equal(test.slope, slope)
+    x = rng.uniform(0, 97 * 0.75, 5000)
+    y = rng.uniform(0, 131 * 0.75, 5000)
+    h = rng.uniform(40, 60, 5000)
+    np.testing.assert_array_equal(test.test(x, y, h), within_surface(x, y, h, surface, spec, threshold=0.3,
+                                                                      slope_scalar=1.0))

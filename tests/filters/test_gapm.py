@@ -156,9 +156,12 @@ def test_blocked_passes_equal_the_printed_loop_on_samp24(samp24, monkeypatch, bl
     monkeypatch.setattr(module, "BLOCK_COLUMNS", blocks[1])
     z_before = z.copy()
     got = module.adaptive_sequential(z, p, workers=workers)
-    assert got.dtype == np.int32
+    assert got.dtype == np.int16  # a compact mark matrix
     assert np.array_equal(got, expected)
     assert np.array_equal(z, z_before)  # the input grid is left alone
+    work = z.copy()
+    assert np.array_equal(module.adaptive_sequential(work, p, workers=workers, in_place=True), expected)
+    assert not np.array_equal(work, z_before)  # in place: the grid was the working surface
 
 
 def _shed_scene(seed: int = 3):

@@ -1,0 +1,97 @@
+"""A grid filter over a whole file without holding its points: two streaming passes.
+
+The morphological filters decide per *cell* (dissertation ch. 3 and §5.2.2): once every cell's
+lowest height is known, the points themselves are needed again only to take their classes.
+So the file is read twice, chunk by chunk -- once to keep the lowest height of every cell, once
+to classify each point against the grid's decisions and write it -- and what stays in memory is
+the grid alone, its heights kept as the file's own integers (:mod:`aldpat.core.height_codes`).
+The classes are those :func:`aldpat.filters.base.ground_filter` gives the same points held in
+memory: the same cells, the same grid stage (:func:`aldpat.filters.base.cell_classes`), the same
+per-point tests.
+
+Which runs can go this way (:func:`streamable`): a grid filter without rotations, low-outlier
+rounds or noise classes (each needs every point at once), on heights given as scaled integers.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable, Iterator
+
+import numpy as np
+
+from aldpat.core.height_codes import ScaledHeights
+from aldpat.core.lowest_grid import Extent, floor_index, grid_spec
+from aldpat.filters.base import CellClasses, CellHeights, cell_classes, get_filter
+
+log = logging.getLogger(__name__)
+
+#: One chunk: x, y and the height codes of its points.
+CodedChunk = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+class OutsideBounds(Exception):
+    """A point lay outside the bounds the file declared: the grid cannot be sized from them."""
+
+
+def streamable(algorithm: str, params) -> bool:
+    """Whether ``algorithm`` with ``params`` gives the same classes in two streaming passes."""
+    spec = get_filter(algorithm)
+    if spec.on_points or spec.noise is not None:
+        return False
+    if spec.rotations is not None and any(float(a) % 360.0 for a in spec.rotations(params)):
+        return False
+    return getattr(params, "low_outliers", None) is None and not getattr(params, "auto", False)
+
+
+def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHeights, cell: float,
+                 origin: tuple[float, float] | None) -> CellHeights:
+    """The lowest height code of every cell, over the cells of the points' own extent.
+
+    The grid is laid over ``bounds`` (a file header's), then cut to the cells the points reach:
+    the grid a whole-file run makes from the points' minima and maxima. A point outside
+    ``bounds`` raises :class:`OutsideBounds`.
+    """
+    outer = grid_spec(np.zeros(0), np.zeros(0), cell, origin=origin, extent=bounds)
+    ox, oy = origin if origin is not None else (0.0, 0.0)
+    c_first = round((outer.x0 - ox) / cell)
+    r_first = round((outer.y0 - oy) / cell)
+    codes = np.full(outer.size, heights.empty, heights.dtype)
+    lo = [np.inf, np.inf]
+    hi = [-np.inf, -np.inf]
+    for x, y, z in chunks:
+        if not len(x):
+            continue
+        col = floor_index(x, ox, cell)
+        col -= c_first
+        row = floor_index(y, oy, cell)
+        row -= r_first
+        if col.min() < 0 or row.min() < 0 or col.max() >= outer.cols or row.max() >= outer.rows:
+            raise OutsideBounds("a point lies outside the bounds in the file's header")
+        flat = row
+        flat *= outer.cols
+        flat += col
+        del col
+        np.minimum.at(codes, flat, z)
+        lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
+        hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
+    own = grid_spec(np.zeros(0), np.zeros(0), cell, origin=origin, extent=(lo[0], lo[1], hi[0], hi[1])
+                    ) if np.isfinite(lo[0]) else outer
+    grid = codes.reshape(outer.shape)
+    if own != outer:
+        r0 = round((own.y0 - outer.y0) / cell)
+        c0 = round((own.x0 - outer.x0) / cell)
+        grid = grid[r0:r0 + own.rows, c0:c0 + own.cols].copy()
+    del codes
+    return CellHeights(own, grid, heights, owned=True)
+
+
+def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, heights: ScaledHeights,
+                   algorithm: str, params) -> CellClasses:
+    """Pass one: the grid of ``read()``'s points, through the filter's grid stage. The returned
+    :class:`CellClasses` classifies the points of pass two, chunk by chunk."""
+    spec = get_filter(algorithm)
+    cells = lowest_codes(read(), bounds, heights, params.cell, params.origin)
+    log.debug("%s: %d x %d cells of %g m from two passes", algorithm, cells.spec.rows, cells.spec.cols,
+              params.cell)
+    return cell_classes(spec, cells, params, origin=params.origin)

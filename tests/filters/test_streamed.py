@@ -1,0 +1,115 @@
+"""A LAS/LAZ file filtered in two streaming passes gets exactly the classes of the whole file held
+in memory (``aldpat.filters.streamed``), for every grid filter that can stream."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+
+from aldpat.filters import FILTERS, ground_filter
+from aldpat.filters.streamed import OutsideBounds, lowest_codes, streamable
+from aldpat.io.las import LasReader, z_codes
+from aldpat.params import resolve
+from tests.cli.fresh import aldpat
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+STRIP = DATA / "fsite5_strip.laz"  # a strip of the ISPRS site FSite5: real points, data gaps
+PARAMS = Path(__file__).resolve().parents[2] / "jobs" / "params"
+
+STREAMABLE = sorted(name for name, spec in FILTERS.items() if streamable(name, spec.params()))
+
+
+def _param_file(name: str) -> Path:
+    return PARAMS / ("gapm-isprs-set01.toml" if name == "gapm" else f"{name}.toml")
+
+
+def _params(name: str, **values):
+    import tomllib
+
+    layers = [("file", tomllib.loads(_param_file(name).read_text())), ("test", values)]
+    return resolve(FILTERS[name].params, layers).values
+
+
+def test_the_grid_filters_that_can_stream():
+    # every grid filter but the one that finds noise (it needs all points' heights at once)
+    assert set(STREAMABLE) == {n for n, s in FILTERS.items() if not s.on_points} - {"outlier"}
+    assert not streamable("gapm", _params("gapm", low_outliers=2.0))
+    assert not streamable("gapm", _params("gapm", auto=True))
+
+
+def test_height_codes_read_back_as_laspys_heights():
+    reader = LasReader(STRIP)
+    heights = reader.height_codes()
+    for table in reader.chunks(50_000):
+        assert np.array_equal(heights.decode(z_codes(table)), table.z)  # bit for bit
+
+
+@pytest.mark.parametrize("name", STREAMABLE)
+@pytest.mark.parametrize("defaults", [False, True])
+def test_streamed_classes_equal_the_whole_file(name, defaults, tmp_path):
+    """In a fresh ``aldpat`` process: classes and marks written by the two-pass run equal
+    ``ground_filter`` on the points held in memory; with ``defaults`` the filter's built-in
+    parameters (for gapm the segment and surface tests), else its shipped file; 1 m cells."""
+    las = laspy.read(STRIP)
+    x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
+    params = FILTERS[name].params(cell=1.0) if defaults else _params(name, cell=1.0)
+    expected = ground_filter(x, y, z, name, params)
+    args = ["filter", name, STRIP, "--odir", tmp_path, "--result", "classified", "--marks", "--cell", "1"]
+    if not defaults:
+        args += ["--params", _param_file(name)]
+    aldpat(*args).ok()
+    got = laspy.read(tmp_path / f"{STRIP.stem}_{name}.laz")
+    assert np.array_equal(np.asarray(got.classification) == 2, expected.is_ground)
+    assert np.array_equal(np.asarray(got["mark"]), expected.point_marks)
+    assert 0.05 < expected.is_ground.mean() < 0.95  # both classes occur
+
+
+def test_classes_alone_need_not_compare_the_points_above_their_cell():
+    """With the final surface test, a run without ``--marks`` skips the comparison that only the
+    marks use: the classes are the same."""
+    from aldpat.filters.base import cell_classes, get_filter
+
+    reader = LasReader(STRIP)
+    params = FILTERS["gapm"].params(cell=1.0)
+    chunks = [(t.x, t.y, z_codes(t)) for t in reader.chunks(40_000)]
+    classes = cell_classes(get_filter("gapm"), lowest_codes(chunks, reader.bounds, reader.height_codes(), 1.0,
+                                                            None), params)
+    for table in reader.chunks(40_000):
+        with_marks = classes.classify(table.x, table.y, table.z)[1]
+        assert np.array_equal(classes.classify(table.x, table.y, table.z, marks=False)[1], with_marks)
+
+
+def test_a_header_wider_than_the_points_gives_the_points_own_grid():
+    reader = LasReader(STRIP)
+    chunks = [(t.x, t.y, z_codes(t)) for t in reader.chunks(100_000)]
+    xmin, ymin, xmax, ymax = reader.bounds
+    tight = lowest_codes(chunks, reader.bounds, reader.height_codes(), 1.0, None)
+    wide = lowest_codes(chunks, (xmin - 37.2, ymin - 5.0, xmax + 12.9, ymax + 101.0), reader.height_codes(), 1.0,
+                        None)
+    assert wide.spec == tight.spec
+    assert np.array_equal(wide.codes, tight.codes)
+    with pytest.raises(OutsideBounds):
+        lowest_codes(chunks, (xmin + 10.0, ymin, xmax, ymax), reader.height_codes(), 1.0, None)
+
+
+def test_a_header_narrower_than_the_points_reads_the_file_whole(tmp_path, runner, cli):
+    """Bounds in the header that leave points out (written by a careless tool) do not lose them:
+    the file is read whole instead, with the same classes."""
+    import struct
+
+    las = laspy.read(STRIP)
+    bad = tmp_path / "bad.las"
+    las.write(bad, do_compress=False)
+    with open(bad, "r+b") as fh:  # Max X, a double at byte 179 of every LAS header
+        fh.seek(179)
+        fh.write(struct.pack("<d", float(np.asarray(las.x).max()) - 50.0))
+    assert laspy.open(bad).header.maxs[0] < np.asarray(las.x).max()
+    out = runner.invoke(cli, ["filter", "pm", str(bad), "--result", "classified", "--cell", "1"])
+    assert out.exit_code == 0, out.output
+    got = laspy.read(tmp_path / "bad_pm.las")
+    x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
+    expected = ground_filter(x, y, z, "pm", FILTERS["pm"].params(cell=1.0))
+    assert np.array_equal(np.asarray(got.classification) == 2, expected.is_ground)
