@@ -15,7 +15,7 @@ each was published and tested. The two can disagree on a cell whose height above
 surface equals the threshold to within float32 rounding; the precision is therefore an argument
 of the one loop, not a second implementation.
 
-Memory: three grid-sized surfaces (current, opened, work) of the chosen precision and the int32
+Memory: three grid-sized surfaces (current, opened, work) of the chosen precision and the int16
 mark matrix, whatever the number of windows; ``z`` is not changed.
 """
 
@@ -39,8 +39,9 @@ Recovery = Callable[[np.ndarray, np.ndarray, np.ndarray, int], np.ndarray]
 def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Sequence[float],
                         passes: Sequence[tuple[str, int]], *, dtype: type = np.float32,
                         skip: np.ndarray | None = None,
-                        recover: Callable[[int], Recovery | None] | None = None) -> np.ndarray:
-    """Mark matrix (int32: 0 ground, else the half window that removed the cell) of the
+                        recover: Callable[[int], Recovery | None] | None = None,
+                        decode: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+    """Mark matrix (int16: 0 ground, else the half window that removed the cell) of the
     progressive opening.
 
     ``passes`` lists the ``(window shape, axis)`` openings applied in turn at every half window
@@ -48,11 +49,14 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     ``"disk"``); each compares the surface before and after itself. A cell keeps the first
     window that removed it. ``skip`` cells only support the openings, never being marked.
     ``recover(k)`` gives the recovery applied after each opening at window ``k`` (or None).
+    ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`), turned into the
+    surface's heights a block of rows at a time (no float64 copy of the grid).
     """
-    surface: np.ndarray = np.array(z, dtype=dtype, copy=True)
+    surface: np.ndarray = _surface_of(z, dtype, decode)
     opened = np.empty_like(surface)
     work = np.empty_like(surface)
-    marks = np.zeros(surface.shape, np.int32)
+    # int16: a mark is a half window in cells, and grids of 1 m cells hold tens of millions of them
+    marks = np.zeros(surface.shape, np.int16)
     candidates = np.ones(surface.shape, bool) if skip is None else ~skip  # marks == 0, kept current
     removed = np.empty(surface.shape, bool)
     for k, dh in zip(windows, thresholds):
@@ -69,3 +73,14 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
             surface, opened = opened, surface
         log.debug("window %d (threshold %.3g): %d cells removed so far", k, dh, int((marks > 0).sum()))
     return marks
+
+
+def _surface_of(z: np.ndarray, dtype: type, decode: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
+    """A copy of the heights ``z`` (or of the heights of codes ``z``) in ``dtype``."""
+    if decode is None:
+        return np.array(z, dtype=dtype, copy=True)
+    surface: np.ndarray = np.empty(z.shape, dtype)
+    step = max(1, (1 << 20) // max(1, z.shape[1] if z.ndim == 2 else 1))
+    for a in range(0, z.shape[0], step):
+        surface[a:a + step] = decode(z[a:a + step])
+    return surface

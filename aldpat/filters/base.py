@@ -179,9 +179,9 @@ class FilterSpec:
     #: steps spread without a limit), the chunk buffer ``--chunk-buffer auto`` gives it: measured,
     #: not proven (``bench/bench_chunks.py agree``).
     buffer: Callable[[Any], float] | None = None
-    #: ``fn(codes, empty, params, in_place=True, decode=...)`` takes the filled grid as height
-    #: codes (:mod:`aldpat.core.height_codes`; ``decode`` gives their heights) and may overwrite
-    #: them: the filter's working surface at the codes' size, without a float64 copy.
+    #: ``fn(codes, empty, params, in_place=..., decode=...)`` takes the filled grid as height
+    #: codes (:mod:`aldpat.core.height_codes`; ``decode`` gives their heights), and may overwrite
+    #: them when ``in_place``: the filter's working surface at the codes' size, no float64 copy.
     takes_codes: bool = False
 
 
@@ -456,20 +456,21 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
     read_only = empty.view()
     read_only.flags.writeable = False
     if spec.takes_codes:
-        work = filled.copy() if filled is cells.codes else filled  # the cells' own codes are kept
-        del filled
-        marks = np.asarray(spec.fn(work, read_only, params, in_place=True, decode=cells.heights.decode))
+        # the cells' own codes are lent, not given: a filter that opens them in place copies them
+        given = filled
+        marks = np.asarray(spec.fn(given, read_only, params, in_place=given is not cells.codes,
+                                   decode=cells.heights.decode))
     else:
-        work = cells.heights.decode(filled)
-        if work is cells.codes:  # float heights owned by the run: the filter gets a copy
-            work = work.copy()
-        del filled
-        marks = np.asarray(spec.fn(work, read_only, params))
+        given = cells.heights.decode(filled)
+        if given is cells.codes:  # float heights owned by the run: the filter gets a copy
+            given = given.copy()
+        marks = np.asarray(spec.fn(given, read_only, params))
+    del filled
     if marks.shape != empty.shape:
         raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {empty.shape}")
-    if marks.dtype not in (np.int16, np.int32) or not marks.flags.writeable or marks is work:
+    if marks.dtype not in (np.int16, np.int32) or not marks.flags.writeable or marks is given:
         marks = marks.astype(np.int32)
-    del work
+    del given
     release_free_memory()  # the filter's scratch, before the surface and the points' pass
     if raised is not None:
         marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT

@@ -131,10 +131,15 @@ def progressive_reach(p: ProgressiveParams) -> int:
     return sum(2 * k for k in window_series(p)) + low_outlier_reach(p)
 
 
-@register_filter("pm", params=PMParams, rotations=rotation_angles, reach=progressive_reach,
+@register_filter("pm", params=PMParams, takes_codes=True, rotations=rotation_angles,
+                 reach=progressive_reach,
                  summary="progressive morphological filter, line windows along x, y or both "
                          "(manual appendix and task 8; Zhang and others 2003)")
-def pm(z: np.ndarray, empty: np.ndarray, params: PMParams) -> np.ndarray:
-    """Progressive morphology with 1-D line windows (manual appendix PM, task 8 "Direction")."""
+def pm(z: np.ndarray, empty: np.ndarray, params: PMParams, *, in_place: bool = False, decode=None) -> np.ndarray:
+    """Progressive morphology with 1-D line windows (manual appendix PM, task 8 "Direction").
+
+    ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`); ``z`` is never changed.
+    """
     windows = window_series(params)
-    return progressive_opening(z, windows, threshold_series(params, windows), _PASSES[params.direction])
+    return progressive_opening(z, windows, threshold_series(params, windows), _PASSES[params.direction],
+                               decode=decode)

@@ -28,9 +28,10 @@ class PM2DParams(ProgressiveParams):
     pass
 
 
-@register_filter("pm2d", params=PM2DParams, reach=progressive_reach,
+@register_filter("pm2d", params=PM2DParams, takes_codes=True, reach=progressive_reach,
                  summary="progressive morphological filter, square windows (manual task 8, Morph 2D Filter)")
-def pm2d(z: np.ndarray, empty: np.ndarray, params: PM2DParams) -> np.ndarray:
-    """Progressive morphology with square windows (manual task 8; appendix PM)."""
+def pm2d(z: np.ndarray, empty: np.ndarray, params: PM2DParams, *, in_place: bool = False, decode=None
+         ) -> np.ndarray:
+    """Progressive morphology with square windows (manual task 8; appendix PM); ``decode`` as for ``pm``."""
     windows = window_series(params)
-    return progressive_opening(z, windows, threshold_series(params, windows), (("square", 1),))
+    return progressive_opening(z, windows, threshold_series(params, windows), (("square", 1),), decode=decode)

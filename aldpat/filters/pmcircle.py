@@ -28,9 +28,10 @@ class PMCircleParams(ProgressiveParams):
     pass
 
 
-@register_filter("pmcircle", params=PMCircleParams, reach=progressive_reach,
+@register_filter("pmcircle", params=PMCircleParams, takes_codes=True, reach=progressive_reach,
                  summary="progressive morphological filter, circular windows (manual task 8, Morph Circle Filter)")
-def pmcircle(z: np.ndarray, empty: np.ndarray, params: PMCircleParams) -> np.ndarray:
-    """Progressive morphology with disk windows (manual task 8; appendix PM)."""
+def pmcircle(z: np.ndarray, empty: np.ndarray, params: PMCircleParams, *, in_place: bool = False, decode=None
+             ) -> np.ndarray:
+    """Progressive morphology with disk windows (manual task 8; appendix PM); ``decode`` as for ``pm``."""
     windows = window_series(params)
-    return progressive_opening(z, windows, threshold_series(params, windows), (("disk", 1),))
+    return progressive_opening(z, windows, threshold_series(params, windows), (("disk", 1),), decode=decode)
