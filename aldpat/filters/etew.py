@@ -49,21 +49,39 @@ def etew_reach(p: ETEWParams) -> int:
     return 2 ** (p.loop_times - 1) + low_outlier_reach(p)
 
 
-@register_filter("etew", params=ETEWParams, reach=etew_reach,
+@register_filter("etew", params=ETEWParams, reach=etew_reach, takes_codes=True,
                  summary="elevation threshold with expanding window (manual appendix; Zhang and Whitman 2005)")
-def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams) -> np.ndarray:
-    """Expanding-window elevation threshold (manual appendix ETEW, eqs. 1-3)."""
-    marks = np.zeros(z.shape, np.int32)
-    if params.min_z is not None:
-        marks[z < params.min_z] = 1
-    if params.max_z is not None:
-        marks[z > params.max_z] = 1
+def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool = False, decode=None
+         ) -> np.ndarray:
+    """Expanding-window elevation threshold (manual appendix ETEW, eqs. 1-3).
+
+    ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`); the window minimum is
+    taken on the codes (the same cells) and heights are compared a block of rows at a time.
+    ``z`` is never changed.
+    """
+    heights = decode if decode is not None else (lambda a: a)
+    marks = np.zeros(z.shape, np.int16)
+    step = max(1, BLOCK_CELLS // max(1, z.shape[1]))  # rows compared at once
+    for a in range(0, z.shape[0], step):
+        block = heights(z[a:a + step])
+        if params.min_z is not None:
+            marks[a:a + step][block < params.min_z] = 1
+        if params.max_z is not None:
+            marks[a:a + step][block > params.max_z] = 1
     for i in range(1, params.loop_times + 1):
         k = 2 ** (i - 1)
         h = params.slope * 2 * k * params.cell
         # a window wider than the grid sees the whole grid: no need to make it wider still
         lowest = morphology.erosion(z, min(k, max(z.shape)), window="square")
-        removed = (z - lowest > h) & (marks == MARK_GROUND)
-        marks[removed] = k
-        log.debug("etew iteration %d: window %d, threshold %.3g, %d cells removed", i, k, h, int(removed.sum()))
+        removed_count = 0
+        for a in range(0, z.shape[0], step):
+            m = marks[a:a + step]
+            removed = (heights(z[a:a + step]) - heights(lowest[a:a + step]) > h) & (m == MARK_GROUND)
+            m[removed] = k
+            removed_count += int(removed.sum())
+        del lowest
+        log.debug("etew iteration %d: window %d, threshold %.3g, %d cells removed", i, k, h, removed_count)
     return marks
+
+#: Cells compared at once (bounds the float64 scratch of a grid of codes).
+BLOCK_CELLS = 1 << 20
