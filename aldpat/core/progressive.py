@@ -16,7 +16,7 @@ surface equals the threshold to within float32 rounding; the precision is theref
 of the one loop, not a second implementation.
 
 Memory: three grid-sized surfaces (current, opened, work) of the chosen precision and the int16
-mark matrix, whatever the number of windows; ``z`` is not changed.
+(:func:`mark_dtype`) mark matrix, whatever the number of windows; ``z`` is not changed.
 """
 
 from __future__ import annotations
@@ -36,13 +36,20 @@ log = logging.getLogger(__name__)
 Recovery = Callable[[np.ndarray, np.ndarray, np.ndarray, int], np.ndarray]
 
 
+def mark_dtype(largest: int) -> np.dtype:
+    """The smallest integer type a mark matrix needs: int16 (half the memory of int32 on grids of
+    tens of millions of cells) unless a window, or the marks the driver adds (-7777, 9000),
+    would not fit."""
+    return np.dtype(np.int16 if max(int(largest), 9000) <= np.iinfo(np.int16).max else np.int32)
+
+
 def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Sequence[float],
                         passes: Sequence[tuple[str, int]], *, dtype: type = np.float32,
                         skip: np.ndarray | None = None,
                         recover: Callable[[int], Recovery | None] | None = None,
                         decode: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
-    """Mark matrix (int16: 0 ground, else the half window that removed the cell) of the
-    progressive opening.
+    """Mark matrix (:func:`mark_dtype`: 0 ground, else the half window that removed the cell) of
+    the progressive opening.
 
     ``passes`` lists the ``(window shape, axis)`` openings applied in turn at every half window
     ``k`` of ``windows`` (``"line"`` along ``axis`` 1 = rows / x or 0 = columns / y, ``"square"``,
@@ -55,8 +62,7 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     surface: np.ndarray = _surface_of(z, dtype, decode)
     opened = np.empty_like(surface)
     work = np.empty_like(surface)
-    # int16: a mark is a half window in cells, and grids of 1 m cells hold tens of millions of them
-    marks = np.zeros(surface.shape, np.int16)
+    marks = np.zeros(surface.shape, mark_dtype(max(windows, default=0)))
     candidates = np.ones(surface.shape, bool) if skip is None else ~skip  # marks == 0, kept current
     removed = np.empty(surface.shape, bool)
     for k, dh in zip(windows, thresholds):

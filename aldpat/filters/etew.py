@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.progressive import mark_dtype
 from aldpat.filters.base import MARK_GROUND, GroundParams, low_outlier_reach, register_filter
 from aldpat.options import ElevationLimitsOption
 from aldpat.params import param
@@ -60,7 +61,7 @@ def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool
     ``z`` is never changed.
     """
     heights = decode if decode is not None else (lambda a: a)
-    marks = np.zeros(z.shape, np.int16)
+    marks = np.zeros(z.shape, mark_dtype(2 ** (params.loop_times - 1)))
     step = max(1, BLOCK_CELLS // max(1, z.shape[1]))  # rows compared at once
     for a in range(0, z.shape[0], step):
         block = heights(z[a:a + step])

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.progressive import mark_dtype
 from aldpat.core.threads import thread_budget
 from aldpat.core.trend import candidate_thresholds
 from aldpat.errors import ParamError
@@ -227,9 +228,7 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
     dtype = z.dtype if decode is not None else np.dtype(np.float64)
     usable = in_place and z.dtype == dtype and z.flags.c_contiguous and z.flags.writeable
     zc = z if usable else np.array(z, dtype=dtype, copy=True)
-    # int16: the largest mark is a half window in cells (at most a few hundred), and a mark
-    # matrix of 1 m cells over a survey is tens of millions of cells
-    mark = np.zeros(zc.shape, np.int16)
+    mark = np.zeros(zc.shape, mark_dtype(max(p.window_series)))  # int16 unless a window is huge
     opts = (p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)
     nr, nc = zc.shape
 
