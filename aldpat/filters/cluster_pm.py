@@ -82,6 +82,7 @@ def progressive_marks(
     gap_threshold: float | None = None,
     recover_across_gaps: bool = True,
     skip: np.ndarray | None = None,
+    decode=None,
 ) -> np.ndarray:
     """Mark matrix of the (cluster-based) progressive morphological filter (§5.2.2).
 
@@ -97,6 +98,7 @@ def progressive_marks(
     recover_across_gaps : whether a run may be recovered when a cell beside it was removed at
         an earlier window (see :func:`aldpat.core.clusters.recover_runs`).
     skip : cells that are never marked (they only support the openings).
+    decode : ``z`` holds height codes (:mod:`aldpat.core.height_codes`) that it turns into heights.
 
     A cell keeps the first window that removed it. The surface handed to the next window is
     the opened one (line 17). Runs on :func:`aldpat.core.progressive.progressive_opening` in
@@ -106,7 +108,8 @@ def progressive_marks(
     if cluster_window_size is not None:
         recovery = _cluster_recovery(cluster_threshold, gap_threshold, recover_across_gaps)
     return progressive_opening(z, windows, thresholds, [("line", axis) for axis in axes], dtype=np.float64,
-                               skip=skip, recover=lambda k: recovery if k >= (cluster_window_size or 0) else None)
+                               skip=skip, recover=lambda k: recovery if k >= (cluster_window_size or 0) else None,
+                               decode=decode)
 
 
 def _cluster_recovery(cluster_threshold: float, gap_threshold: float | None, recover_across_gaps: bool) -> Recovery:
@@ -133,13 +136,15 @@ def cluster_pm_reach(p: ClusterPmParams) -> int:
     return sum(2 * k for k in p.window_series) + low_outlier_reach(p)
 
 
-@register_filter("cluster-pm", params=ClusterPmParams, reach=cluster_pm_reach,
+@register_filter("cluster-pm", params=ClusterPmParams, reach=cluster_pm_reach, takes_codes=True,
                  summary="cluster-based progressive morphological filter (dissertation ch. 5)")
-def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams) -> np.ndarray:
-    """Mark matrix of ``MorphClusterFilter`` (dissertation ch. 5 §5.2.2)."""
+def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams, *, in_place: bool = False,
+               decode=None) -> np.ndarray:
+    """Mark matrix of ``MorphClusterFilter`` (dissertation ch. 5 §5.2.2); ``decode``: ``z`` holds
+    height codes. ``z`` is never changed."""
     p = params
     return progressive_marks(
         z, p.window_series, p.threshold_series, axes=AXES[p.direction],
         cluster_window_size=p.cluster_window_size, cluster_threshold=p.cluster_threshold,
-        gap_threshold=p.gap_threshold, recover_across_gaps=p.recover_across_gaps,
+        gap_threshold=p.gap_threshold, recover_across_gaps=p.recover_across_gaps, decode=decode,
     )
