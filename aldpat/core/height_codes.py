@@ -28,19 +28,12 @@ EMPTY_CODE = np.iinfo(np.int32).max
 class FloatHeights:
     """Heights kept as float64; NaN marks an empty cell."""
 
-    dtype = np.dtype(np.float64)
-    empty = np.inf  # the running minimum's start; made NaN once the grid is built
-
     def decode(self, codes: np.ndarray) -> np.ndarray:
         """The heights (the array itself: no copy)."""
         return codes
 
     def is_empty(self, codes: np.ndarray) -> np.ndarray:
         return np.isnan(codes)
-
-    def finish(self, codes: np.ndarray) -> None:
-        """Mark cells no point reached as empty (NaN), in place."""
-        codes[np.isinf(codes)] = np.nan
 
 
 @dataclass(frozen=True)
@@ -50,7 +43,7 @@ class ScaledHeights:
     scale: float
     offset: float
     dtype = np.dtype(np.int32)
-    empty = EMPTY_CODE
+    empty = EMPTY_CODE  # a running minimum's start
 
     def __post_init__(self) -> None:
         if not self.scale > 0:
@@ -62,9 +55,6 @@ class ScaledHeights:
 
     def is_empty(self, codes: np.ndarray) -> np.ndarray:
         return codes == EMPTY_CODE
-
-    def finish(self, codes: np.ndarray) -> None:
-        """Nothing to do: empty cells already hold :data:`EMPTY_CODE`."""
 
 
 Heights = FloatHeights | ScaledHeights

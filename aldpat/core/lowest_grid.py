@@ -138,6 +138,21 @@ def cell_indices(x: np.ndarray, y: np.ndarray, spec: CellGridSpec, *, origin: tu
     return row, col
 
 
+def flat_cell_indices(x: np.ndarray, y: np.ndarray, spec: CellGridSpec, *,
+                      origin: tuple[float, float] | None = None) -> np.ndarray:
+    """Flat cell index ``row * cols + col`` (int64) of every point (:func:`cell_indices`)."""
+    flat, col = cell_indices(x, y, spec, origin=origin)
+    flat *= spec.cols
+    flat += col
+    return flat
+
+
+def rows_per_block(cols: int, cells: int = 1 << 20) -> int:
+    """Rows of a grid ``cols`` wide to take at a time for about ``cells`` cells (at least one):
+    a block's scratch stays small whatever the grid."""
+    return max(1, cells // max(1, cols))
+
+
 def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
                 origin: tuple[float, float] | None = None, extent: Extent | None = None) -> LowestGrid:
     """Keep the lowest point of every cell (dissertation ch. 3, §3.1 "Resampling Data").
@@ -154,11 +169,7 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     if len(x) == 0:
         shape = spec.shape
         return LowestGrid(spec, np.full(shape, np.nan), np.full(shape, -1, np.int32), np.zeros(0, np.int64))
-    row, col = cell_indices(x, y, spec, origin=origin)
-    flat = row
-    flat *= spec.cols
-    flat += col
-    del col
+    flat = flat_cell_indices(x, y, spec, origin=origin)
     zmin = np.full(spec.size, np.inf)
     np.minimum.at(zmin, flat, z)
     hit = np.flatnonzero(z == zmin[flat])
@@ -217,7 +228,7 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
     source = out.ravel()
     # row blocks, in place: a cell's nearest non-empty cell is itself when it holds a value, so
     # the values read are never ones written
-    step = max(1, (1 << 22) // max(1, z.shape[1]))
+    step = rows_per_block(z.shape[1], 1 << 22)
     for a in range(0, z.shape[0], step):
         np.take(source, flat[a:a + step], out=out[a:a + step])
     return out

@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.lowest_grid import rows_per_block
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +87,7 @@ def _surface_of(z: np.ndarray, dtype: type, decode: Callable[[np.ndarray], np.nd
     if decode is None:
         return np.array(z, dtype=dtype, copy=True)
     surface: np.ndarray = np.empty(z.shape, dtype)
-    step = max(1, (1 << 20) // max(1, z.shape[1] if z.ndim == 2 else 1))
+    step = rows_per_block(z.shape[1])
     for a in range(0, z.shape[0], step):
         surface[a:a + step] = decode(z[a:a + step])
     return surface

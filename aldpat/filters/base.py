@@ -21,7 +21,6 @@ lies amid removed cells and is not ground.
 from __future__ import annotations
 
 import difflib
-import functools
 import logging
 import math
 from collections.abc import Callable, Sequence
@@ -31,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.height_codes import FloatHeights, Heights
-from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, cell_indices, fill_nearest, lowest_grid
+from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_nearest, flat_cell_indices, lowest_grid
 from aldpat.core.memory import one_arena, release_free_memory
 from aldpat.core.surface_test import SurfaceTest
 from aldpat.errors import DataError, ParamError
@@ -303,17 +302,13 @@ class CellHeights:
     """The lowest height of every cell of a grid, kept as codes (:mod:`aldpat.core.height_codes`).
 
     ``owned``: the codes belong to the filter run, which may fill the empty cells in place
-    (``empty`` keeps which they were); otherwise they are copied first.
+    (the mark matrix then says which they were); otherwise they are copied first.
     """
 
     spec: CellGridSpec
     codes: np.ndarray
     heights: Heights
     owned: bool = False
-
-    @functools.cached_property
-    def empty(self) -> np.ndarray:
-        return self.heights.is_empty(self.codes)
 
     @classmethod
     def of(cls, grid: LowestGrid) -> CellHeights:
@@ -359,14 +354,7 @@ class CellClasses:
         for a in range(0, n, _CHUNK):
             b = min(n, a + _CHUNK)
             xs, ys, zs = x[a:b], y[a:b], z[a:b]
-            if cell_index is None:
-                row, col = cell_indices(xs, ys, spec, origin=self.origin)
-                ci = row
-                ci *= spec.cols
-                ci += col
-                del col
-            else:
-                ci = cell_index[a:b]
+            ci = flat_cell_indices(xs, ys, spec, origin=self.origin) if cell_index is None else cell_index[a:b]
             cm = flat_marks[ci]
             pm = cm.astype(np.int32)
             other = np.flatnonzero(zs != decode(codes[ci]))
@@ -444,7 +432,7 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
     and may overwrite it, and it never sees a second copy.
     """
     one_arena()  # before the filter's threads start: their scratch is then returned with the rest
-    empty = cells.empty
+    empty = cells.heights.is_empty(cells.codes)
     filled = cells.codes if cells.owned else cells.codes.copy()
     fill_nearest(filled, empty, out=filled)
     raised = None
@@ -475,8 +463,6 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
     if raised is not None:
         marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
     marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
-    del empty
-    cells.__dict__.pop("empty", None)
     return marks
 
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.lowest_grid import rows_per_block
 from aldpat.core.progressive import mark_dtype
 from aldpat.filters.base import MARK_GROUND, GroundParams, low_outlier_reach, register_filter
 from aldpat.options import ElevationLimitsOption
@@ -62,7 +63,7 @@ def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool
     """
     heights = decode if decode is not None else (lambda a: a)
     marks = np.zeros(z.shape, mark_dtype(2 ** (params.loop_times - 1)))
-    step = max(1, BLOCK_CELLS // max(1, z.shape[1]))  # rows compared at once
+    step = rows_per_block(z.shape[1])  # rows compared at once: bounds the float64 scratch
     for a in range(0, z.shape[0], step):
         block = heights(z[a:a + step])
         if params.min_z is not None:
@@ -83,6 +84,3 @@ def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool
         del lowest
         log.debug("etew iteration %d: window %d, threshold %.3g, %d cells removed", i, k, h, removed_count)
     return marks
-
-#: Cells compared at once (bounds the float64 scratch of a grid of codes).
-BLOCK_CELLS = 1 << 20

@@ -39,11 +39,16 @@ log = logging.getLogger(__name__)
 STREAM_CHUNK = 200_000
 
 
+def ground_classes(is_ground: np.ndarray) -> np.ndarray:
+    """ASPRS classes from ground flags: 2 ground, 1 unclassified."""
+    return np.where(is_ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+
+
 def point_classes(res, z: np.ndarray, params, algorithm: str) -> np.ndarray:
     """ASPRS classes of every point: 2 ground, 1 unclassified, and for a filter that finds noise
     (``outlier``) 7 low noise and 18 high noise (made 7 where written to LAS point formats 0-5,
     which reserve 18: :func:`aldpat.io.classified.for_point_format`)."""
-    cls = np.where(res.is_ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+    cls = ground_classes(res.is_ground)
     noise = FILTERS[algorithm].noise
     if noise is not None:
         kind = noise(res, z, params)
@@ -175,7 +180,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
 
     def classes_of(table, _start, _stop):
         marks, ground = classes.classify(table.x, table.y, table.z, marks=params.marks)
-        return marks, np.where(ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+        return marks, ground_classes(ground)
 
     _write_from_classes(source, reader, outputs, params, ctx, classes_of, STREAM_CHUNK)
     return True
