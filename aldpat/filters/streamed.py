@@ -30,8 +30,8 @@ log = logging.getLogger(__name__)
 CodedChunk = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-class OutsideBounds(Exception):
-    """A point lay outside the bounds the file declared: the grid cannot be sized from them."""
+class Unstreamable(Exception):
+    """The file cannot be filtered in two passes (the message says why); read it whole instead."""
 
 
 def streamable(algorithm: str, params) -> bool:
@@ -50,7 +50,7 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
 
     The grid is laid over ``bounds`` (a file header's), then cut to the cells the points reach:
     the grid a whole-file run makes from the points' minima and maxima. A point outside
-    ``bounds`` raises :class:`OutsideBounds`.
+    ``bounds``, or a height whose code is the empty cells' own, raises :class:`Unstreamable`.
     """
     outer = grid_spec(np.zeros(0), np.zeros(0), cell, origin=origin, extent=bounds)
     ox, oy = origin if origin is not None else (0.0, 0.0)
@@ -67,7 +67,9 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
         row = floor_index(y, oy, cell)
         row -= r_first
         if col.min() < 0 or row.min() < 0 or col.max() >= outer.cols or row.max() >= outer.rows:
-            raise OutsideBounds("a point lies outside the bounds in the file's header")
+            raise Unstreamable("a point lies outside the bounds in the file's header")
+        if z.max() >= heights.empty:
+            raise Unstreamable("a height is stored as the largest integer, the code of an empty cell")
         flat = row
         flat *= outer.cols
         flat += col

@@ -77,9 +77,11 @@ class LasReader:
         mins, maxs = self.header.mins, self.header.maxs
         return float(mins[0]), float(mins[1]), float(maxs[0]), float(maxs[1])
 
-    def height_codes(self) -> ScaledHeights:
-        """How heights are stored: ``Z * scale + offset``, the integers :func:`z_codes` gives."""
-        return ScaledHeights(float(self.header.scales[2]), float(self.header.offsets[2]))
+    def height_codes(self) -> ScaledHeights | None:
+        """How heights are stored: ``Z * scale + offset``, the integers :func:`z_codes` gives;
+        ``None`` for a scale that is not positive (the integers' order is not the heights')."""
+        scale = float(self.header.scales[2])
+        return ScaledHeights(scale, float(self.header.offsets[2])) if scale > 0 else None
 
     def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
         if self.count == 0:

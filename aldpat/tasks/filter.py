@@ -159,9 +159,9 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
 def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm: str) -> bool:
     """A LAS/LAZ file in two streaming passes (:mod:`aldpat.filters.streamed`): the grid from the
     first, the classes and outputs from the second; memory holds the grid, not the points.
-    False (nothing written) when a point lies outside the header's bounds: the caller then
-    reads the file whole."""
-    from aldpat.filters.streamed import OutsideBounds, stream_classes
+    False (nothing written) when the file cannot go this way -- a point outside the header's
+    bounds, a z scale that is not positive: the caller then reads the file whole."""
+    from aldpat.filters.streamed import Unstreamable, stream_classes
     from aldpat.io.las import z_codes
 
     outputs = _outputs(source, params, ctx, reader, algorithm)
@@ -172,10 +172,14 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         for table in reader.chunks(STREAM_CHUNK):
             yield table.x, table.y, z_codes(table)
 
+    heights = reader.height_codes()
+    if heights is None:
+        log.info("%s: z scale not positive; reading the file whole", source)
+        return False
     try:
-        classes = stream_classes(coded_chunks, reader.bounds, reader.height_codes(), algorithm, params)
-    except OutsideBounds:
-        log.info("%s: points outside the header's bounds; reading the file whole", source)
+        classes = stream_classes(coded_chunks, reader.bounds, heights, algorithm, params)
+    except Unstreamable as exc:
+        log.info("%s: %s; reading the file whole", source, exc)
         return False
 
     def classes_of(table, _start, _stop):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from aldpat.filters import FILTERS, ground_filter
-from aldpat.filters.streamed import OutsideBounds, lowest_codes, streamable
+from aldpat.filters.streamed import Unstreamable, lowest_codes, streamable
 from aldpat.io.las import LasReader, z_codes
 from aldpat.params import resolve
 from tests.cli.fresh import aldpat
@@ -91,7 +91,7 @@ def test_a_header_wider_than_the_points_gives_the_points_own_grid():
                         None)
     assert wide.spec == tight.spec
     assert np.array_equal(wide.codes, tight.codes)
-    with pytest.raises(OutsideBounds):
+    with pytest.raises(Unstreamable):
         lowest_codes(chunks, (xmin + 10.0, ymin, xmax, ymax), reader.height_codes(), 1.0, None)
 
 
@@ -113,3 +113,15 @@ def test_a_header_narrower_than_the_points_reads_the_file_whole(tmp_path, runner
     x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
     expected = ground_filter(x, y, z, "pm", FILTERS["pm"].params(cell=1.0))
     assert np.array_equal(np.asarray(got.classification) == 2, expected.is_ground)
+
+
+def test_a_height_stored_as_the_empty_cells_code_is_not_streamed():
+    """The largest integer marks an empty cell: a point stored with it (a height 21,474 km up at
+    1 cm) must not vanish from the grid, so the file is read whole instead."""
+    from aldpat.core.height_codes import EMPTY_CODE
+
+    reader = LasReader(STRIP)
+    x, y = np.array([10.2, 11.7]), np.array([5.1, 5.3])
+    codes = np.array([1200, EMPTY_CODE], np.int32)
+    with pytest.raises(Unstreamable, match="empty cell"):
+        lowest_codes([(x, y, codes)], (10.0, 5.0, 12.0, 6.0), reader.height_codes(), 1.0, None)
