@@ -19,6 +19,11 @@ Angle Threshold, Init TriGrid Size, Tile X Width, Tile Y Height, Tile Buffer) an
    through any triangle spanning a slope at the right height);
 4. the TIN is rebuilt from the ground set and step 3 repeated until no candidate is added.
 
+The TIN of step 4 is not built anew: the points a round adds are inserted into it (Lawson's
+incremental Delaunay insertion, :mod:`aldpat.core.delaunay`), and a candidate that failed is
+tested again only when the triangle below it or below its mirror point has changed
+(:mod:`aldpat.filters.atin_densify`); the classes are those of a TIN rebuilt every round.
+
 The data are processed in rectangles of ``tile_x_width`` x ``tile_y_height`` (the manual's
 sub-rectangles), each with ``tile_buffer`` of its surroundings, so time and memory stay bounded
 on any file; only the points inside the rectangle are classified from each run. Seed squares
@@ -55,7 +60,7 @@ from aldpat.core.lowest_grid import LowestGrid, lowest_grid
 from aldpat.filters.base import PointFilterParams, register_filter
 from aldpat.params import param
 
-spatial = lazy_import("scipy.spatial")
+tin_densify = lazy_import("aldpat.filters.atin_densify")
 
 log = logging.getLogger(__name__)
 
@@ -92,193 +97,12 @@ class AtinParams(PointFilterParams):
         return self.cell, self.cell
 
 
-class _Tin:
-    """A Delaunay TIN over ground points with the plane of every triangle."""
-
-    def __init__(self, px: np.ndarray, py: np.ndarray, pz: np.ndarray):
-        self.px, self.py, self.pz = px, py, pz
-        # qhull runs much faster on spatially ordered input; keep the order given (row-major cells)
-        self.tri = spatial.Delaunay(np.column_stack([px, py]), qhull_options="Qbb Qc Qz Q12")
-        s = self.tri.simplices
-        x0, y0, z0 = px[s[:, 0]], py[s[:, 0]], pz[s[:, 0]]
-        ux, uy, uz = px[s[:, 1]] - x0, py[s[:, 1]] - y0, pz[s[:, 1]] - z0
-        vx, vy, vz = px[s[:, 2]] - x0, py[s[:, 2]] - y0, pz[s[:, 2]] - z0
-        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-        norm = np.sqrt(nx * nx + ny * ny + nz * nz)
-        norm[norm == 0] = 1.0
-        flip = np.where(nz < 0, -1.0, 1.0) / norm  # unit normals pointing up
-        self.n = np.column_stack([nx * flip, ny * flip, nz * flip])
-        self.d = -(self.n[:, 0] * x0 + self.n[:, 1] * y0 + self.n[:, 2] * z0)
-
-    def locate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return self.tri.find_simplex(np.column_stack([x, y]))
-
-    def distance(self, s: np.ndarray, x, y, z) -> np.ndarray:
-        """Signed distance (up positive) of points to the plane of triangles ``s``."""
-        n = self.n[s]
-        return n[:, 0] * x + n[:, 1] * y + n[:, 2] * z + self.d[s]
-
-    def largest_angle(self, s: np.ndarray, x, y, z, dist: np.ndarray) -> np.ndarray:
-        """Largest angle (degrees) between the triangle's plane and the lines to its vertices."""
-        v = self.tri.simplices[s]
-        shortest = np.full(len(s), np.inf)
-        for k in range(3):
-            vi = v[:, k]
-            shortest = np.minimum(shortest, np.sqrt((x - self.px[vi]) ** 2 + (y - self.py[vi]) ** 2
-                                                    + (z - self.pz[vi]) ** 2))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.degrees(np.arcsin(np.clip(np.abs(dist) / shortest, 0.0, 1.0)))
-
-    def nearest_vertex(self, s: np.ndarray, x, y) -> np.ndarray:
-        v = self.tri.simplices[s]
-        d2 = np.stack([(x - self.px[v[:, k]]) ** 2 + (y - self.py[v[:, k]]) ** 2 for k in range(3)])
-        return v[np.arange(len(s)), np.argmin(d2, axis=0)]
-
-
-def _passes(tin: _Tin, x, y, z, params: AtinParams) -> np.ndarray:
-    """The distance and angle test of step 3 (with the mirror point when asked)."""
-    return _tested(tin, x, y, z, params)[0]
-
-
-#: What :func:`_tested` gives as the mirror point's triangle of a point that was not mirrored.
-NOT_MIRRORED = -2
-
-
-def _tested(tin: _Tin, x, y, z, params: AtinParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Pass flags, triangle below, distance to it (the mirror point's, for a point passing
-    through it) and the triangle below the mirror point (-1 outside the TIN,
-    :data:`NOT_MIRRORED`) of every point."""
-    s = tin.locate(x, y)
-    ok = np.zeros(len(x), bool)
-    score = np.full(len(x), np.inf)
-    mirror = np.full(len(x), NOT_MIRRORED, np.int64)
-    inside = s >= 0
-    if not inside.any():
-        return ok, s, score, mirror
-    mirror_inside = np.full(int(inside.sum()), NOT_MIRRORED, np.int64)
-    xi, yi, zi, si = x[inside], y[inside], z[inside], s[inside]
-    dist = tin.distance(si, xi, yi, zi)
-    good = np.abs(dist) < params.z_difference
-    if params.angle_threshold > 0:
-        good &= tin.largest_angle(si, xi, yi, zi, dist) < params.angle_threshold
-    if params.mirror and not good.all():
-        bad = np.flatnonzero(~good)
-        v = tin.nearest_vertex(si[bad], xi[bad], yi[bad])
-        # only a candidate level with its nearest vertex is mirrored: it continues the surface
-        # behind that vertex (a cliff top); one far above it (a roof beside a ground vertex)
-        # would otherwise mirror onto any triangle spanning a slope at the right height
-        level = np.abs(zi[bad] - tin.pz[v]) < params.z_difference
-        bad, v = bad[level], v[level]
-        mx, my = 2 * tin.px[v] - xi[bad], 2 * tin.py[v] - yi[bad]
-        ms = tin.locate(mx, my)
-        mirror_inside[bad] = ms
-        has = ms >= 0
-        if has.any():
-            b, mz = bad[has], (2 * tin.pz[v] - zi[bad])[has]
-            mdist = tin.distance(ms[has], mx[has], my[has], mz)
-            # height above the plane, not the perpendicular distance: behind a steep triangle (a
-            # cliff face) the perpendicular distance is small however high the mirror point is
-            mgood = np.abs(mdist / tin.n[ms[has], 2]) < params.z_difference
-            if params.angle_threshold > 0:
-                mgood &= tin.largest_angle(ms[has], mx[has], my[has], mz, mdist) < params.angle_threshold
-            good[b[mgood]] = True
-            dist[b[mgood]] = mdist[mgood]
-    ok[inside] = good
-    score[inside] = np.abs(dist)
-    mirror[inside] = mirror_inside
-    return ok, s, score, mirror
-
-
-def _best_of_each_triangle(ok: np.ndarray, tri: np.ndarray, score: np.ndarray) -> np.ndarray:
-    """Of the passing points, the one nearest its triangle in each triangle (Axelsson's round)."""
-    idx = np.flatnonzero(ok)
-    if len(idx) == 0:
-        return ok
-    order = idx[np.lexsort((score[idx], tri[idx]))]
-    first = np.ones(len(order), bool)
-    first[1:] = tri[order[1:]] != tri[order[:-1]]
-    out = np.zeros(len(ok), bool)
-    out[order[first]] = True
-    return out
-
-
 def _seeds(x: np.ndarray, y: np.ndarray, z: np.ndarray, size: float) -> np.ndarray:
-    """Indices of the lowest point of each ``size`` square (squares aligned to multiples of size)."""
+    """Flags of the lowest point of each ``size`` square (squares aligned to multiples of size)."""
     g = lowest_grid(x, y, z, size)
-    return g.lowest[~g.empty]
-
-
-def _triangle_keys(tin: _Tin, ids: np.ndarray, virtual: int) -> np.ndarray:
-    """One number per triangle of ``tin`` naming its three points (``ids``: each TIN point's
-    number in the rectangle's candidates; numbers from ``virtual`` on are the virtual corners,
-    whose heights change from round to round: their triangles get -1, never equal)."""
-    v = np.sort(ids[tin.tri.simplices], axis=1)
-    base = virtual + 4
-    keys = (v[:, 0] * base + v[:, 1]) * base + v[:, 2]
-    keys[v[:, 2] >= virtual] = -1
-    return keys
-
-
-def _still_there(old: np.ndarray, keys: np.ndarray) -> np.ndarray:
-    """Which of the triangle numbers ``old`` (-1: none) are triangles of the new TIN."""
-    return (old >= 0) & np.isin(old, keys)
-
-
-def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: AtinParams,
-            bounds: tuple[float, float, float, float]) -> tuple[np.ndarray, _Tin | None]:
-    """Ground flags of candidates x, y, z (one rectangle with its buffer) and the final TIN.
-
-    A candidate that failed stays failed while the triangle below it and the one below its
-    mirror point are still triangles of the TIN (same points, so same planes): each round tests
-    again only the candidates whose triangles the points just added broke up, and gives the
-    same answer as testing them all.
-    """
-    n = len(z)
-    ground = np.zeros(n, bool)
-    if n == 0:
-        return ground, None
-    ground[_seeds(x, y, z, params.init_trigrid_size)] = True
-    x0, y0, x1, y1 = bounds
-    corners_x = np.array([x0, x1, x0, x1])
-    corners_y = np.array([y0, y0, y1, y1])
-    # numbers fit in an int64 key of three: checked, else every candidate is tested every round
-    keep_keys = (n + 4) ** 3 < 2 ** 63 and not params.best_per_triangle
-    below = np.full(n, -1, np.int64)  # the triangle key below each failed candidate (-1: test it)
-    behind = np.full(n, -1, np.int64)  # that below its mirror point (-1: test it; or NOT_MIRRORED)
-    tin = None
-    for _ in range(MAX_ROUNDS):
-        gi = np.flatnonzero(ground)
-        # virtual corners at the height of the nearest ground point
-        near = np.argmin((x[gi][None, :] - corners_x[:, None]) ** 2 + (y[gi][None, :] - corners_y[:, None]) ** 2,
-                         axis=1)
-        px = np.concatenate([x[gi], corners_x])
-        py = np.concatenate([y[gi], corners_y])
-        pz = np.concatenate([z[gi], z[gi][near]])
-        if len(px) < 3:
-            break
-        tin = _Tin(px, py, pz)
-        rest = np.flatnonzero(~ground)
-        if len(rest) == 0:
-            break
-        if keep_keys:
-            keys = _triangle_keys(tin, np.concatenate([gi, n + np.arange(4)]), n)
-            same = _still_there(below[rest], keys)
-            same &= (behind[rest] == NOT_MIRRORED) | _still_there(behind[rest], keys)
-            rest = rest[~same]
-            if len(rest) == 0:
-                break
-        add, tri, score, mirror = _tested(tin, x[rest], y[rest], z[rest], params)
-        if params.best_per_triangle:
-            add = _best_of_each_triangle(add, tri, score)
-        if keep_keys:
-            failed = rest[~add]
-            t, m = tri[~add], mirror[~add]
-            below[failed] = np.where(t >= 0, keys[np.maximum(t, 0)], -1)
-            behind[failed] = np.where(m >= 0, keys[np.maximum(m, 0)], np.where(m == NOT_MIRRORED, NOT_MIRRORED, -1))
-        if not add.any():
-            break
-        ground[rest[add]] = True
-    return ground, tin
+    flags = np.zeros(len(z), bool)
+    flags[g.lowest[~g.empty]] = True
+    return flags
 
 
 class _Buckets:
@@ -317,7 +141,7 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
     lowest point of each ``cell`` (the candidates)."""
     p = params
     cand = grid.lowest[~grid.empty]
-    cand = cand[np.argsort(grid.cell_index[cand], kind="stable")]  # row-major: qhull likes locality
+    cand = cand[np.argsort(grid.cell_index[cand], kind="stable")]  # row-major: each walk to a triangle starts near it
     cx, cy, cz = x[cand], y[cand], z[cand]
     is_cand = np.zeros(len(z), bool)
     is_cand[cand] = True
@@ -342,13 +166,19 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
             near = np.sort(near)  # back to row-major cell order
             keep = (cx[near] >= rx0 - buf) & (cx[near] < rx1 + buf) & (cy[near] >= ry0 - buf) & (cy[near] < ry1 + buf)
             sel = near[keep]
-            g, tin = densify(cx[sel], cy[sel], cz[sel], p, (rx0 - buf, ry0 - buf, rx1 + buf, ry1 + buf))
+            ox, oy = rx0 - buf, ry0 - buf  # local coordinates: the tests keep their precision
+            g, tin = tin_densify.densify(
+                cx[sel] - ox, cy[sel] - oy, cz[sel], _seeds(cx[sel], cy[sel], cz[sel], p.init_trigrid_size),
+                (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold, p.mirror,
+                p.best_per_triangle, MAX_ROUNDS)
             ground[sel[g]] = True
             marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_OFF_TIN)
             ground[sel] = False
             mine = others[other_buckets.take(r, r, c, c)]
-            if len(mine) and tin is not None:
-                ok = _passes(tin, x[mine], y[mine], z[mine], p)
+            if len(mine):
+                mine = mine[np.argsort(grid.cell_index[mine], kind="stable")]  # row-major: short walks
+                ok = tin_densify.passes(tin, x[mine] - ox, y[mine] - oy, z[mine], p.z_difference,
+                                        p.angle_threshold, p.mirror)
                 marks[mine[ok]] = 0
     log.debug("atin: %d of %d points ground", int((marks == 0).sum()), len(z))
     return marks
