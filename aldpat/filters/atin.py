@@ -33,11 +33,9 @@ seeds; with a buffer of a few seed squares the classes do not depend on the rect
 Choices where the manual is silent:
 
 * by default every candidate that passes is added in the same round; Axelsson adds only the
-  best point of each triangle per round (``best_per_triangle``, an option). On the seven ISPRS
-  samples the latter lowers the mean total error from 6.9 to 6.3 % in about the same time, but
-  neither it nor the angle test is on by default: the setting best on all seven samples (z
-  difference 1 m, angle 20 degrees) drops known ground of a synthetic cliff, whose angles to
-  the vertices of short, noisy edges are large whatever the terrain (bench/README.md);
+  best point of each triangle per round (``best_per_triangle``, an option). The defaults (z
+  difference 0.75 m, no angle test, 30 m seed squares, every passing point) are the setting
+  best on the seven ISPRS samples of bench/README.md among those tried there;
 * the TIN's corners are held by four virtual points at the corners of the buffered rectangle,
   each at the height of the ground point nearest to it in that round, so candidates outside the
   ground set's hull have a triangle too; virtual points are never output;
@@ -74,7 +72,7 @@ MAX_ROUNDS = 50
 class AtinParams(PointFilterParams):
     cell: float = param(1.0, "parsing grid: the lowest point of each cell is a candidate", unit="m",
                              gt=0, manual="Cell Size")
-    z_difference: float = param(0.5, "a candidate closer than this to the plane of the triangle below it "
+    z_difference: float = param(0.75, "a candidate closer than this to the plane of the triangle below it "
                                      "is added", unit="m", gt=0, manual="Z difference")
     angle_threshold: float = param(0.0, "largest angle between the triangle and the lines to its vertices "
                                         "(0: no angle test)", unit="degrees", ge=0, le=90,

@@ -16,11 +16,11 @@ Choices where the manual is silent:
 * a pair exactly ``search_radius`` apart is compared; a pair exactly ``max_slope`` steep makes the
   upper point non-ground (eq. 4 keeps ``s0,max < s`` only).
 
-The search is exact and vectorised over the cell grid: neighbouring cells are visited in order
-of their smallest possible distance, and a point leaves the search as soon as it is found
-non-ground or no cell left can be steep enough below it -- its height above the lowest array
-element within reach, divided by ``max_slope``, bounds the distance a steep neighbour can have.
-On terrain most points leave after the first ring of cells.
+The search is exact and runs over the cell grid (compiled, :mod:`aldpat.filters.slope_search`):
+neighbouring cells are visited in order of their smallest possible distance, and a point leaves
+the search as soon as it is found non-ground or no cell left can be steep enough below it -- its
+height above the lowest array element within reach, divided by ``max_slope``, bounds the
+distance a steep neighbour can have. On terrain most points leave after the first ring of cells.
 
 Marks: 0 ground, 1 non-ground (a steep neighbour or outside [Min Z, Max Z]).
 """
@@ -41,6 +41,7 @@ from aldpat.options import CellHeightOption, ElevationLimitsOption
 from aldpat.params import param
 
 ndimage = lazy_import("scipy.ndimage")
+slope_kernels = lazy_import("aldpat.filters.slope_search")
 
 log = logging.getLogger(__name__)
 
@@ -89,38 +90,15 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, 
     rows, cols = spec.shape
     flat_lowest = grid.lowest.ravel()
     ci = grid.cell_index
-    row = ci // cols
-    col = ci % cols
     # lowest array element within reach of every cell: bounds how far a steep neighbour may be
     kr, kc = math.ceil(p.search_radius / height), math.ceil(p.search_radius / width)
     reach_min = ndimage.minimum_filter(np.where(grid.empty, np.inf, grid.z), size=(2 * kr + 1, 2 * kc + 1),
                                        mode="constant", cval=np.inf).ravel()
+    dr, dc, gap = _offsets(width, height, p.search_radius)
     steep = np.zeros(n, bool)
-    active = np.flatnonzero(z > reach_min[ci])  # a point at or below every neighbour has no slope down
-    r2_max = p.search_radius ** 2
-    r2_min = p.min_distance ** 2
-    for dr, dc, gap in zip(*_offsets(width, height, p.search_radius)):
-        if len(active) == 0:
-            break
-        # a neighbour at least ``gap`` away must lie max_slope * gap below: beyond reach_min?
-        still = z[active] - p.max_slope * gap >= reach_min[ci[active]]
-        active = active[still]
-        if len(active) == 0:
-            break
-        r = row[active] + dr
-        c = col[active] + dc
-        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-        idx = active[inside]
-        nb = flat_lowest[r[inside] * cols + c[inside]]
-        has = nb >= 0
-        idx, nb = idx[has], nb[has]
-        d2 = (x[idx] - x[nb]) ** 2 + (y[idx] - y[nb]) ** 2
-        compared = (d2 >= r2_min) & (d2 <= r2_max) & (d2 > 0)
-        drop = z[idx] - z[nb]
-        found = compared & (drop > 0) & (drop * drop >= p.max_slope * p.max_slope * d2)
-        if found.any():
-            steep[idx[found]] = True
-            active = active[~steep[active]]
+    slope_kernels.steep_search(x, y, z, (ci // cols).astype(np.int64), (ci % cols).astype(np.int64), flat_lowest,
+                               reach_min, dr.astype(np.int64), dc.astype(np.int64), gap.astype(np.float64),
+                               rows, cols, p.min_distance ** 2, p.search_radius ** 2, p.max_slope, steep)
     log.debug("slope: %d of %d points have a steep neighbour", int(steep.sum()), n)
     return steep
 
