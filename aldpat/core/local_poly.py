@@ -25,6 +25,7 @@ from aldpat._lazy import lazy_import
 from aldpat.core.lowest_grid import CellGridSpec, fill_nearest
 
 ndimage = lazy_import("scipy.ndimage")
+plane_sums = lazy_import("aldpat.core.plane_sums")
 
 #: Nodes solved per band of rows (bounds the window sums held at once).
 BAND_CELLS = 1 << 20
@@ -96,21 +97,26 @@ class PointSums:
         """Sums of the points ``x[r, c], y[r, c], z[r, c]`` of the cells where ``has``."""
         self = cls.__new__(cls)
         self._start(spec, degree)
+        self._cells = (x, y, z, has)  # held as given: positions in cells are made a band at a time
+        return self
+
+    def _positions(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray):
+        """Position in cells about the grid's centre, height and weight of cells (zero where empty)."""
+        spec = self.spec
         u = np.where(has, (x - spec.x0) / spec.cell - 0.5 - self.u0, 0.0)
         v = np.where(has, (y - spec.y0) / spec.cell - 0.5 - self.v0, 0.0)
-        self._cells = (u, v, np.where(has, z, 0.0), has.astype(np.float64))
-        return self
+        return u, v, np.where(has, z, 0.0), has.astype(np.float64)
 
     def count(self) -> np.ndarray:
         """Points per cell."""
-        return self._cells[3] if self._cells is not None else self.moments[0, 0]
+        return self._cells[3].astype(np.float64) if self._cells is not None else self.moments[0, 0]
 
     def band(self, lo: int, hi: int) -> tuple[dict, dict]:
         """The sums of rows lo to hi: powers of position, and the same times z."""
         if self._cells is None:
             return ({key: m[lo:hi] for key, m in self.moments.items()},
                     {key: m[lo:hi] for key, m in self.z_moments.items()})
-        u, v, z, w = (a[lo:hi] for a in self._cells)
+        u, v, z, w = self._positions(*(a[lo:hi] for a in self._cells))
         moments, z_moments = {}, {}
         for i, j in _monomials(2 * self.degree):
             t = w * u ** i * v ** j
@@ -153,6 +159,12 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
 def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -> np.ndarray:
     """Fitted value at the chosen nodes of rows r0 to r1, each from the window of ``k`` cells
     around it (row-major order, as ``nodes[r0:r1]`` lists them)."""
+    if sums.degree == 1 and sums._cells is not None:
+        # planes on one point per cell (ipf, poly2 as shipped): sums and solve in one compiled pass
+        spec = sums.spec
+        return plane_sums.planes_at_nodes(*sums._cells, nodes, r0, r1, k, spec.x0 / spec.cell + 0.5 + sums.u0,
+                                          spec.y0 / spec.cell + 0.5 + sums.v0, 1.0 / spec.cell, sums.u0, sums.v0,
+                                          RIDGE)
     rows = nodes.shape[0]
     lo, hi = max(0, r0 - k), min(rows, r1 + k)  # the rows the band's windows reach
     rr, cc = np.nonzero(nodes[r0:r1])
@@ -162,9 +174,9 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
     vn = rr + r0 - sums.v0
     moments, z_moments = sums.band(lo, hi)
     raw = {key: _box_sum(m, k)[at, cc] for key, m in moments.items()}
-    raw[0, 0] = np.rint(raw[0, 0])  # the points in each window, a count (see _window_counts)
     raw_z = {key: _box_sum(m, k)[at, cc] for key, m in z_moments.items()}
     del moments, z_moments
+    raw[0, 0] = np.rint(raw[0, 0])  # the points in each window, a count (see _window_counts)
 
     def centred(table: dict, a: int, b: int) -> np.ndarray:
         # sum (u - un)^a (v - vn)^b w = sum_i sum_j C(a,i) C(b,j) (-un)^(a-i) (-vn)^(b-j) S_ij
