@@ -59,7 +59,8 @@ CANDIDATES: dict[str, dict[str, tuple]] = {
         # a first pass over z 0.5 / 1.0 / 1.5, angles 0 / 10 / 20 and squares 30 / 40 / 60 m found
         # every setting with z 1.5 or angle 10 worse than these (8.2 to 11.8 %)
         "z_difference": (0.5, 0.75, 1.0),
-        "angle_threshold": (0.0, 20.0),
+        "angle_threshold": (0.0, 10.0, 15.0),
+        "angle_min_distance": (1.5, 3.0),
         "init_trigrid_size": (30.0, 40.0, 60.0),
         "best_per_triangle": (False, True),
     },

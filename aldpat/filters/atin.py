@@ -10,13 +10,14 @@ Angle Threshold, Init TriGrid Size, Tile X Width, Tile Y Height, Tile Buffer) an
 3. a candidate is added to the ground set when its distance to the plane of the triangle below
    it is under ``z_difference`` and, when ``angle_threshold`` > 0, the largest of the angles
    between that plane and the lines from the candidate to the triangle's three vertices is under
-   ``angle_threshold``; a candidate failing the test is also added when its *mirror point* --
-   the candidate reflected through the triangle's vertex nearest to it (in x, y and z) -- lies
-   within ``z_difference`` (in height) of the triangle below the mirror point (steep terrain,
-   Fig. 16): a point level with a ground vertex at the top of a cliff mirrors onto the plateau
-   behind that vertex. Only candidates within ``z_difference`` of their nearest vertex's height
-   are mirrored (the manual does not say which are; mirroring every candidate lets roofs in
-   through any triangle spanning a slope at the right height);
+   ``angle_threshold`` (a vertex nearer than ``angle_min_distance`` counted at that distance); a
+   candidate failing the test is also added when its *mirror point* -- the candidate reflected
+   through the triangle's vertex nearest to it (in x, y and z) -- lies within ``z_difference``
+   (in height) of the triangle below the mirror point (steep terrain, Fig. 16): a point level
+   with a ground vertex at the top of a cliff mirrors onto the plateau behind that vertex. Only
+   candidates within ``z_difference`` of their nearest vertex's height are mirrored (the manual
+   does not say which are; mirroring every candidate lets roofs in through any triangle spanning
+   a slope at the right height);
 4. the TIN is rebuilt from the ground set and step 3 repeated until no candidate is added.
 
 The TIN of step 4 is not built anew: the points a round adds are inserted into it (Lawson's
@@ -33,9 +34,13 @@ seeds; with a buffer of a few seed squares the classes do not depend on the rect
 Choices where the manual is silent:
 
 * by default every candidate that passes is added in the same round; Axelsson adds only the
-  best point of each triangle per round (``best_per_triangle``, an option). The defaults (z
-  difference 0.75 m, no angle test, 30 m seed squares, every passing point) are the setting
-  best on the seven ISPRS samples of bench/README.md among those tried there;
+  best point of each triangle per round (``best_per_triangle``, an option);
+* the angle test measures the angle to a vertex nearer than ``angle_min_distance`` as if the
+  vertex were that far: on dense data a candidate a few decimetres from a vertex makes a large
+  angle with a few centimetres of noise, and would be dropped whatever the terrain;
+* the defaults (z difference 0.75 m, angle 15 degrees taken at 1.5 m at least, 30 m seed
+  squares, every passing point) are the setting best on the seven ISPRS samples of
+  bench/README.md among those tried there;
 * the TIN's corners are held by four virtual points at the corners of the buffered rectangle,
   each at the height of the ground point nearest to it in that round, so candidates outside the
   ground set's hull have a triangle too; virtual points are never output;
@@ -74,9 +79,12 @@ class AtinParams(PointFilterParams):
                              gt=0, manual="Cell Size")
     z_difference: float = param(0.75, "a candidate closer than this to the plane of the triangle below it "
                                      "is added", unit="m", gt=0, manual="Z difference")
-    angle_threshold: float = param(0.0, "largest angle between the triangle and the lines to its vertices "
+    angle_threshold: float = param(15.0, "largest angle between the triangle and the lines to its vertices "
                                         "(0: no angle test)", unit="degrees", ge=0, le=90,
                                    manual="Angle Threshold")
+    angle_min_distance: float = param(1.5, "the angle test takes a vertex nearer than this as if it were this "
+                                           "far (on short edges a little noise is a large angle)", unit="m",
+                                      ge=0)
     init_trigrid_size: float = param(30.0, "seed squares: the lowest point of each is a seed; larger than "
                                            "the largest object", unit="m", gt=0, manual="Init TriGrid Size")
     tile_x_width: float = param(1000.0, "width of the rectangles processed one at a time", unit="m", gt=0,
@@ -167,7 +175,7 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
             ox, oy = rx0 - buf, ry0 - buf  # local coordinates: the tests keep their precision
             g, tin = tin_densify.densify(
                 cx[sel] - ox, cy[sel] - oy, cz[sel], _seeds(cx[sel], cy[sel], cz[sel], p.init_trigrid_size),
-                (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold, p.mirror,
+                (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold, p.angle_min_distance, p.mirror,
                 p.best_per_triangle, MAX_ROUNDS)
             ground[sel[g]] = True
             marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_OFF_TIN)
@@ -176,7 +184,7 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
             if len(mine):
                 mine = mine[np.argsort(grid.cell_index[mine], kind="stable")]  # row-major: short walks
                 ok = tin_densify.passes(tin, x[mine] - ox, y[mine] - oy, z[mine], p.z_difference,
-                                        p.angle_threshold, p.mirror)
+                                        p.angle_threshold, p.angle_min_distance, p.mirror)
                 marks[mine[ok]] = 0
     log.debug("atin: %d of %d points ground", int((marks == 0).sum()), len(z))
     return marks

@@ -39,24 +39,25 @@ def _plane_distance(px, py, pz, tv, t, x, y, z):
 
 
 @njit(cache=True, inline="always")
-def _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle):
+def _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle, min_distance):
     """Whether the largest angle between the plane of t and the lines from the point to t's
-    vertices is under the threshold: the sine of that angle is |dist| over the shortest line."""
+    vertices is under the threshold: the sine of that angle is |dist| over the shortest line,
+    taken as ``min_distance`` at least."""
     shortest = np.inf
     for k in range(3):
         w = tv[t, k]
         d = np.sqrt((x - px[w]) ** 2 + (y - py[w]) ** 2 + (z - pz[w]) ** 2)
         shortest = min(shortest, d)
-    return abs(dist) < sin_angle * shortest
+    return abs(dist) < sin_angle * max(shortest, min_distance)
 
 
 @njit(cache=True)
-def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, mirror):
+def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, min_distance, mirror):
     """Step 3 for one point in triangle t: (passes, score, mirror point's triangle)."""
     dist, _ = _plane_distance(px, py, pz, tv, t, x, y, z)
     good = abs(dist) < z_difference
     if good and sin_angle > 0.0:
-        good = _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle)
+        good = _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle, min_distance)
     if good or not mirror:
         return good, abs(dist), NOT_MIRRORED
     # the vertex nearest in x, y; only a point level with it continues the surface behind it
@@ -76,7 +77,7 @@ def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, mirror
     # height above the plane: behind a cliff face the perpendicular distance is small however high
     mgood = abs(mdist / nz) < z_difference
     if mgood and sin_angle > 0.0:
-        mgood = _angle_ok(px, py, pz, tv, ms, mx, my, mz, mdist, sin_angle)
+        mgood = _angle_ok(px, py, pz, tv, ms, mx, my, mz, mdist, sin_angle, min_distance)
     if mgood:
         return True, abs(mdist), ms
     return False, abs(dist), ms
@@ -103,7 +104,7 @@ def _set_corner_heights(px, py, pz, tv, stamp, count, ground, first_vertex):
 
 
 @njit(cache=True)
-def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, mirror, best_per_triangle,
+def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, min_distance, mirror, best_per_triangle,
              max_rounds):
     n = len(ground)
     first = 4  # candidate i is vertex first + i
@@ -141,7 +142,7 @@ def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, 
                 state[i] = 0
                 continue
             last = t
-            ok, s, m = _test(px, py, pz, tv, tn, count, t, px[v], py[v], pz[v], z_difference, sin_angle, mirror)
+            ok, s, m = _test(px, py, pz, tv, tn, count, t, px[v], py[v], pz[v], z_difference, sin_angle, min_distance, mirror)
             tri[i] = t
             tri_stamp[i] = stamp[t]
             if ok:
@@ -182,7 +183,7 @@ def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, 
 
 
 def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, bounds: tuple[float, float, float, float],
-            z_difference: float, angle_threshold: float, mirror: bool, best_per_triangle: bool,
+            z_difference: float, angle_threshold: float, min_distance: float, mirror: bool, best_per_triangle: bool,
             max_rounds: int):
     """Ground flags of the candidates (local coordinates, inside ``bounds``) and the final TIN.
 
@@ -194,13 +195,13 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, boun
     px[4:], py[4:], pz[4:] = x, y, z
     ground = seeds.copy()
     sin_angle = float(np.sin(np.radians(angle_threshold))) if angle_threshold > 0 else 0.0
-    _densify(px, py, pz, tv, tn, stamp, count, ground, float(z_difference), sin_angle, bool(mirror),
+    _densify(px, py, pz, tv, tn, stamp, count, ground, float(z_difference), sin_angle, float(min_distance), bool(mirror),
              bool(best_per_triangle), int(max_rounds))
     return ground, (px, py, pz, tv, tn, count)
 
 
 @njit(cache=True)
-def _classify(px, py, pz, tv, tn, count, x, y, z, z_difference, sin_angle, mirror, out):
+def _classify(px, py, pz, tv, tn, count, x, y, z, z_difference, sin_angle, min_distance, mirror, out):
     last = 0
     for i in range(len(x)):
         t = locate(px, py, tv, tn, count, last, x[i], y[i])
@@ -208,17 +209,17 @@ def _classify(px, py, pz, tv, tn, count, x, y, z, z_difference, sin_angle, mirro
             out[i] = False
             continue
         last = t
-        ok, _, _ = _test(px, py, pz, tv, tn, count, t, x[i], y[i], z[i], z_difference, sin_angle, mirror)
+        ok, _, _ = _test(px, py, pz, tv, tn, count, t, x[i], y[i], z[i], z_difference, sin_angle, min_distance, mirror)
         out[i] = ok
 
 
 def passes(tin, x: np.ndarray, y: np.ndarray, z: np.ndarray, z_difference: float, angle_threshold: float,
-           mirror: bool) -> np.ndarray:
+           min_distance: float, mirror: bool) -> np.ndarray:
     """Whether each point (local coordinates; best in spatial order: the walks are short) passes
     step 3's test against the final TIN."""
     px, py, pz, tv, tn, count = tin
     out = np.zeros(len(x), bool)
     sin_angle = float(np.sin(np.radians(angle_threshold))) if angle_threshold > 0 else 0.0
     _classify(px, py, pz, tv, tn, count, np.ascontiguousarray(x, float), np.ascontiguousarray(y, float),
-              np.ascontiguousarray(z, float), float(z_difference), sin_angle, bool(mirror), out)
+              np.ascontiguousarray(z, float), float(z_difference), sin_angle, float(min_distance), bool(mirror), out)
     return out

@@ -89,7 +89,7 @@ def test_duplicates_and_outside():
 # ------------------------------------------------- densification: incremental == rebuilt each round
 
 
-def _reference(x, y, z, seeds, size, z_difference, angle, mirror, best):
+def _reference(x, y, z, seeds, size, z_difference, angle, min_distance, mirror, best):
     """Steps 2-4 the plain way: a TIN built from scratch each round, every candidate tested."""
     ground = seeds.copy()
     sin_angle = np.sin(np.radians(angle)) if angle > 0 else 0.0
@@ -106,7 +106,7 @@ def _reference(x, y, z, seeds, size, z_difference, angle, mirror, best):
         for i in np.flatnonzero(~ground):
             t = locate(px, py, tv, tn, count, 0, x[i], y[i])
             ok, s, _ = atin_densify._test(px, py, pz, tv, tn, count, t, x[i], y[i], z[i], z_difference,
-                                          sin_angle, mirror)
+                                          sin_angle, min_distance, mirror)
             if ok:
                 passing.append(i)
                 tri.append(t)
@@ -122,9 +122,10 @@ def _reference(x, y, z, seeds, size, z_difference, angle, mirror, best):
     return ground
 
 
-@pytest.mark.parametrize("angle, mirror, best", [(0.0, True, False), (15.0, True, False), (0.0, False, True),
-                                                 (10.0, True, True)])
-def test_densification_matches_a_tin_rebuilt_every_round(angle, mirror, best):
+@pytest.mark.parametrize("angle, min_distance, mirror, best", [
+    (0.0, 0.0, True, False), (15.0, 0.0, True, False), (15.0, 1.5, True, False), (0.0, 0.0, False, True),
+    (10.0, 1.5, True, True)])
+def test_densification_matches_a_tin_rebuilt_every_round(angle, min_distance, mirror, best):
     rng = np.random.default_rng(5)
     n, size = 2500, 100.0
     x, y = rng.random(n) * size, rng.random(n) * size
@@ -139,7 +140,8 @@ def test_densification_matches_a_tin_rebuilt_every_round(angle, mirror, best):
     for c in np.unique(cell):
         members = np.flatnonzero(cell == c)
         seeds[members[np.argmin(z[members])]] = True
-    got, _ = atin_densify.densify(x, y, z, seeds, (0.0, 0.0, size, size), 0.6, angle, mirror, best, 50)
-    expected = _reference(x, y, z, seeds, size, 0.6, angle, mirror, best)
+    got, _ = atin_densify.densify(x, y, z, seeds, (0.0, 0.0, size, size), 0.6, angle, min_distance, mirror, best,
+                                  50)
+    expected = _reference(x, y, z, seeds, size, 0.6, angle, min_distance, mirror, best)
     assert got.sum() > n // 3
     np.testing.assert_array_equal(got, expected)

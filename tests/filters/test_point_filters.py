@@ -189,6 +189,15 @@ def test_atin_classes_do_not_depend_on_the_rectangle_size(plane):
 
 def test_atin_angle_threshold_rejects_points_steep_from_their_vertices():
     x, y, z, truth = plane_with_objects(spacing=1.5)
-    loose = ground_filter(x, y, z, "atin", AtinParams(z_difference=3.0)).is_ground
+    loose = ground_filter(x, y, z, "atin", AtinParams(z_difference=3.0, angle_threshold=0.0)).is_ground
     angled = ground_filter(x, y, z, "atin", AtinParams(z_difference=3.0, angle_threshold=10.0)).is_ground
     assert np.sum(~truth & angled) < np.sum(~truth & loose)
+
+
+def test_atin_angle_min_distance_keeps_noisy_ground_near_vertices():
+    """Ground with 3 cm noise at 1.5 m spacing: a 10-degree angle to a vertex 0.3 m away is 5 cm,
+    so the plain angle test drops noisy ground; taken at 1.5 m at least, it keeps it."""
+    x, y, z, truth = plane_with_objects(spacing=1.5)
+    plain = ground_filter(x, y, z, "atin", AtinParams(angle_threshold=10.0, angle_min_distance=0.0)).is_ground
+    relaxed = ground_filter(x, y, z, "atin", AtinParams(angle_threshold=10.0, angle_min_distance=1.5)).is_ground
+    assert np.sum(truth & ~relaxed) < np.sum(truth & ~plain)
