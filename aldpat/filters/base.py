@@ -75,7 +75,25 @@ class FilterOutputOption(SharedOption):
 
 
 @dataclass(frozen=True)
-class GroundParams(FilterOutputOption, ChunkOption, OriginOption, Checked):
+class RaisedSegmentOption(SharedOption):
+    """The raised-segment test (:mod:`aldpat.core.segments`), taken by the grid filters and
+    ``atin``: objects larger than any window or seed square, found by the steps around them."""
+
+    object_step: float = param(
+        0.0,
+        "raised-segment test: cells whose heights differ by more than this split the grid into "
+        "segments, and a segment standing above its surroundings is an object whatever its size "
+        "(buildings larger than the filter's largest window or seed square); 0: off",
+        unit="m", ge=0,
+    )
+    object_share: float = param(
+        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
+        ge=0, le=1,
+    )
+
+
+@dataclass(frozen=True)
+class GroundParams(RaisedSegmentOption, FilterOutputOption, ChunkOption, OriginOption, Checked):
     """Parameters every grid filter shares; each filter's params class subclasses it."""
 
     cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
@@ -103,17 +121,6 @@ class GroundParams(FilterOutputOption, ChunkOption, OriginOption, Checked):
         4, "half window of the low-outlier test: a clump of low points must cover less than a fifth "
         "of the (2k+1)^2 window to be caught",
         unit="cells", ge=1,
-    )
-    object_step: float = param(
-        0.0,
-        "raised-segment test: cells whose heights differ by more than this split the grid into "
-        "segments, and a segment standing above its surroundings is an object whatever its size "
-        "(large buildings beyond the largest window); 0: off",
-        unit="m", ge=0,
-    )
-    object_share: float = param(
-        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
-        ge=0, le=1,
     )
     surface_threshold: float | None = param(
         None,
