@@ -195,8 +195,8 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
             ox, oy = rx0 - buf, ry0 - buf  # local coordinates: the tests keep their precision
             g, tin = tin_densify.densify(
                 cx[sel] - ox, cy[sel] - oy, cz[sel], _seeds(cx[sel], cy[sel], cz[sel], p.init_trigrid_size),
-                (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold, p.angle_min_distance, p.mirror,
-                p.best_per_triangle, MAX_ROUNDS)
+                (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold,
+                p.angle_min_distance, p.mirror, p.best_per_triangle, MAX_ROUNDS)
             ground[sel[g]] = True
             marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_OFF_TIN)
             ground[sel] = False
