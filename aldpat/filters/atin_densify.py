@@ -182,6 +182,11 @@ def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, 
     _set_corner_heights(px, py, pz, tv, stamp, count, ground, first)
 
 
+def _sine(angle_threshold: float) -> float:
+    """The angle test's threshold as the sine the kernels compare with (0: no angle test)."""
+    return float(np.sin(np.radians(angle_threshold))) if angle_threshold > 0 else 0.0
+
+
 def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, bounds: tuple[float, float, float, float],
             z_difference: float, angle_threshold: float, min_distance: float, mirror: bool, best_per_triangle: bool,
             max_rounds: int):
@@ -194,7 +199,7 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, boun
     px, py, pz, tv, tn, stamp, count = new_tin(n, x0, y0, x1, y1)
     px[4:], py[4:], pz[4:] = x, y, z
     ground = seeds.copy()
-    sin_angle = float(np.sin(np.radians(angle_threshold))) if angle_threshold > 0 else 0.0
+    sin_angle = _sine(angle_threshold)
     _densify(px, py, pz, tv, tn, stamp, count, ground, float(z_difference), sin_angle, float(min_distance), bool(mirror),
              bool(best_per_triangle), int(max_rounds))
     return ground, (px, py, pz, tv, tn, count)
@@ -219,7 +224,7 @@ def passes(tin, x: np.ndarray, y: np.ndarray, z: np.ndarray, z_difference: float
     step 3's test against the final TIN."""
     px, py, pz, tv, tn, count = tin
     out = np.zeros(len(x), bool)
-    sin_angle = float(np.sin(np.radians(angle_threshold))) if angle_threshold > 0 else 0.0
+    sin_angle = _sine(angle_threshold)
     _classify(px, py, pz, tv, tn, count, np.ascontiguousarray(x, float), np.ascontiguousarray(y, float),
               np.ascontiguousarray(z, float), float(z_difference), sin_angle, float(min_distance), bool(mirror), out)
     return out
