@@ -27,7 +27,8 @@ falls back to testing every triangle.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from aldpat.core.compiled import compiled
 
 #: What :func:`insert` returns for a point at the position of a vertex (nothing inserted).
 DUPLICATE = -2
@@ -59,13 +60,13 @@ def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float,
     return px, py, pz, tv, tn, stamp, count
 
 
-@njit(cache=True, inline="always")
+@compiled(inline="always")
 def orient(ax, ay, bx, by, cx, cy):
     """Twice the signed area of a, b, c: positive when counter-clockwise."""
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@njit(cache=True, inline="always")
+@compiled(inline="always")
 def in_circle(ax, ay, bx, by, cx, cy, dx, dy):
     """Positive when d lies inside the circle through the counter-clockwise a, b, c."""
     adx, ady = ax - dx, ay - dy
@@ -76,7 +77,7 @@ def in_circle(ax, ay, bx, by, cx, cy, dx, dy):
             + (cdx * cdx + cdy * cdy) * (adx * bdy - ady * bdx))
 
 
-@njit(cache=True)
+@compiled()
 def locate(px, py, tv, tn, count, start, x, y):
     """The triangle holding (x, y) (on its boundary counts), walking from triangle ``start``;
     :data:`OUTSIDE` when the point is outside the rectangle."""
@@ -105,7 +106,7 @@ def locate(px, py, tv, tn, count, start, x, y):
     return OUTSIDE
 
 
-@njit(cache=True, inline="always")
+@compiled(inline="always")
 def _repoint(tn, t, old, new):
     """Make triangle t (if any) name ``new`` where it named its neighbour ``old``."""
     if t >= 0:
@@ -115,7 +116,7 @@ def _repoint(tn, t, old, new):
                 return
 
 
-@njit(cache=True)
+@compiled()
 def _legalize(px, py, tv, tn, stamp, stack, top):
     """Flip the edges opposite vertex 0 (the new point) of the triangles on ``stack`` until every
     one passes the empty-circumcircle test."""
@@ -150,7 +151,7 @@ def _legalize(px, py, tv, tn, stamp, stack, top):
         top += 2
 
 
-@njit(cache=True)
+@compiled()
 def insert(px, py, tv, tn, stamp, count, stack, v, start):
     """Insert vertex ``v`` (its coordinates already in px, py), walking from triangle ``start``.
 

@@ -13,10 +13,11 @@ Cramer's rule, as :func:`aldpat.core.local_poly._plane_at_nodes` does for the ge
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from aldpat.core.compiled import compiled
 
 
-@njit(cache=True)
+@compiled()
 def _row_sums(x, y, z, has, lo, hi, k, ou, ov, scale, h):
     """h[r - lo, c, :] = the nine sums over columns c - k .. c + k of row r."""
     cols = x.shape[1]
@@ -57,7 +58,7 @@ def _row_sums(x, y, z, has, lo, hi, k, ou, ov, scale, h):
                 row[5], row[6], row[7], row[8] = s5, s6, s7, s8
 
 
-@njit(cache=True, inline="always")
+@compiled(inline="always")
 def _plane(s, un, vn, ridge_share):
     """The plane's value at the node (un, vn) from the window sums ``s`` (Cramer's rule)."""
     n = np.rint(s[0])  # a count: see local_poly._window_counts
@@ -81,7 +82,7 @@ def _plane(s, un, vn, ridge_share):
     return value
 
 
-@njit(cache=True)
+@compiled()
 def _planes(h, lo, hi, r0, r1, k, nodes, u0, v0, ridge, out):
     cols = h.shape[1]
     s = np.zeros((cols, 9))

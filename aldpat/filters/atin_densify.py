@@ -12,8 +12,8 @@ Coordinates are local (the buffered rectangle's lower-left corner at 0, 0).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from aldpat.core.compiled import compiled
 from aldpat.core.delaunay import DUPLICATE, OUTSIDE, insert, locate, new_tin
 
 #: A candidate's mirror triangle when it was not mirrored (not level with its nearest vertex).
@@ -22,7 +22,7 @@ NOT_MIRRORED = -2
 FAILED = 1
 
 
-@njit(cache=True, inline="always")
+@compiled(inline="always")
 def _plane_distance(px, py, pz, tv, t, x, y, z):
     """Signed distance (up positive) of (x, y, z) to the plane of triangle t, and the z
     component of the plane's unit normal."""
@@ -38,7 +38,7 @@ def _plane_distance(px, py, pz, tv, t, x, y, z):
     return (nx * (x - px[a]) + ny * (y - py[a]) + nz * (z - pz[a])) / norm, nz / norm
 
 
-@njit(cache=True, inline="always")
+@compiled(inline="always")
 def _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle, min_distance):
     """Whether the largest angle between the plane of t and the lines from the point to t's
     vertices is under the threshold: the sine of that angle is |dist| over the shortest line,
@@ -51,7 +51,7 @@ def _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle, min_distance):
     return abs(dist) < sin_angle * max(shortest, min_distance)
 
 
-@njit(cache=True)
+@compiled()
 def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, min_distance, mirror):
     """Step 3 for one point in triangle t: (passes, score, mirror point's triangle)."""
     dist, _ = _plane_distance(px, py, pz, tv, t, x, y, z)
@@ -83,7 +83,7 @@ def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, min_di
     return False, abs(dist), ms
 
 
-@njit(cache=True)
+@compiled()
 def _set_corner_heights(px, py, pz, tv, stamp, count, ground, first_vertex):
     """Each virtual corner at the height of the ground point nearest to it; the triangles of a
     corner whose height changes are changed triangles."""
@@ -103,7 +103,7 @@ def _set_corner_heights(px, py, pz, tv, stamp, count, ground, first_vertex):
                     stamp[t] += 1
 
 
-@njit(cache=True)
+@compiled()
 def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, min_distance, mirror, best_per_triangle,
              max_rounds):
     n = len(ground)
@@ -205,7 +205,7 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, boun
     return ground, (px, py, pz, tv, tn, count)
 
 
-@njit(cache=True)
+@compiled()
 def _classify(px, py, pz, tv, tn, count, x, y, z, z_difference, sin_angle, min_distance, mirror, out):
     last = 0
     for i in range(len(x)):

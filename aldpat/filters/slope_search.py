@@ -7,10 +7,10 @@ lie ``max_slope`` x ``gap`` below the point, and nothing within reach lies below
 
 from __future__ import annotations
 
-from numba import njit
+from aldpat.core.compiled import compiled
 
 
-@njit(cache=True)
+@compiled()
 def steep_search(x, y, z, row, col, flat_lowest, reach_min, dr, dc, gap, rows, cols, r2_min, r2_max, max_slope,
                  steep):
     """Set ``steep[i]`` for every point with an array element (``flat_lowest``: the lowest point
