@@ -75,6 +75,25 @@ class FilterOutputOption(SharedOption):
 
 
 @dataclass(frozen=True)
+class LowOutlierOption(SharedOption):
+    """The low-outlier test (:func:`low_outliers`), taken by every ground filter."""
+
+    low_outliers: float | None = param(
+        None,
+        "before filtering, set aside low outliers (multipath, a pulse through a window): the lowest "
+        "point of a cell lying this far below the floor of its window (the height a fifth of the "
+        "window's cells reach) is non-ground and the cell's next point is taken, repeatedly "
+        "(after dissertation §4.1.1); none: off",
+        unit="m", gt=0,
+    )
+    low_outlier_window: int = param(
+        4, "half window of the low-outlier test: a clump of low points must cover less than a fifth "
+        "of the (2k+1)^2 window to be caught",
+        unit="cells", ge=1,
+    )
+
+
+@dataclass(frozen=True)
 class RaisedSegmentOption(SharedOption):
     """The raised-segment test (:mod:`aldpat.core.segments`), taken by the grid filters and
     ``atin``: objects larger than any window or seed square, found by the steps around them."""
@@ -93,7 +112,7 @@ class RaisedSegmentOption(SharedOption):
 
 
 @dataclass(frozen=True)
-class GroundParams(RaisedSegmentOption, FilterOutputOption, ChunkOption, OriginOption, Checked):
+class GroundParams(RaisedSegmentOption, LowOutlierOption, FilterOutputOption, ChunkOption, OriginOption, Checked):
     """Parameters every grid filter shares; each filter's params class subclasses it."""
 
     cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
@@ -109,19 +128,6 @@ class GroundParams(RaisedSegmentOption, FilterOutputOption, ChunkOption, OriginO
         unit="m",
         ge=0,
     )
-    low_outliers: float | None = param(
-        None,
-        "before filtering, set aside low outliers (multipath, a pulse through a window): the lowest "
-        "point of a cell lying this far below the floor of its window (the height a fifth of the "
-        "window's cells reach) is non-ground and the cell's next point is taken, repeatedly "
-        "(after dissertation §4.1.1); none: off",
-        unit="m", gt=0,
-    )
-    low_outlier_window: int = param(
-        4, "half window of the low-outlier test: a clump of low points must cover less than a fifth "
-        "of the (2k+1)^2 window to be caught",
-        unit="cells", ge=1,
-    )
     surface_threshold: float | None = param(
         None,
         "final test (SMRF): every point within this height of the interpolated ground surface, plus "
@@ -135,7 +141,7 @@ class GroundParams(RaisedSegmentOption, FilterOutputOption, ChunkOption, OriginO
 
 
 @dataclass(frozen=True)
-class PointFilterParams(FilterOutputOption, ChunkOption, Checked):
+class PointFilterParams(LowOutlierOption, FilterOutputOption, ChunkOption, Checked):
     """Parameters every point filter shares (``slope``, ``ipf``, ``poly2``, ``atin``): filters that
     test points against their neighbours or a fitted surface rather than a mark matrix.
 
@@ -520,14 +526,15 @@ def low_outliers(x, y, z, params, extent: Extent | None = None) -> tuple[np.ndar
     round sets aside the lowest point of every such cell and looks again at the next one, so a
     clump of multipath points drains within ``LOW_OUTLIER_ROUNDS`` rounds.
     """
+    origin = getattr(params, "origin", None)  # point filters' cells start at whole multiples
     if params.low_outliers is None or len(z) == 0:
-        return None, lowest_grid(x, y, z, params.cell, origin=params.origin, extent=extent)
+        return None, lowest_grid(x, y, z, params.cell, origin=origin, extent=extent)
     from scipy import ndimage
 
     out = np.zeros(len(z), bool)
     size = 2 * params.low_outlier_window + 1
     for _ in range(LOW_OUTLIER_ROUNDS):
-        grid = _lowest_without(x, y, z, out, params.cell, params.origin, extent)
+        grid = _lowest_without(x, y, z, out, params.cell, origin, extent)
         if grid.empty.all():
             return out, grid
         filled = fill_nearest(grid.z, grid.empty)
@@ -537,7 +544,7 @@ def low_outliers(x, y, z, params, extent: Extent | None = None) -> tuple[np.ndar
         if not deep.any():
             return out, grid
         out[grid.lowest[deep]] = True
-    return out, _lowest_without(x, y, z, out, params.cell, params.origin, extent)
+    return out, _lowest_without(x, y, z, out, params.cell, origin, extent)
 
 
 def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
@@ -621,27 +628,33 @@ def _cell_marks(grid: LowestGrid, point_marks: np.ndarray) -> np.ndarray:
     return marks
 
 
-def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Extent | None = None) -> LowestGrid:
-    """The lowest point of each of a point filter's cells (``params.cell_shape()``). Rectangular
-    cells are square cells of the width over y divided by height / width (the result's
-    ``y_stretch``), so every grid tool applies unchanged."""
+def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Extent | None = None,
+              leave_out: np.ndarray | None = None) -> LowestGrid:
+    """The lowest point of each of a point filter's cells (``params.cell_shape()``), the points
+    ``leave_out`` left out (a cell holding nothing else is empty). Rectangular cells are square
+    cells of the width over y divided by height / width (the result's ``y_stretch``), so every
+    grid tool applies unchanged."""
     width, height = params.cell_shape()
     stretch = height / width
     if extent is not None and stretch != 1.0:
         extent = (extent[0], extent[1] / stretch, extent[2], extent[3] / stretch)
-    return lowest_grid(x, y / stretch if stretch != 1.0 else y, z, width, extent=extent)
+    return _lowest_without(x, y / stretch if stretch != 1.0 else y, z, leave_out, width, None, extent)
 
 
 def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None = None) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
-    grid = cell_grid(x, y, z, params, extent)  # the filter's own grid: gridded once, for it and the report
+    set_aside, _ = low_outliers(x, y, z, params, extent)
+    # the filter's own grid, gridded once for it and the report; low outliers are no cell's lowest
+    grid = cell_grid(x, y, z, params, extent, leave_out=set_aside)
     if len(z) == 0:
         point_marks = np.zeros(0, np.int32)
     else:
         point_marks = np.asarray(spec.fn(x, y, z, grid, params), dtype=np.int32)
         if point_marks.shape != z.shape:
             raise AssertionError(f"filter {spec.name!r} returned {point_marks.shape} marks for {len(z)} points")
+        if set_aside is not None:
+            point_marks[set_aside] = MARK_LOW_OUTLIER
     width, height = params.cell_shape()
     return FilterResult(point_marks, point_marks == MARK_GROUND, grid, _cell_marks(grid, point_marks), (0.0,),
                         spec.name, params, height / width)

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.errors import UsageError
-from aldpat.filters.base import get_filter, ground_filter
+from aldpat.filters.base import get_filter, ground_filter, low_outlier_reach
 from aldpat.io.chunks import ChunkLattice, SpilledChunks, map_chunks, spill_chunks
 from aldpat.io.table import PointTable
 
@@ -56,7 +56,8 @@ def chunk_plan(algorithm: str, params: Any, size: float, buffer: float | str) ->
     elif buffer == "auto":
         if spec.buffer is None:
             raise UsageError(f"--chunk-buffer auto: {algorithm} has no bounded reach; give the buffer in metres")
-        buffer_cells = math.ceil(spec.buffer(params) / cell - 1e-9)
+        # and the low-outlier test's reach, doubled as the grid filters' (it fills empty cells)
+        buffer_cells = math.ceil(spec.buffer(params) / cell - 1e-9) + 2 * low_outlier_reach(params)
     else:
         buffer_cells = math.ceil(float(buffer) / cell - 1e-9)
     origin = getattr(params, "origin", None) or (0.0, 0.0)

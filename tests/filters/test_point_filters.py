@@ -220,3 +220,27 @@ def test_atin_roof_larger_than_the_seed_squares_is_a_raised_segment():
     assert plain[roof].mean() > 0.5  # seeded from the squares on the roof, it spreads over it
     assert not segmented[roof].any()
     assert segmented[~roof].mean() > 0.999
+
+
+@pytest.mark.parametrize("name", POINT_FILTERS)
+def test_point_filters_set_low_outliers_aside(name):
+    """The clump of multipath points of test_base.py's low-outlier test, under every point filter:
+    with ``low_outliers`` the clump is set aside (marked as the grid filters mark it) and the
+    ground around it kept."""
+    from aldpat.filters.base import MARK_LOW_OUTLIER
+
+    rng = np.random.default_rng(5)
+    n = 20_000
+    x, y = rng.uniform(0, 100, n), rng.uniform(0, 100, n)
+    z = 50 + 0.05 * x + rng.normal(0, 0.03, n)
+    cx, cy = rng.uniform(48, 51, 40), rng.uniform(48, 51, 40)
+    xs, ys = np.r_[x, cx], np.r_[y, cy]
+    zs = np.r_[z, 50 + 0.05 * cx - rng.uniform(3, 8, 40)]
+    ground = np.r_[np.ones(n, bool), np.zeros(40, bool)]
+    params = FILTERS[name].params
+    without = ground_filter(xs, ys, zs, name, params())
+    res = ground_filter(xs, ys, zs, name, params(low_outliers=1.0))
+    lost_without, lost = (~without.is_ground[ground]).sum(), (~res.is_ground[ground]).sum()
+    assert lost < lost_without and lost <= 0.01 * n, (lost_without, lost)
+    assert res.is_ground[~ground].sum() <= 1
+    assert (res.point_marks[~ground] == MARK_LOW_OUTLIER).sum() >= 39
