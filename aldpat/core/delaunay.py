@@ -36,10 +36,10 @@ DUPLICATE = -2
 OUTSIDE = -1
 
 
-def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float,
-            z: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)):
+def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float):
     """Arrays of a TIN over the rectangle ``x0..x1`` x ``y0..y1`` with room for ``n_points``
-    more vertices (numbered from 4); corners 0-3 are (x0, y0), (x1, y0), (x0, y1), (x1, y1)."""
+    more vertices (numbered from 4); corners 0-3 are (x0, y0), (x1, y0), (x0, y1), (x1, y1), at
+    height 0 until the caller sets them."""
     nv = n_points + 4
     cap = 2 * nv
     px = np.zeros(nv)
@@ -47,7 +47,6 @@ def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float,
     pz = np.zeros(nv)
     px[:4] = [x0, x1, x0, x1]
     py[:4] = [y0, y0, y1, y1]
-    pz[:4] = z
     tv = np.zeros((cap, 3), np.int64)
     tn = np.full((cap, 3), -1, np.int64)
     # (0, 1, 3) and (0, 3, 2), both counter-clockwise, share the diagonal 0-3

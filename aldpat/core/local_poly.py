@@ -107,6 +107,12 @@ class PointSums:
         v = np.where(has, (y - spec.y0) / spec.cell - 0.5 - self.v0, 0.0)
         return u, v, np.where(has, z, 0.0), has.astype(np.float64)
 
+    def position_map(self) -> tuple[float, float, float]:
+        """(scale, ou, ov): the position in cells of :meth:`_positions` as ``x * scale - ou``,
+        ``y * scale - ov``, for code that forms it point by point."""
+        spec = self.spec
+        return 1.0 / spec.cell, spec.x0 / spec.cell + 0.5 + self.u0, spec.y0 / spec.cell + 0.5 + self.v0
+
     def count(self) -> np.ndarray:
         """Points per cell."""
         return self._cells[3].astype(np.float64) if self._cells is not None else self.moments[0, 0]
@@ -161,10 +167,8 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
     around it (row-major order, as ``nodes[r0:r1]`` lists them)."""
     if sums.degree == 1 and sums._cells is not None:
         # planes on one point per cell (ipf, poly2 as shipped): sums and solve in one compiled pass
-        spec = sums.spec
-        return plane_sums.planes_at_nodes(*sums._cells, nodes, r0, r1, k, spec.x0 / spec.cell + 0.5 + sums.u0,
-                                          spec.y0 / spec.cell + 0.5 + sums.v0, 1.0 / spec.cell, sums.u0, sums.v0,
-                                          RIDGE)
+        scale, ou, ov = sums.position_map()
+        return plane_sums.planes_at_nodes(*sums._cells, nodes, r0, r1, k, ou, ov, scale, sums.u0, sums.v0, RIDGE)
     rows = nodes.shape[0]
     lo, hi = max(0, r0 - k), min(rows, r1 + k)  # the rows the band's windows reach
     rr, cc = np.nonzero(nodes[r0:r1])
@@ -174,9 +178,9 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
     vn = rr + r0 - sums.v0
     moments, z_moments = sums.band(lo, hi)
     raw = {key: _box_sum(m, k)[at, cc] for key, m in moments.items()}
+    raw[0, 0] = np.rint(raw[0, 0])  # the points in each window, a count (see _window_counts)
     raw_z = {key: _box_sum(m, k)[at, cc] for key, m in z_moments.items()}
     del moments, z_moments
-    raw[0, 0] = np.rint(raw[0, 0])  # the points in each window, a count (see _window_counts)
 
     def centred(table: dict, a: int, b: int) -> np.ndarray:
         # sum (u - un)^a (v - vn)^b w = sum_i sum_j C(a,i) C(b,j) (-un)^(a-i) (-vn)^(b-j) S_ij

@@ -117,7 +117,6 @@ def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, 
     passing = np.zeros(n, np.bool_)
     score = np.zeros(n)
     best_of = np.full(len(stamp), -1, np.int64)
-    _set_corner_heights(px, py, pz, tv, stamp, count, ground, first)
     last = 0
     for i in range(n):  # the seeds, in the caller's (row-major) order: short walks
         if ground[i]:
@@ -179,6 +178,8 @@ def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, 
                     last = r
                 elif r != DUPLICATE:
                     ground[i] = False  # outside the rectangle: cannot happen for a point inside it
+    # the final TIN's corners, for the points classified against it (after the last round's
+    # insertions when the rounds ran out; otherwise as the last round set them)
     _set_corner_heights(px, py, pz, tv, stamp, count, ground, first)
 
 

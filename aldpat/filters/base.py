@@ -644,7 +644,7 @@ def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Exten
 def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None = None) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
-    set_aside, _ = low_outliers(x, y, z, params, extent)
+    set_aside = low_outliers(x, y, z, params, extent)[0] if params.low_outliers is not None else None
     # the filter's own grid, gridded once for it and the report; low outliers are no cell's lowest
     grid = cell_grid(x, y, z, params, extent, leave_out=set_aside)
     if len(z) == 0:

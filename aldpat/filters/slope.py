@@ -96,9 +96,9 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, 
                                        mode="constant", cval=np.inf).ravel()
     dr, dc, gap = _offsets(width, height, p.search_radius)
     steep = np.zeros(n, bool)
-    slope_kernels.steep_search(x, y, z, (ci // cols).astype(np.int64), (ci % cols).astype(np.int64), flat_lowest,
-                               reach_min, dr.astype(np.int64), dc.astype(np.int64), gap.astype(np.float64),
-                               rows, cols, p.min_distance ** 2, p.search_radius ** 2, p.max_slope, steep)
+    slope_kernels.steep_search(x, y, z, ci, flat_lowest, reach_min, dr.astype(np.int64), dc.astype(np.int64),
+                               gap.astype(np.float64), rows, cols, p.min_distance ** 2, p.search_radius ** 2,
+                               p.max_slope, steep)
     log.debug("slope: %d of %d points have a steep neighbour", int(steep.sum()), n)
     return steep
 

@@ -11,22 +11,24 @@ from aldpat.core.compiled import compiled
 
 
 @compiled()
-def steep_search(x, y, z, row, col, flat_lowest, reach_min, dr, dc, gap, rows, cols, r2_min, r2_max, max_slope,
+def steep_search(x, y, z, cell_index, flat_lowest, reach_min, dr, dc, gap, rows, cols, r2_min, r2_max, max_slope,
                  steep):
     """Set ``steep[i]`` for every point with an array element (``flat_lowest``: the lowest point
-    of each cell, -1 where empty) within ``r2_max`` (squared distance, pairs closer than
-    ``r2_min`` not compared) that lies ``max_slope`` or more below it."""
+    of each cell, -1 where empty; ``cell_index``: each point's cell, row-major) within ``r2_max``
+    (squared distance, pairs closer than ``r2_min`` not compared) that lies ``max_slope`` or more
+    below it."""
     s2 = max_slope * max_slope
     for i in range(len(z)):
-        floor = reach_min[row[i] * cols + col[i]]
+        floor = reach_min[cell_index[i]]
         zi = z[i]
         if not zi > floor:  # at or below every neighbour: no slope down
             continue
+        row, col = divmod(cell_index[i], cols)
         for k in range(len(gap)):
             if zi - max_slope * gap[k] < floor:
                 break
-            r = row[i] + dr[k]
-            c = col[i] + dc[k]
+            r = row + dr[k]
+            c = col + dc[k]
             if r < 0 or r >= rows or c < 0 or c >= cols:
                 continue
             j = flat_lowest[r * cols + c]
