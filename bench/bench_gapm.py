@@ -4,6 +4,7 @@
     python bench/bench_gapm.py speed --points 10   # gapm set 01 end to end on 10 M points
     python bench/bench_gapm.py speed --points 2 --algos outlier cluster-pm gapm multipass
     python bench/bench_gapm.py tiles               # tiles with buffers against the whole area
+    python bench/bench_gapm.py readings            # readings of the dissertation vs its tables
 
 ``accuracy`` (reads the ISPRS samples; ``bench/data_paths.py`` says where) prints, per sample, Type I / Type II / total
 error of:
@@ -16,6 +17,13 @@ error of:
 * ``multipass`` against its own first pass alone (the capped-window PM), counting the object
   points each accepts as ground: the remnants the second pass removes;
 * ``outlier`` with its defaults.
+
+``readings`` runs parameter sets 01, 02 and 03 under every combination of the readings the
+dissertation leaves open (cell 0.75 or 1 m; rows and columns filtered in turn on one surface or
+apart; rows along x or along y; the threshold capped by the jump to the neighbouring cluster as
+the prose of §6.2.3 says, or not, as the printed ``CalThreshArray``; the cap's divisor 4 or 2)
+and counts, of the 21 published per-sample totals (Tables 6-9, 6-11, 6-14), those it misses by
+more than half a point.
 
 ``speed`` builds (once, under ``bench/_work/``) a LAS file of tiled copies of the ISPRS site
 FSite5 (``data_paths.FSITE5``) and runs ``aldpat filter ALGO`` on it in a fresh
@@ -40,7 +48,7 @@ sys.path.insert(0, str(HERE))
 
 from _measure import measure, mib
 from data_paths import FSITE5
-from isprs import PUBLISHED_GAPM_SET01, SAMPLES, load_samples, score
+from isprs import PUBLISHED_GAPM, PUBLISHED_GAPM_SET01, SAMPLES, load_samples, score
 
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.params import resolve
@@ -205,6 +213,51 @@ def run_tiles(algos: list[str], size: float, tiles: int) -> None:
         print(f"{algo:12} {pf.name:26} {buffer:6.0f} m {100 * (1 - diff / len(x)):9.3f} % {diff:10,}", flush=True)
 
 
+#: The readings ``readings`` combines: what the dissertation's text leaves open.
+READINGS = {
+    "cell": (0.75, 1.0),
+    "directions": ("sequential", "separate"),
+    "rows_along": ("x", "y"),
+    "use_cluster_diff": (False, True),
+    "max_threshold_divisor": (4.0, 2.0),
+}
+#: How far a reproduced per-sample total may lie from the published one (points).
+REPRODUCED_WITHIN = 0.5
+
+
+def run_readings(show: int) -> None:
+    import itertools
+
+    samples = load_samples(SAMPLES)
+    names = list(READINGS)
+    results = []
+    for values in itertools.product(*READINGS.values()):
+        reading = dict(zip(names, values))
+        swap = reading.pop("rows_along") == "y"
+        totals = {}
+        for st in PUBLISHED_GAPM:
+            p = params_from("gapm", PARAMS / f"gapm-isprs-set{st}.toml", **reading)
+            totals[st] = [score(s.ground, ground_filter(*((s.y, s.x) if swap else (s.x, s.y)), s.z, "gapm",
+                                                        p).is_ground).total for s in samples]
+        off = np.array([[t - PUBLISHED_GAPM[st][s.name][0] for t, s in zip(totals[st], samples)]
+                        for st in PUBLISHED_GAPM])
+        results.append((int((np.abs(off) > REPRODUCED_WITHIN).sum()), float(np.abs(off).max()), values, totals))
+        print(f"{(np.abs(off) > REPRODUCED_WITHIN).sum():3d} missed, worst {np.abs(off).max():5.2f}  "
+              + "  ".join(f"{k}={v}" for k, v in zip(names, values)), flush=True)
+    results.sort(key=lambda r: (r[0], r[1]))
+    print(f"\n| {' | '.join(names)} | totals missed by > {REPRODUCED_WITHIN} (of 21) | worst miss |")
+    print("|" + "---|" * (len(names) + 2))
+    for missed, worst, values, _ in results:
+        print("| " + " | ".join(str(v) for v in values) + f" | {missed} | {worst:.2f} |")
+    for missed, worst, values, totals in results[:show]:
+        print(f"\n{', '.join(f'{k}={v}' for k, v in zip(names, values))}: total % (published)")
+        print("| set | " + " | ".join(s.name for s in samples) + " |")
+        print("|---|" + "---|" * len(samples))
+        for st in PUBLISHED_GAPM:
+            print(f"| {st} | " + " | ".join(f"{t:.2f} ({PUBLISHED_GAPM[st][s.name][0]:.2f})"
+                                           for t, s in zip(totals[st], samples)) + " |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -218,8 +271,12 @@ def main() -> None:
     tp.add_argument("--tiles", type=int, default=2, help="tiles per side")
     tp.add_argument("--algos", nargs="+", default=["cluster-pm", "gapm", "multipass"],
                     choices=["outlier", "cluster-pm", "gapm", "multipass"])
+    rp = sub.add_parser("readings", help="readings of the dissertation against its published totals")
+    rp.add_argument("--show", type=int, default=3, help="print the totals of this many best readings")
     args = ap.parse_args()
-    if args.what == "accuracy":
+    if args.what == "readings":
+        run_readings(args.show)
+    elif args.what == "accuracy":
         run_accuracy()
     elif args.what == "tiles":
         run_tiles(args.algos, args.size, args.tiles)

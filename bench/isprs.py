@@ -31,6 +31,31 @@ PUBLISHED_GAPM_SET01 = {
     "samp61": (3.26, 3.25, 3.63),
 }
 
+#: GAPM with parameter set 02, dissertation Table 6-11 (%): total, type I, type II.
+PUBLISHED_GAPM_SET02 = {
+    "samp12": (3.27, 2.66, 3.99),
+    "samp21": (1.96, 1.17, 4.84),
+    "samp24": (8.56, 9.22, 6.86),
+    "samp42": (4.74, 0.86, 6.63),
+    "samp51": (2.85, 1.05, 9.37),
+    "samp53": (9.59, 9.69, 7.00),
+    "samp61": (3.63, 3.62, 3.80),
+}
+
+#: GAPM with parameter set 03, dissertation Table 6-14 (%): total, type I, type II.
+PUBLISHED_GAPM_SET03 = {
+    "samp12": (3.33, 2.80, 3.96),
+    "samp21": (1.98, 1.17, 4.95),
+    "samp24": (13.19, 15.80, 6.38),
+    "samp42": (4.78, 0.86, 6.70),
+    "samp51": (2.84, 1.05, 9.34),
+    "samp53": (9.98, 10.10, 7.00),
+    "samp61": (4.21, 4.23, 3.71),
+}
+
+#: The three sets by their number, as the parameter files are named.
+PUBLISHED_GAPM = {"01": PUBLISHED_GAPM_SET01, "02": PUBLISHED_GAPM_SET02, "03": PUBLISHED_GAPM_SET03}
+
 
 @dataclass
 class Sample:
