@@ -36,7 +36,7 @@ from aldpat.filters.gapm import GapmParams, auto_params
 #: what is chosen here are the constants of the two steps added after the filter.
 CANDIDATES = {
     "object_step": (1.5, 2.0, 2.5),
-    "object_share": (0.4, 0.5, 0.6),
+    "object_share": (0.55, 0.6, 0.65),
     "surface_threshold": (0.2, 0.3, 0.45),
     "surface_slope": (0.5, 1.0, 1.5),
 }

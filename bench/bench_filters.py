@@ -2,7 +2,7 @@
 
     python bench/bench_filters.py isprs                      # Type I / II / total per sample
     python bench/bench_filters.py isprs --algos pm gapm --params gapm=jobs/params/gapm-isprs-set01.toml
-    python bench/bench_filters.py isprs --peers              # plus CSF and whitebox-workflows
+    python bench/bench_filters.py isprs --peers              # plus SMRF, CSF and whitebox-workflows
     python bench/bench_filters.py speed                      # 10 M points end to end, each in a fresh process
     python bench/bench_filters.py speed --algos gapm --params gapm=jobs/params/gapm-isprs-set01.toml --peers
 
@@ -17,8 +17,9 @@ the raw ISPRS site FSite5 (0.31 points/m2, so a 1 m grid has three cells per poi
 ``--source isprs``: tiled copies of ISPRS samp12, urban, about 1 point/m2 -- and times
 ``aldpat filter ALGO`` end to end (read LAS, grid, filter, classify, write a classified LAS) in a
 fresh process per algorithm, reporting points/second and peak resident memory. ``--peers`` adds
-the CSF package (cloth-simulation-filter) and whitebox-workflows' improved_ground_point_filter,
-when installed (benchmark-only extras, never dependencies of aldpat).
+SMRF with PDAL's defaults (the pysmrf package; ``isprs`` only), the CSF package
+(cloth-simulation-filter) and whitebox-workflows' improved_ground_point_filter, when installed
+(benchmark-only extras, never dependencies of aldpat).
 """
 
 from __future__ import annotations
@@ -148,7 +149,17 @@ def peer_whitebox(s: Sample) -> np.ndarray:
     return np.asarray(las.classification) == 2
 
 
-PEERS = {"csf": peer_csf, "wbw-igpf": peer_whitebox}
+def peer_smrf(s: Sample) -> np.ndarray:
+    """SMRF (Pingel et al. 2013) as pysmrf implements it, with PDAL ``filters.smrf``'s defaults:
+    1 m cells, 18 m window, slope 0.15, elevation threshold 0.5 m, scalar 1.25."""
+    import pysmrf
+
+    r = pysmrf.classify(s.x, s.y, s.z, cellsize=1.0, windows=18, slope_threshold=0.15,
+                        elevation_threshold=0.5, elevation_scaler=1.25)
+    return np.asarray(r.is_ground, dtype=bool)
+
+
+PEERS = {"smrf-pdal-defaults": peer_smrf, "csf": peer_csf, "wbw-igpf": peer_whitebox}
 
 
 def run_peers(samples: list[Sample]) -> dict:
@@ -321,7 +332,7 @@ def main() -> None:
     ap.add_argument("--params-dir", type=Path, default=REPO / "jobs" / "params",
                     help="where <algo>.toml files are looked for (default: jobs/params)")
     ap.add_argument("--samples", nargs="+", default=list(SAMPLES))
-    ap.add_argument("--peers", action="store_true", help="also run CSF and whitebox-workflows")
+    ap.add_argument("--peers", action="store_true", help="also run SMRF (PDAL's defaults), CSF and whitebox-workflows")
     ap.add_argument("--source", choices=("sites", "isprs"), default="sites", help="speed: data to tile")
     ap.add_argument("--points", type=float, default=10.0, help="speed: millions of points")
     args = ap.parse_args()

@@ -106,7 +106,8 @@ class RaisedSegmentOption(SharedOption):
         unit="m", ge=0,
     )
     object_share: float = param(
-        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
+        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object "
+        "(steps up into a segment already found to be one do not count: a building's lower levels)",
         ge=0, le=1,
     )
 

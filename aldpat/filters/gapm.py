@@ -52,8 +52,8 @@ class GapmParams(GroundParams):
     # cells) followed by the raised-segment test and SMRF's final surface test, whose constants
     # were chosen by leave-one-out over the ISPRS samples (bench/bench_auto.py).
     cell: float = default_of(GroundParams, "cell", SET01_CELL)
-    object_step: float = default_of(GroundParams, "object_step", 2.5)
-    object_share: float = default_of(GroundParams, "object_share", 0.4)
+    object_step: float = default_of(GroundParams, "object_step", 2.0)
+    object_share: float = default_of(GroundParams, "object_share", 0.55)
     surface_threshold: float | None = default_of(GroundParams, "surface_threshold", 0.3)
     surface_slope: float = default_of(GroundParams, "surface_slope", 1.5)
     window_series: tuple[int, ...] = param(

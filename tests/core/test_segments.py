@@ -32,6 +32,36 @@ def test_a_terrace_above_a_cliff_running_out_of_the_data_is_terrain():
     assert not raised_segments(z, step=2.0, down_share=0.5).any()
 
 
+def test_terraces_stepping_up_a_slope_are_terrain():
+    """Four 40-cell terraces behind 4 m walls: each middle terrace steps down along one side (120
+    cells) and up along the other (120), with 80 cells of open edge: 120 / 320 = 0.375 of its
+    perimeter goes down, under half; the top one likewise (120 down, 200 open)."""
+    _, c = np.mgrid[0:120, 0:160]
+    z = 100.0 + 4.0 * (c // 40) + 0.01 * c
+    assert not raised_segments(z, step=2.0, down_share=0.5).any()
+    assert raised_segments(z, step=2.0, down_share=0.35)[:, 40:].all()  # what the share guards
+
+
+def test_a_building_is_removed_level_by_level():
+    """A 60 x 80 hall around a 40 x 50 tower: the hall steps down on its 280 outer cells and up on
+    its 180 inner ones (280 / 460 = 0.61). Once the tower (all down-steps) is raised, the steps up
+    into it no longer count, and the hall is raised too (280 / 280)."""
+    z = sloped()
+    z[30:90, 40:120] += 6.0
+    z[40:80, 50:100] += 8.0
+    raised = raised_segments(z, step=2.0, down_share=0.7)
+    expected = np.zeros(z.shape, bool)
+    expected[30:90, 40:120] = True
+    np.testing.assert_array_equal(raised, expected)
+    # a courtyard sunk to the ground inside the hall: the hall steps down on both sides (raised),
+    # the courtyard steps only up, into the raised hall, and stays terrain
+    z = sloped()
+    z[30:90, 40:120] += 6.0
+    z[40:80, 50:100] -= 6.0
+    expected[40:80, 50:100] = False
+    np.testing.assert_array_equal(raised_segments(z, step=2.0, down_share=0.7), expected)
+
+
 def test_a_pit_is_not_raised_and_a_flat_grid_has_no_segments():
     z = sloped()
     z[50:60, 50:60] -= 5.0
