@@ -36,6 +36,8 @@ from aldpat.filters.gapm import GapmParams, auto_params
 #: what is chosen here are the constants of the two steps added after the filter.
 CANDIDATES = {
     "object_step": (1.5, 2.0, 2.5),
+    # from 0.55: a lower share takes terraces behind retaining walls for roofs
+    # (tests/filters/test_gapm.py::test_defaults_keep_terraces_behind_retaining_walls)
     "object_share": (0.55, 0.6, 0.65),
     "surface_threshold": (0.2, 0.3, 0.45),
     "surface_slope": (0.5, 1.0, 1.5),

@@ -13,13 +13,9 @@ a roof (a building cut by the border of a tile is left to the buffer of the next
 
 :func:`raised_segments` marks the cells of every segment whose perimeter steps are mostly
 down-steps (the segment stands above what surrounds it), except the largest segment, which is
-the connected terrain itself. A lower roof level stepping up to a tower or a higher hall is
-enclosed by objects on that side: once the higher part is raised, the steps up into it no longer
-count against the lower one (peeling, repeated until nothing changes), so a building is removed
-level by level while a terrace -- stepping up to the next terrace, which is terrain -- keeps the
-up-steps that make it terrain. Work is one connected-component labelling of the grid's 4-neighbour
-graph (as an image, :func:`_label`) and a few ``bincount`` calls per round over the step edges:
-linear in the number of cells, no loop over cells.
+the connected terrain itself. Work is one connected-component labelling of the grid's 4-neighbour
+graph (as an image, :func:`_label`) and a few ``bincount`` calls: linear in the number of cells,
+no loop over cells.
 """
 
 from __future__ import annotations
@@ -35,8 +31,6 @@ ndimage = lazy_import("scipy.ndimage")
 
 #: Grid rows labelled at a time: bounds the labelling image and the height differences to a strip.
 STRIP_ROWS = 256
-#: Rounds of peeling at most (a building has a few levels; the rounds stop when nothing changes).
-PEEL_ROUNDS = 16
 
 
 def raised_segments(z: np.ndarray, step: float, down_share: float, *,
@@ -52,8 +46,7 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
     step : float
         neighbouring cells whose heights differ by more than this are in different segments (m).
     down_share : float
-        a segment is raised when at least this share of the steps on its perimeter go down from it
-        (steps up into a segment already raised left out of the count).
+        a segment is raised when at least this share of the steps on its perimeter go down from it.
 
     The grid is labelled a strip of rows at a time, each strip's segments joined to those of the
     strip above it where their cells are joined across the strip's edge (a union of labels,
@@ -69,8 +62,7 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
 
     label = np.empty((rows, cols), np.int32)
     count = 0
-    parts: list[tuple[int, np.ndarray]] = []  # first label, its counts: open edge, size
-    step_edges: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # labels on either side, falls from the first
+    parts: list[tuple[int, np.ndarray]] = []  # first label, its counts: down-steps, steps, open edge, size
     pairs: list[np.ndarray] = []  # segments joined across a strip's upper edge
     above_z = above_label = None
     for a in range(0, rows, strip_rows):
@@ -85,6 +77,8 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
         # the labels this strip counts for: its own and those of the row above it
         base = count if above_label is None else min(count, int(above_label.min()))
         span = count + n - base
+        down = np.zeros(span, np.int64)
+        steps = np.zeros(span, np.int64)
         edges = [(east, strip[:, :-1], strip[:, 1:]), (north, strip[:-1, :], strip[1:, :])]
         if above_z is not None and above_label is not None:
             rise = (zs[0] - above_z).astype(np.float32)
@@ -93,7 +87,9 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
             edges.append((rise[None, :], above_label[None, :], strip[:1]))
         for rise, lo, hi in edges:
             cut = np.abs(rise) > step
-            step_edges.append((lo[cut], hi[cut], rise[cut] < 0))
+            la, lb, r = lo[cut] - base, hi[cut] - base, rise[cut]
+            down += np.bincount(la[r < 0], minlength=span) + np.bincount(lb[r > 0], minlength=span)
+            steps += np.bincount(la, minlength=span) + np.bincount(lb, minlength=span)
         # the grid's own edge is open perimeter: a terrace running out of the data is not enclosed
         # by down-steps the way a roof is
         edge = np.zeros((b - a, cols), bool)
@@ -104,54 +100,25 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
             edge[-1] = True
         open_edge = np.bincount(strip[edge] - base, minlength=span)
         size = np.bincount(strip.ravel() - base, minlength=span)
-        parts.append((base, np.stack([open_edge, size])))
+        parts.append((base, np.stack([down, steps, open_edge, size])))
         above_z, above_label = zs[-1].copy(), strip[-1].copy()
         count += n
         del zs, east, north, strip
     segment, first = _merge(pairs, count)
-    per_label = np.zeros((2, count), np.int64)
+    per_label = np.zeros((4, count), np.int64)
     for base, counts in parts:
         per_label[:, base:base + counts.shape[1]] += counts
     del parts
-    open_total, size_total = (np.bincount(segment, weights=per_label[k], minlength=len(first)) for k in range(2))
+    down_total, steps_total, open_total, size_total = (
+        np.bincount(segment, weights=per_label[k], minlength=len(first)) for k in range(4))
+    raised = (steps_total > 0) & (down_total >= down_share * (steps_total + open_total))
     # the connected terrain: the largest segment (of equals, the first in row order)
     largest = np.flatnonzero(size_total == size_total.max())
-    raised = _peel(step_edges, segment, open_total, largest[np.argmin(first[largest])], down_share)
+    raised[largest[np.argmin(first[largest])]] = False
     out = np.empty((rows, cols), bool)
     for a in range(0, rows, strip_rows):
         out[a:a + strip_rows] = raised[segment[label[a:a + strip_rows]]]
     return out
-
-
-def _peel(step_edges: list[tuple[np.ndarray, np.ndarray, np.ndarray]], segment: np.ndarray,
-          open_total: np.ndarray, terrain: int, down_share: float) -> np.ndarray:
-    """Raised segments, level by level: a segment is raised when its down-steps reach
-    ``down_share`` of its perimeter (steps and open edge) without the steps up into segments
-    already raised; repeated until no segment changes (a building's levels, top first)."""
-    n = len(open_total)
-    raised = np.zeros(n, bool)
-    if not step_edges:
-        return raised
-    segment = segment.astype(np.int32, copy=False)
-    lo = segment[np.concatenate([e[0] for e in step_edges])]
-    hi = segment[np.concatenate([e[1] for e in step_edges])]
-    drop = np.concatenate([e[2] for e in step_edges])  # falls from lo to hi
-    step_edges.clear()
-    down = np.bincount(lo[drop], minlength=n) + np.bincount(hi[~drop], minlength=n)
-    steps = np.bincount(lo, minlength=n) + np.bincount(hi, minlength=n)
-    # the steps up, as (segment, segment it rises into)
-    rises, rises_into = np.r_[lo[~drop], hi[drop]], np.r_[hi[~drop], lo[drop]]
-    del lo, hi, drop
-    enclosed = np.zeros(n, np.int64)
-    for _ in range(PEEL_ROUNDS):
-        # down > 0: a courtyard, stepping only up into the raised building around it, is ground
-        now = (down > 0) & (down >= down_share * (steps - enclosed + open_total))
-        now[terrain] = False
-        if np.array_equal(now, raised):
-            break
-        raised = now
-        enclosed = np.bincount(rises[raised[rises_into]], minlength=n)
-    return raised
 
 
 def _merge(pairs: list[np.ndarray], count: int) -> tuple[np.ndarray, np.ndarray]:

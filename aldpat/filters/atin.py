@@ -44,9 +44,8 @@ Choices where the manual is silent:
   but one size does not fit every site -- a square that lies wholly on a station roof or a
   platform canopy seeds the roof, and the TIN grows over it round after round (mirror points
   pass along any flat roof level with a vertex on it). The segment test the grid filters use
-  finds such objects whatever their size. Its share is 0.7, the best of 0.6 and 0.7 on the
-  seven samples (a lower share, as gapm's former 0.4, takes the plateau of a synthetic cliff,
-  whose jagged edge is all down-steps, for a roof);
+  finds such objects whatever their size. Its share stays at 0.6 (gapm's 0.4 takes the plateau
+  of a synthetic cliff, whose jagged edge is all down-steps, for a roof);
 * the defaults (z difference 0.75 m, angle 15 degrees taken at 1.5 m at least, 30 m seed
   squares, every passing point, segments split at steps of 1.5 m) are the setting best on the
   seven ISPRS samples of bench/README.md among those tried there, and the one five of the seven
@@ -111,7 +110,6 @@ class AtinParams(RaisedSegmentOption, PointFilterParams):
                                "passes (steep terrain, manual Fig. 16)")
 
     object_step: float = default_of(RaisedSegmentOption, "object_step", 1.5)
-    object_share: float = default_of(RaisedSegmentOption, "object_share", 0.7)
 
     def cell_shape(self) -> tuple[float, float]:
         return self.cell, self.cell

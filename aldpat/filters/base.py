@@ -106,8 +106,7 @@ class RaisedSegmentOption(SharedOption):
         unit="m", ge=0,
     )
     object_share: float = param(
-        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object "
-        "(steps up into a segment already found to be one do not count: a building's lower levels)",
+        0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
         ge=0, le=1,
     )
 
