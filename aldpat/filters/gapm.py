@@ -50,7 +50,8 @@ BLOCK_COLUMNS = 32
 class GapmParams(GroundParams):
     # The defaults are parameter set 01 (dissertation Table 6-8: windows, thresholds, 0.75 m
     # cells) followed by the raised-segment test and SMRF's final surface test, whose constants
-    # were chosen by leave-one-out over the ISPRS samples (bench/bench_auto.py).
+    # were chosen by leave-one-out over the ISPRS samples (bench/bench_auto.py) among shares of
+    # 0.55 and more: a lower share takes terraces behind retaining walls for roofs.
     cell: float = default_of(GroundParams, "cell", SET01_CELL)
     object_step: float = default_of(GroundParams, "object_step", 2.0)
     object_share: float = default_of(GroundParams, "object_share", 0.55)
