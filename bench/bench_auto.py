@@ -61,7 +61,8 @@ def sweep(samples, auto: bool = False) -> None:
     combos = [dict(zip(names, values), **({"auto": True} if auto else {}))
               for values in itertools.product(*CANDIDATES.values())]
     start = time.perf_counter()
-    totals = np.array([[sc.total for sc in evaluate(samples, c)] for c in combos])
+    scores = [evaluate(samples, c) for c in combos]
+    totals = np.array([[sc.total for sc in row] for row in scores])
     print(f"{len(combos)} combinations x {len(samples)} samples in {time.perf_counter() - start:.0f} s")
     order = np.argsort(totals.mean(axis=1))
     print("\nbest on all seven together (in-sample):")
@@ -72,9 +73,16 @@ def sweep(samples, auto: bool = False) -> None:
     for j, s in enumerate(samples):
         others = [k for k in range(len(samples)) if k != j]
         i = int(np.argmin(totals[:, others].mean(axis=1)))
-        held.append(totals[i, j])
-        print(f"  {s.name}: {combos[i]} -> {totals[i, j]:.2f}")
-    print(f"  leave-one-out mean total {np.mean(held):.2f} %, worst sample {np.max(held):.2f} %")
+        sc = scores[i][j]
+        held.append(sc)
+        print(f"  {s.name}: {combos[i]} -> {sc.total:.2f}")
+    print("\n| held out | type I | type II | total | kappa |\n|---|---|---|---|---|")
+    for s, sc in zip(samples, held):
+        print(f"| {s.name} | {sc.type1:.2f} | {sc.type2:.2f} | {sc.total:.2f} | {sc.kappa:.3f} |")
+    print(f"| mean | {np.mean([sc.type1 for sc in held]):.2f} | {np.mean([sc.type2 for sc in held]):.2f} | "
+          f"**{np.mean([sc.total for sc in held]):.2f}** | {np.mean([sc.kappa for sc in held]):.3f} |")
+    print(f"  leave-one-out mean total {np.mean([sc.total for sc in held]):.2f} %, "
+          f"worst sample {np.max([sc.total for sc in held]):.2f} %")
 
 
 def report(samples) -> None:
