@@ -33,3 +33,23 @@ def errors(marks: np.ndarray, obj: np.ndarray) -> tuple[float, float]:
     t1 = 100.0 * (removed & ~obj).sum() / (~obj).sum()
     t2 = 100.0 * (~removed & obj).sum() / obj.sum()
     return t1, t2
+
+
+def slope_with_low_clump(isolated: int = 0, seed: int = 5):
+    """20,000 ground points on a 100 m x 100 m slope, a clump of 40 multipath points 3-8 m below
+    it (a 3 m square at its centre) and ``isolated`` single low points 3-8 m below it elsewhere.
+
+    Returns ``x, y, z`` and the bool mask of ground points (the low points last).
+    """
+    rng = np.random.default_rng(seed)
+    n = 20_000
+    x, y = rng.uniform(0, 100, n), rng.uniform(0, 100, n)
+    z = 50 + 0.05 * x + rng.normal(0, 0.03, n)
+    cx, cy = rng.uniform(48, 51, 40), rng.uniform(48, 51, 40)
+    ix, iy = (rng.uniform(5, 95, isolated), rng.uniform(5, 95, isolated)) if isolated else (np.zeros(0), np.zeros(0))
+    xs, ys = np.r_[x, cx, ix], np.r_[y, cy, iy]
+    zs = np.r_[z, 50 + 0.05 * cx - rng.uniform(3, 8, 40)]
+    if isolated:
+        zs = np.r_[zs, 50 + 0.05 * ix - rng.uniform(3, 8, isolated)]
+    ground = np.r_[np.ones(n, bool), np.zeros(40 + isolated, bool)]
+    return xs, ys, zs, ground

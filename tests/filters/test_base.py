@@ -4,6 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from terrain_scenes import slope_with_low_clump
 
 from aldpat.errors import DataError, ParamError
 from aldpat.filters.base import (
@@ -152,15 +153,7 @@ def test_low_outliers_are_set_aside_and_the_ground_around_them_kept():
     from aldpat.filters.base import MARK_LOW_OUTLIER
     from aldpat.filters.gapm import GapmParams
 
-    rng = np.random.default_rng(5)
-    n = 20_000
-    x, y = rng.uniform(0, 100, n), rng.uniform(0, 100, n)
-    z = 50 + 0.05 * x + rng.normal(0, 0.03, n)
-    cx, cy = rng.uniform(48, 51, 40), rng.uniform(48, 51, 40)
-    ix, iy = rng.uniform(5, 95, 10), rng.uniform(5, 95, 10)
-    xs, ys = np.r_[x, cx, ix], np.r_[y, cy, iy]
-    zs = np.r_[z, 50 + 0.05 * cx - rng.uniform(3, 8, 40), 50 + 0.05 * ix - rng.uniform(3, 8, 10)]
-    ground = np.r_[np.ones(n, bool), np.zeros(50, bool)]
+    xs, ys, zs, ground = slope_with_low_clump(isolated=10)
     without = ground_filter(xs, ys, zs, "gapm", GapmParams())
     assert (~without.is_ground[ground]).sum() > 5 and without.is_ground[~ground].sum() > 40
     res = ground_filter(xs, ys, zs, "gapm", GapmParams(low_outliers=1.0))

@@ -8,6 +8,7 @@ classes from the size of its rectangles.
 
 import numpy as np
 import pytest
+from terrain_scenes import slope_with_low_clump
 
 from aldpat.errors import ParamError
 from aldpat.filters import FILTERS, ground_filter
@@ -224,19 +225,13 @@ def test_atin_roof_larger_than_the_seed_squares_is_a_raised_segment():
 
 @pytest.mark.parametrize("name", POINT_FILTERS)
 def test_point_filters_set_low_outliers_aside(name):
-    """The clump of multipath points of test_base.py's low-outlier test, under every point filter:
-    with ``low_outliers`` the clump is set aside (marked as the grid filters mark it) and the
-    ground around it kept."""
+    """The clump of multipath points of the grid filters' low-outlier test, under every point
+    filter: with ``low_outliers`` the clump is set aside (marked as the grid filters mark it) and
+    the ground around it kept."""
     from aldpat.filters.base import MARK_LOW_OUTLIER
 
-    rng = np.random.default_rng(5)
-    n = 20_000
-    x, y = rng.uniform(0, 100, n), rng.uniform(0, 100, n)
-    z = 50 + 0.05 * x + rng.normal(0, 0.03, n)
-    cx, cy = rng.uniform(48, 51, 40), rng.uniform(48, 51, 40)
-    xs, ys = np.r_[x, cx], np.r_[y, cy]
-    zs = np.r_[z, 50 + 0.05 * cx - rng.uniform(3, 8, 40)]
-    ground = np.r_[np.ones(n, bool), np.zeros(40, bool)]
+    xs, ys, zs, ground = slope_with_low_clump()
+    n = int(ground.sum())
     params = FILTERS[name].params
     without = ground_filter(xs, ys, zs, name, params())
     res = ground_filter(xs, ys, zs, name, params(low_outliers=1.0))
