@@ -63,7 +63,7 @@ CANDIDATES: dict[str, dict[str, tuple]] = {
         "angle_min_distance": (1.5, 3.0),
         "init_trigrid_size": (30.0, 40.0, 60.0),
         "best_per_triangle": (False, True),
-        # the raised-segment test: share 0.6 (gapm's 0.4 takes the plateau of the known-answer
+        # the raised-segment test: share 0.6 (a share of 0.4 takes the plateau of the known-answer
         # cliff in tests/filters/test_point_filters.py for a roof)
         "object_step": (1.5, 2.5),
         "object_share": (0.6,),

@@ -44,7 +44,7 @@ Choices where the manual is silent:
   but one size does not fit every site -- a square that lies wholly on a station roof or a
   platform canopy seeds the roof, and the TIN grows over it round after round (mirror points
   pass along any flat roof level with a vertex on it). The segment test the grid filters use
-  finds such objects whatever their size. Its share stays at 0.6 (gapm's 0.4 takes the plateau
+  finds such objects whatever their size. Its share stays at 0.6 (a share of 0.4 takes the plateau
   of a synthetic cliff, whose jagged edge is all down-steps, for a roof);
 * the defaults (z difference 0.75 m, angle 15 degrees taken at 1.5 m at least, 30 m seed
   squares, every passing point, segments split at steps of 1.5 m) are the setting best on the
