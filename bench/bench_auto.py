@@ -5,6 +5,7 @@
     python bench/bench_auto.py report       # the shipped defaults and --auto, per sample
     python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
     python bench/bench_auto.py lowout       # the low-outlier test on top of the defaults
+    python bench/bench_auto.py terraces     # walled terraces: the defaults against the former ones
 
 Reads the seven ISPRS reference samples (``bench/data_paths.py`` says where). ``sweep`` scores every combination of the candidate
 constants below with the package's own filter (``aldpat.filters.base.ground_filter``) and
@@ -125,16 +126,34 @@ def lowout(samples) -> None:
         print(f"| {label} | " + " | ".join(f"{t:.2f}" for t in totals) + f" | {np.mean(totals):.2f} |")
 
 
+#: gapm's raised-segment constants before 2026-11-24, for ``terraces``.
+FORMER_SEGMENTS = {"object_step": 2.5, "object_share": 0.4}
+
+
+def terraces(_samples) -> None:
+    """The known-answer scene of five walled terraces (tests/filters/terrain_scenes.py): Type I
+    and II of the defaults and ``--auto``, with the segment constants as shipped and as before."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "filters"))
+    from terrain_scenes import walled_terraces
+
+    x, y, z, truth = walled_terraces()
+    print("| setting | type I | type II | total |\n|---|---|---|---|")
+    for label, values in (("defaults", {}), ("former segment constants", FORMER_SEGMENTS)):
+        for mode, p in (("", GapmParams(**values)), (" --auto", auto_params(x, y, z, **values))):
+            sc = score(truth, ground_filter(x, y, z, "gapm", p).is_ground)
+            print(f"| {label}{mode} | {sc.type1:.2f} | {sc.type2:.2f} | {sc.total:.2f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("sweep", "report", "others", "lowout"))
+    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "terraces"))
     ap.add_argument("--auto", action="store_true", help="sweep: every combination with --auto")
     args = ap.parse_args()
-    samples = load_samples()
+    samples = load_samples() if args.what != "terraces" else []
     if args.what == "sweep":
         sweep(samples, auto=args.auto)
     else:
-        {"report": report, "others": others, "lowout": lowout}[args.what](samples)
+        {"report": report, "others": others, "lowout": lowout, "terraces": terraces}[args.what](samples)
 
 
 if __name__ == "__main__":

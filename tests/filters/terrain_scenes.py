@@ -53,3 +53,20 @@ def slope_with_low_clump(isolated: int = 0, seed: int = 5):
         zs = np.r_[zs, 50 + 0.05 * ix - rng.uniform(3, 8, isolated)]
     ground = np.r_[np.ones(n, bool), np.zeros(40 + isolated, bool)]
     return xs, ys, zs, ground
+
+
+def walled_terraces(seed: int = 3):
+    """Disconnected terrain: five 30 m terraces behind 3.5 m retaining walls, each running the
+    whole width of the data, with a 25 m x 18 m building on two of them; 1 point per m2.
+
+    Returns ``x, y, z`` and the bool mask of ground points.
+    """
+    rng = np.random.default_rng(seed)
+    n = 200 * 150
+    x, y = rng.uniform(0, 200, n), rng.uniform(0, 150, n)
+    ground = 200 + 3.5 * np.floor(y / 30) + 0.02 * x + rng.normal(0, 0.05, n)
+    building = np.zeros(n, bool)
+    for x0, y0 in ((30, 5), (120, 65)):
+        building |= (x >= x0) & (x < x0 + 25) & (y >= y0) & (y < y0 + 18)
+    z = np.where(building, ground + 8.0, ground)
+    return x, y, z, ~building

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from terrain_scenes import errors, scene
+from terrain_scenes import errors, scene, walled_terraces
 
 from aldpat.errors import ParamError
 from aldpat.filters import ground_filter
@@ -193,24 +193,10 @@ def test_defaults_remove_a_shed_larger_than_any_window_and_keep_the_slope():
     assert type1 < 1.0 and type2 < 1.0, (type1, type2)
 
 
-def _terrace_scene(seed=3):
-    """Disconnected terrain: five 30 m terraces behind 3.5 m retaining walls, each running the
-    whole width of the data, with a 25 m x 18 m building on two of them; 1 point per m2."""
-    rng = np.random.default_rng(seed)
-    n = 200 * 150
-    x, y = rng.uniform(0, 200, n), rng.uniform(0, 150, n)
-    ground = 200 + 3.5 * np.floor(y / 30) + 0.02 * x + rng.normal(0, 0.05, n)
-    building = np.zeros(n, bool)
-    for x0, y0 in ((30, 5), (120, 65)):
-        building |= (x >= x0) & (x < x0 + 25) & (y >= y0) & (y < y0 + 18)
-    z = np.where(building, ground + 8.0, ground)
-    return x, y, z, ~building
-
-
 def test_defaults_keep_terraces_behind_retaining_walls():
     """Each middle terrace steps down to the one below along one side and up to the one above
     along the other: terrain, though the raised-segment test splits it off at its walls."""
-    x, y, z, truth = _terrace_scene()
+    x, y, z, truth = walled_terraces()
     for p in (GapmParams(), auto_params(x, y, z)):
         res = ground_filter(x, y, z, "gapm", p)
         type1 = 100 * (~res.is_ground[truth]).mean()
