@@ -1,4 +1,4 @@
-"""Tile layout: tiles of Width x Height with a buffer, along x and y, x only or y only.
+"""Tile layout: tiles of Width x Height on a lattice, with a buffer, along x and y, x only or y only.
 
 ALDPAT 1.0 user manual (2007), Task 7 "Tile Strips": tiles cover the rectangle Min X..Max X,
 Min Y..Max Y (given, or the minimal rectangle covering all strips); "XY" increments both x and
@@ -6,11 +6,16 @@ y by the tile width and height; "X" increments only x (each tile spans the whole
 height is ignored); "Y" increments only y (the width is ignored). A buffer around each tile
 (Fig. 5) keeps filtering and gridding consistent across tile edges.
 
-Every point inside the rectangle belongs to exactly one tile core: cores are half-open
-[x0, x1) x [y0, y1), except that the last column and row also take their upper edge (so the
-point at Max X, Max Y is not lost). Tiles keep their full size: the last column and row may
-reach beyond Max X and Max Y, and points there belong to them. A point also goes to every other tile whose buffered box
-[x0 - b, x1 + b) x [y0 - b, y1 + b) holds it.
+Tile corners lie on whole multiples of the tile size from an origin (0 0 unless given), as
+lastile's and PDAL's tiles do, so that tiles cut apart, by aldpat or another tool, line up and
+are named alike: a tile is named by its core's lower-left corner. Along an axis a tile spans
+(direction "x" for y, "y" for x), the span is the area given, or the data's range snapped
+outward to whole metres from the origin.
+
+Every point belongs to at most one tile core: cores are half-open, [x0, x1) x [y0, y1), and the
+test is made against the edge values themselves (the numbers ``tile_parameter.txt`` holds), so
+that whoever reads a core back from that file puts every point in the same tile. A point also
+goes to every other tile whose buffered box [x0 - b, x1 + b) x [y0 - b, y1 + b) holds it.
 """
 
 from __future__ import annotations
@@ -23,22 +28,72 @@ import numpy as np
 
 DIRECTIONS = ("xy", "x", "y")
 
+#: tiles along one axis at most: far beyond any survey, and a bound on what a typo can ask for
+MAX_TILES_PER_AXIS = 1_000_000
+#: a buffer may reach this many tiles beyond a tile's core at most
+MAX_BUFFER_TILES = 100
+
+
+@dataclass(frozen=True)
+class Axis:
+    """Tiles along one axis: tile ``k`` (0 <= k < n) covers [edge(k), edge(k + 1))."""
+
+    origin: float
+    size: float
+    first: int  # lattice index of tile 0: its lower edge is origin + first * size
+    n: int
+
+    @classmethod
+    def tiled(cls, lo: float, hi: float, size: float, origin: float, upper_included: bool) -> Axis:
+        """The lattice tiles from the one holding ``lo`` to the one holding ``hi`` (or, when
+        ``hi`` is an area's upper edge and not a point, the last one starting below it)."""
+        for v in (lo, hi):
+            if not abs((v - origin) / size) < 2.0 ** 52:  # beyond that a tile index is not exact
+                raise ValueError(f"{v:g} lies {abs(v - origin):g} from the tile origin: too far for tiles of {size:g}")
+        if (hi - lo) / size >= MAX_TILES_PER_AXIS:
+            raise ValueError(f"{(hi - lo) / size:.3g} tiles along one axis (at most {MAX_TILES_PER_AXIS:,}): "
+                             "is the tile size right?")
+        lattice = cls(origin, size, 0, 1)
+        first, last = (int(k) for k in lattice.index(np.array([lo, hi])))  # the test every point gets
+        if not upper_included and hi > lo and lattice.edge(last) >= hi:
+            last -= 1  # an area ending on a tile edge does not reach into the next tile
+        return cls(origin, size, first, max(1, last - first + 1))
+
+    @classmethod
+    def spanned(cls, lo: float, hi: float, origin: float, upper_included: bool) -> Axis:
+        """One tile over the area [lo, hi), or over the points from ``lo`` to ``hi``
+        (``upper_included``) snapped outward to whole metres from ``origin``."""
+        if not upper_included and hi > lo:
+            return cls(lo, hi - lo, 0, 1)
+        start = origin + math.floor(lo - origin)
+        end = origin + math.floor(hi - origin) + 1.0
+        return cls(start, end - start, 0, 1)
+
+    def edge(self, k):
+        """Lower edge of tile ``k`` (an int or an integer array)."""
+        return self.origin + (self.first + k) * self.size
+
+    def index(self, v: np.ndarray) -> np.ndarray:
+        """Tile of each value along this axis, relative to tile 0 (outside 0..n-1 for values
+        beyond the tiles); ``edge(k) <= v < edge(k + 1)`` holds exactly for the value returned."""
+        k = np.floor((v - self.origin) / self.size).astype(np.int64) - self.first
+        k -= (v < self.edge(k)).astype(np.int64)  # floating point may put a value a tile off
+        k += (v >= self.edge(k + 1)).astype(np.int64)
+        return k
+
 
 @dataclass(frozen=True)
 class TileLayout:
-    minx: float
-    miny: float
-    maxx: float
-    maxy: float
-    width: float  # effective tile width (the whole x range for direction "y")
-    height: float  # effective tile height (the whole y range for direction "x")
+    xs: Axis
+    ys: Axis
     buffer: float
-    nx: int
-    ny: int
 
     @classmethod
     def build(cls, bounds: tuple[float, float, float, float], width: float, height: float, buffer: float,
-              direction: str = "xy") -> TileLayout:
+              direction: str = "xy", origin: tuple[float, float] | None = None,
+              upper_included: bool = True) -> TileLayout:
+        """Tiles over ``bounds`` (MINX MINY MAXX MAXY). ``upper_included``: the bounds are the
+        data's own extent, whose maximum is a point to hold; otherwise an area's upper edge."""
         minx, miny, maxx, maxy = (float(v) for v in bounds)
         if not (maxx >= minx and maxy >= miny):
             raise ValueError(f"bounds must be MINX MINY MAXX MAXY with max >= min, got {bounds!r}")
@@ -46,67 +101,61 @@ class TileLayout:
             raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
         if not (width > 0 and height > 0 and buffer >= 0):
             raise ValueError("width and height must be > 0 and buffer >= 0")
-        if direction == "y":
-            width = max(maxx - minx, 0.0)
-        if direction == "x":
-            height = max(maxy - miny, 0.0)
+        ox, oy = (float(v) for v in (origin or (0.0, 0.0)))
+        xs = Axis.spanned(minx, maxx, ox, upper_included) if direction == "y" else \
+            Axis.tiled(minx, maxx, width, ox, upper_included)
+        ys = Axis.spanned(miny, maxy, oy, upper_included) if direction == "x" else \
+            Axis.tiled(miny, maxy, height, oy, upper_included)
+        for axis in (xs, ys):
+            if buffer > MAX_BUFFER_TILES * axis.size:
+                raise ValueError(f"a buffer of {buffer:g} reaches more than {MAX_BUFFER_TILES} tiles of "
+                                 f"{axis.size:g} beyond each tile")
+        return cls(xs, ys, float(buffer))
 
-        def count(extent: float, size: float) -> int:
-            if size <= 0:
-                return 1
-            # a hair of tolerance: 2000.0000000001 / 1000 is still 2 tiles
-            return max(1, math.ceil(extent / size - 1e-9))
+    @property
+    def nx(self) -> int:
+        return self.xs.n
 
-        return cls(minx, miny, maxx, maxy, float(width), float(height), float(buffer),
-                   count(maxx - minx, width), count(maxy - miny, height))
+    @property
+    def ny(self) -> int:
+        return self.ys.n
 
-    def __len__(self) -> int:
-        return self.nx * self.ny
+    @property
+    def width(self) -> float:
+        return self.xs.size
+
+    @property
+    def height(self) -> float:
+        return self.ys.size
 
     def core(self, i: int, j: int) -> tuple[float, float, float, float]:
         """(min x, max x, min y, max y) of tile (i, j)'s core (the manual's tile_parameter order)."""
-        x0 = self.minx + i * self.width
-        y0 = self.miny + j * self.height
-        return x0, x0 + self.width, y0, y0 + self.height
-
-    def _axis_core(self, v: np.ndarray, lo: float, size: float, n: int) -> np.ndarray:
-        """Core index along one axis; -1 outside [lo, lo + n*size] (the last tile keeps its upper edge)."""
-        if size > 0:
-            k = np.floor((v - lo) / size).astype(np.int64)
-        else:
-            k = np.zeros(len(v), dtype=np.int64)
-        hi = lo + n * size
-        k[(k >= n) & (v <= hi)] = n - 1
-        k[(v < lo) | (v > hi) | (k >= n)] = -1
-        return k
+        return self.xs.edge(i), self.xs.edge(i + 1), self.ys.edge(j), self.ys.edge(j + 1)
 
     def core_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Tile column and row whose core holds each point (-1, -1 outside the bounds)."""
-        i = self._axis_core(np.asarray(x, np.float64), self.minx, self.width, self.nx)
-        j = self._axis_core(np.asarray(y, np.float64), self.miny, self.height, self.ny)
-        out = (i < 0) | (j < 0)
+        """Tile column and row whose core holds each point (-1, -1 outside every tile)."""
+        i = self.xs.index(np.asarray(x, np.float64))
+        j = self.ys.index(np.asarray(y, np.float64))
+        out = (i < 0) | (i >= self.nx) | (j < 0) | (j >= self.ny)
         i[out] = -1
         j[out] = -1
         return i, j
 
-    def _axis_members(self, v: np.ndarray, lo: float, size: float, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    def _axis_members(self, v: np.ndarray, base: np.ndarray, axis: Axis) -> list[tuple[np.ndarray, np.ndarray]]:
         """(tile index, mask) pairs along one axis: tile k's buffered interval holds v where mask."""
-        u = v - lo
         b = self.buffer
-        if size <= 0:  # one tile of zero extent
-            return [(np.zeros(len(v), np.int64), (u >= -b) & (u <= b))]
-        base = np.floor(u / size).astype(np.int64)
-        reach = math.ceil(b / size) + 1
+        reach = math.ceil(b / axis.size) + 1
         out = []
         for off in range(-reach, reach + 1):
             k = base + off
-            mask = (k >= 0) & (k < n) & (u >= k * size - b) & (u < (k + 1) * size + b)
+            mask = (k >= 0) & (k < axis.n) & (v >= axis.edge(k) - b) & (v < axis.edge(k + 1) + b)
             out.append((k, mask))
         return out
 
-    def memberships(self, x: np.ndarray, y: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Yield (tile column, tile row, point index) triples of arrays covering every (point, tile)
-        pair where the point lies in the tile's core or buffer; a pair appears once over all.
+    def memberships(self, x: np.ndarray, y: np.ndarray
+                    ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, bool]]:
+        """Yield (tile column, tile row, point index, in the core) groups covering every (point,
+        tile) pair where the point lies in the tile's core or buffer; a pair appears once over all.
 
         Buffer memberships are only looked for among the points within a buffer of a tile edge
         (or outside every core), so the cost stays near one pass over the chunk.
@@ -116,25 +165,20 @@ class TileLayout:
         ci, cj = self.core_index(x, y)
         has_core = ci >= 0
         if self.buffer > 0:
-            near = ~has_core | self._near_edge(x, self.minx, self.width) | self._near_edge(y, self.miny, self.height)
+            bi, bj = self.xs.index(x), self.ys.index(y)
+            near = ~has_core | self._near_edge(x, bi, self.xs) | self._near_edge(y, bj, self.ys)
             cand = np.flatnonzero(near)
             if len(cand):
                 cx, cy, cci, ccj = x[cand], y[cand], ci[cand], cj[cand]
-                for ti, mx in self._axis_members(cx, self.minx, self.width, self.nx):
-                    for tj, my in self._axis_members(cy, self.miny, self.height, self.ny):
-                        # the core pair is given below, once, with the closed upper edge
-                        mask = mx & my & ~((cci == ti) & (ccj == tj))
+                for ti, mx in self._axis_members(cx, bi[cand], self.xs):
+                    for tj, my in self._axis_members(cy, bj[cand], self.ys):
+                        mask = mx & my & ~((cci == ti) & (ccj == tj))  # the core pair is given below
                         if mask.any():
-                            yield ti[mask], tj[mask], cand[mask]
+                            yield ti[mask], tj[mask], cand[mask], False
         rows = np.flatnonzero(has_core)
         if len(rows):
-            yield ci[rows], cj[rows], rows
+            yield ci[rows], cj[rows], rows, True
 
-    def _near_edge(self, v: np.ndarray, lo: float, size: float) -> np.ndarray:
-        """Points within the buffer (plus a rounding margin) of a tile edge along one axis."""
-        if size <= 0:
-            return np.ones(len(v), dtype=bool)
-        u = v - lo
-        off = u - np.floor(u / size) * size
-        margin = self.buffer + 1e-9 * (abs(lo) + size + np.abs(u))
-        return (off <= margin) | (size - off <= margin)
+    def _near_edge(self, v: np.ndarray, k: np.ndarray, axis: Axis) -> np.ndarray:
+        """Values within the buffer of an edge of their lattice tile along one axis."""
+        return (v - axis.edge(k) <= self.buffer) | (axis.edge(k + 1) - v <= self.buffer)

@@ -26,6 +26,12 @@ DEFAULT_CHUNK = 2_000_000
 LAS_DIMENSIONS = {"x": "x", "y": "y", "z": "z", "intensity": "intensity", "class": "classification",
                   "classification": "classification", "t": "gps_time", "gps_time": "gps_time"}
 _READ_DIMS = ("intensity", "classification", "return_number", "number_of_returns", "gps_time")
+#: The extra-byte dimension marking the buffer points of a tile (``aldpat tile``): 1 for a copy of
+#: a point of a neighbouring tile's core, 0 for the tile's own. Neither a class nor the withheld
+#: flag, which the filters read as "leave out of the ground search": buffer points take part in it.
+BUFFER_DIMENSION = "tile_buffer"
+#: extra-byte dimension -> the description written in its extra-bytes record (32 characters at most)
+EXTRA_DESCRIPTIONS = {BUFFER_DIMENSION: "1: buffer, a neighbour's point"}
 
 
 def _corrupt(path: Path, exc: Exception) -> InputFormatError:
@@ -113,6 +119,15 @@ class LasReader:
         return next(iter(self.chunks(size=max(self.count, 1))))
 
 
+def buffer_marks(table: PointTable) -> np.ndarray | None:
+    """Which points of a LAS chunk are a tile's buffer points (:data:`BUFFER_DIMENSION`); None
+    when the file has no such mark."""
+    record = table.record
+    if record is None or BUFFER_DIMENSION not in record.point_format.dimension_names:
+        return None
+    return np.asarray(record[BUFFER_DIMENSION]) != 0
+
+
 def z_codes(table: PointTable) -> np.ndarray:
     """The stored integers of a LAS chunk's heights (``z == Z * scale + offset``)."""
     assert table.record is not None, "a table read from LAS/LAZ"
@@ -158,6 +173,7 @@ class LasWriter:
         self.count = 0
         self._fh: laspy.LasWriter | None = None
         self._extra: list[str] = []
+        self._given_extra: list[str] = []
 
     def _open(self, table: PointTable) -> None:
         import laspy
@@ -165,10 +181,18 @@ class LasWriter:
         header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
         known = set(header.point_format.dimension_names)
         self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
+        # extra-byte dimensions the template already has and the table sets (a tile of a tile)
+        self._given_extra = [n for n in self.names if n not in LAS_DIMENSIONS and n in known]
         for name in self._extra:
             dtype = table.columns[name].dtype
-            kind = np.int32 if np.issubdtype(dtype, np.integer) else np.float64
-            header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
+            small = np.issubdtype(dtype, np.integer) and dtype.itemsize <= 4
+            kind = dtype if small else np.int32 if np.issubdtype(dtype, np.integer) else np.float64
+            header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind,
+                                                        description=EXTRA_DESCRIPTIONS.get(name, "")))
+        if self._extra and (header.version.major, header.version.minor) < (1, 4):
+            # extra bytes are a LAS 1.4 record: PDAL reads them from 1.4 files only (unless told to),
+            # and 1.4 keeps point formats 0-5 as they are
+            header.version = laspy.header.Version(1, 4)
         header.point_count = 0
         self._header = header
         self._fh = laspy.open(self.path, mode="w", header=header, do_compress=self.compress)
@@ -186,16 +210,21 @@ class LasWriter:
             # the source's own records: write them as they are, then only what changed (on a copy,
             # so the caller's table is never modified)
             same = table.meta.get("in_record", frozenset())
-            changed = any(n not in same for n in table.columns if n in LAS_DIMENSIONS)
+            changed = any(n not in same for n in table.columns if n in LAS_DIMENSIONS or n in self._given_extra)
             array = table.record.array.copy() if changed else table.record.array
             points = laspy.ScaleAwarePointRecord(array, self._header.point_format,
                                                  self._header.scales, self._header.offsets)
         else:
             points = laspy.ScaleAwarePointRecord.zeros(n, header=self._header)
             if table.record is not None:
-                for dim in table.record.point_format.dimension_names:
-                    if dim in points.point_format.dimension_names:
-                        points[dim] = table.record[dim]
+                source = table.record.array
+                if set(source.dtype.names) <= set(points.array.dtype.names):
+                    for field in source.dtype.names:  # the stored fields as they are, bit fields packed
+                        points.array[field] = source[field]
+                else:
+                    for dim in table.record.point_format.dimension_names:
+                        if dim in points.point_format.dimension_names:
+                            points[dim] = table.record[dim]
         for name in ("x", "y", "z"):
             if name not in same:
                 setattr(points, name, table.columns[name])
@@ -203,7 +232,7 @@ class LasWriter:
             dim = LAS_DIMENSIONS.get(name)
             if dim and dim not in "xyz" and name not in same and dim in points.point_format.dimension_names:
                 points[dim] = values
-        for name in self._extra:
+        for name in (*self._extra, *(n for n in self._given_extra if n not in same)):
             points[name] = table.columns[name]
         assert self._fh is not None  # opened above
         self._fh.write_points(points)

@@ -21,10 +21,15 @@ PARAMETER_FILE = "tile_parameter.txt"
 
 
 def number_text(v: float) -> str:
-    """A coordinate for a file name or the parameter file: no trailing zeros (512000, 512000.5)."""
-    text = f"{v:.3f}".rstrip("0").rstrip(".")
+    """A coordinate for a file name or the parameter file: no trailing zeros (512000, 512000.5),
+    and exact -- read back, it is ``v`` itself -- so that a tile's core read from the file holds
+    exactly the points ``aldpat tile`` put in it."""
+    text = f"{v:.3f}"
+    if float(text) != v:
+        text = repr(float(v))
+    if "." in text and "e" not in text:
+        text = text.rstrip("0").rstrip(".")
     return "0" if text in ("-0", "") else text
-
 
 
 

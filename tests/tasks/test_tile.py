@@ -86,26 +86,54 @@ def test_default_bounds_are_the_data_extent_and_fields_xyz(tmp_path):
     report = get_task("tile")(strips, width=1000, height=1000, fields="xyz", odir=str(tmp_path / "t"))
     assert report.exit_code == 0
     tiles = read_tiles(tmp_path / "t")
-    assert list(tiles) == ["tile_1000.5_2000.5.txt"]
-    data = tiles["tile_1000.5_2000.5.txt"]
+    assert list(tiles) == ["tile_1000_2000.txt"]  # the corner on the 1000 m lattice, not the data's minimum
+    data = tiles["tile_1000_2000.txt"]
     assert data.shape[1] == 3
     assert len(data) == sum(len(np.loadtxt(p)) for p in strips)
 
 
-def test_las_tiles_keep_attributes(tmp_path):
+def test_the_origin_shifts_the_lattice_and_tiles_without_a_core_point_are_not_written(tmp_path):
+    strips = make_strips(tmp_path)  # x 1000.5..1419.5, y 2000.5..2168.5
+    report = get_task("tile")(strips, width=200, height=200, buffer=20, origin=(50, 10), odir=str(tmp_path / "t"))
+    assert report.exit_code == 0, report.results[0].error
+    # x tiles from 850 (holding 1000.5) to 1250 (holding 1419.5), y from 1810 to 2010
+    names = sorted(read_tiles(tmp_path / "t"))
+    assert names == ["tile_1050_1810.txt", "tile_1050_2010.txt", "tile_1250_1810.txt", "tile_1250_2010.txt",
+                     "tile_850_1810.txt", "tile_850_2010.txt"]
+    # the area from x 800: the tile 800..1000 would hold buffer points (x < 1030) and no point of its own
+    report = get_task("tile")(strips, width=200, height=200, buffer=30, bounds=(800, 2000, 1600, 2200),
+                              odir=str(tmp_path / "u"))
+    assert report.exit_code == 0, report.results[0].error
+    assert sorted(read_tiles(tmp_path / "u")) == ["tile_1000_2000.txt", "tile_1200_2000.txt", "tile_1400_2000.txt"]
+    assert len((tmp_path / "u" / "tile_parameter.txt").read_text().splitlines()) == 3
+
+
+def test_las_tiles_keep_attributes_and_mark_their_buffer_points(tmp_path):
     import laspy
 
     src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
-    report = get_task("tile")([src], width=300, height=300, bounds=(494200, 5420300, 494800, 5420600),
-                              odir=str(tmp_path))
+    report = get_task("tile")([src], width=300, height=300, buffer=20, origin=(494200, 5420300),
+                              bounds=(494200, 5420300, 494800, 5420600), odir=str(tmp_path))
     assert report.exit_code == 0, report.results[0].error
     tiles = sorted(tmp_path.glob("tile_*_*.laz"))
     assert [p.name for p in tiles] == ["tile_494200_5420300.laz", "tile_494500_5420300.laz"]
-    total = 0
+    original = laspy.read(src)
+    own = []
     for p in tiles:
         las = laspy.read(p)
-        total += len(las.points)
+        x0, y0 = (float(v) for v in p.stem.split("_")[1:])
+        buffer = np.asarray(las.tile_buffer) == 1
+        inside = (las.x >= x0) & (las.x < x0 + 300) & (las.y >= y0) & (las.y < y0 + 300)
+        assert np.array_equal(buffer, ~inside) and buffer.any()  # the mark is the core's complement
+        assert str(las.header.version) == "1.4"  # extra bytes: PDAL reads them from LAS 1.4
         assert las.header.parse_crs().to_epsg() == 32632
         assert np.all(np.asarray(las.return_number) == 1)
-    assert total == laspy.read(src).header.point_count
+        own.append(las.points.array[~buffer])
+    assert sum(map(len, own)) == original.header.point_count
+    # tiling the tiles again leaves their buffer points out: every point once in a core
+    again = get_task("tile")(tiles, width=600, height=300, origin=(494200, 5420300), odir=str(tmp_path / "again"))
+    assert again.exit_code == 0
+    retiled = laspy.read(tmp_path / "again" / "tile_494200_5420300.laz")
+    assert len(retiled.points) == original.header.point_count
+    assert "buffer points of the inputs" in (tmp_path / "again" / "tile_parameter.log").read_text()
     assert get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path)).exit_code == 2  # usage
