@@ -1,4 +1,13 @@
-"""Inputs as users give them: files, quoted globs, folders (their point files) and ``@list.txt``."""
+"""Inputs as users give them: files, quoted globs, folders (their point files) and ``@list.txt``.
+
+A folder given as an input is a project folder: besides its point files it holds what aldpat
+wrote there (``tile_parameter.txt``, job logs, grids, reports, run state, files still being
+written). Those are skipped without a word (patterns skip only what is never an input: hidden
+files, files still being written, ``tile_parameter.txt``); any other file of a folder that is not
+a point file is named in one line per folder and skipped, and the run goes on. A text file (``.txt .xyz .csv .pts``) is a point file when its first line of data -- after
+blank, ``#`` and non-numeric header lines, as the text reader skips them -- holds three numbers
+or more.
+"""
 
 from __future__ import annotations
 
@@ -7,18 +16,72 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from aldpat.errors import AldpatError, InputMissingError
+from aldpat.io.atomic import TMP_MARK
 from aldpat.io.registry import EXTENSIONS
+from aldpat.io.tile_parameters import PARAMETER_FILE
+
+#: file names aldpat writes beside points that are not points
+SIDE_NAMES = frozenset({PARAMETER_FILE})
+#: extensions of what aldpat writes beside points (logs, reports, run state, grids, mosaics,
+#: previews, shapefiles, parameter files) and of point-cloud index files (LAStools' .lax)
+SIDE_SUFFIXES = frozenset({".log", ".html", ".json", ".toml", ".prj", ".vrt", ".tif", ".tiff", ".grd", ".flt",
+                           ".hdr", ".asc", ".png", ".shp", ".shx", ".dbf", ".cpg", ".xml", ".lock", ".lax"})
+#: bytes of a text file read to tell points from other text
+_SNIFF_BYTES = 16384
+#: names of skipped files listed in a folder's one line
+_NAMED = 5
 
 
-def _is_point_file(path: Path) -> bool:
-    return path.is_file() and path.suffix.lower() in EXTENSIONS
+def never_an_input(path: Path) -> bool:
+    """Hidden, still being written, or aldpat's tile index: skipped even where a pattern matches."""
+    name = path.name.lower()
+    return name.startswith(".") or TMP_MARK in name or name in SIDE_NAMES
 
 
-def expand_inputs(items: Iterable[str | Path], base: Path | None = None) -> tuple[list[Path], list[AldpatError]]:
+def is_side_file(path: Path) -> bool:
+    """A file aldpat writes beside points (grids are inputs of some tasks, but not a folder's)."""
+    return never_an_input(path) or path.suffix.lower() in SIDE_SUFFIXES
+
+
+def is_point_file(path: Path) -> bool:
+    """A LAS/LAZ file by its extension; a text file by its first line of data."""
+    fmt = EXTENSIONS.get(path.suffix.lower())
+    if fmt is None:
+        return False
+    return fmt != "text" or _text_holds_points(path)
+
+
+def _text_holds_points(path: Path) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            sample = fh.read(_SNIFF_BYTES)
+            more = bool(fh.read(1))
+    except OSError:
+        return True  # the reader will say why it cannot be read
+    lines = sample.decode("utf-8", errors="replace").splitlines()
+    if more:
+        lines = lines[:-1]  # the last line may be cut short
+    for line in lines:
+        text = line.strip().lstrip("\ufeff")
+        if not text or text.startswith("#"):
+            continue
+        fields = text.replace(",", " ").replace(";", " ").split()
+        try:
+            [float(f) for f in fields]
+        except ValueError:
+            continue  # a header line
+        return len(fields) >= 3
+    return more  # nothing but header lines so far: let the reader look further
+
+
+def expand_inputs(items: Iterable[str | Path], base: Path | None = None,
+                  skipped: list[str] | None = None) -> tuple[list[Path], list[AldpatError]]:
     """Files, quoted globs, folders (their point files) and ``@list.txt`` -> paths, errors.
 
     Relative items are taken from ``base`` (the worksheet's folder) when given. A pattern that
-    matches nothing is an error for that item only; the others are still returned.
+    matches nothing is an error for that item only; the others are still returned. Files of a
+    folder that are neither points nor aldpat's own side files are named in ``skipped`` (one
+    line per folder), when given.
     """
     out: list[Path] = []
     errors: list[AldpatError] = []
@@ -32,19 +95,24 @@ def expand_inputs(items: Iterable[str | Path], base: Path | None = None) -> tupl
                 errors.append(InputMissingError("cannot read input list", path=listfile))
                 continue
             sub = [ln.strip() for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
-            got, errs = expand_inputs(sub, listfile.parent)
+            got, errs = expand_inputs(sub, listfile.parent, skipped)
             out += got
             errors += errs
             continue
         path = _rooted(item, base)
         if any(ch in item for ch in "*?["):
             matches = sorted(Path(p) for p in glob.glob(str(path), recursive=True))
-            matches = [m for m in matches if m.is_file()]
+            matches = [m for m in matches if m.is_file() and not never_an_input(m)]
             if not matches:
                 errors.append(InputMissingError("no file matches this pattern", path=item))
             out += matches
         elif path.is_dir():
-            files = sorted(p for p in path.iterdir() if _is_point_file(p))
+            files, others = _folder_files(path)
+            if others and skipped is not None:
+                named = ", ".join(p.name for p in others[:_NAMED])
+                more = f" and {len(others) - _NAMED} more" if len(others) > _NAMED else ""
+                skipped.append(f"{path}: skipped {len(others)} file{'s' if len(others) > 1 else ''} that "
+                               f"{'are' if len(others) > 1 else 'is'} not point data: {named}{more}")
             if not files:
                 errors.append(InputMissingError("folder holds no point files", path=path))
             out += files
@@ -60,6 +128,17 @@ def expand_inputs(items: Iterable[str | Path], base: Path | None = None) -> tupl
             seen.add(key)
             unique.append(p)
     return unique, errors
+
+
+def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:
+    """A folder's point files, and its files that are neither points nor side files."""
+    points: list[Path] = []
+    others: list[Path] = []
+    for p in sorted(folder.iterdir()):
+        if not p.is_file() or is_side_file(p):
+            continue
+        (points if is_point_file(p) else others).append(p)
+    return points, others
 
 
 def _rooted(item: str, base: Path | None) -> Path:

@@ -63,7 +63,10 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
     run = resolved or resolve_run(task, layers)
     command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
-    sources, errors = expand_inputs(inputs, base) if task.inputs != "none" else ([], [])
+    skipped: list[str] = []
+    sources, errors = expand_inputs(inputs, base, skipped) if task.inputs != "none" else ([], [])
+    for line in skipped:
+        log.warning(line)
     input_errors = [str(e) for e in errors]
     for e in input_errors:
         log.error(e)

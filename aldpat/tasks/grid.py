@@ -123,10 +123,6 @@ def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> Non
 
 
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
-    if params.tile_params and Path(source).resolve() == Path(params.tile_params).resolve():
-        # "tiles/tile_*.txt" also matches tile_parameter.txt, which is no tile
-        ctx.warn(f"{source.name}: skipped, it is the tile parameter file")
-        return
     reader = ctx.open_input(source)
     out = ctx.output_path(source, "", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
     spec = grid_spec_for(source, params, ctx)

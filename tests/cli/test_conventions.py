@@ -33,6 +33,33 @@ def test_inputs_as_files_globs_folders_and_lists(tmp_path, samp24):
     assert "no file matches this pattern" in str(errors[0])
 
 
+def test_a_folder_gives_its_point_files_and_skips_the_rest(tmp_path, samp24):
+    """A project folder as aldpat leaves it: its own side files are skipped without a word, a
+    file that is not points is named in one line, and neither fails the run."""
+    from tests.cli.fresh import aldpat
+
+    folder = _tiles(tmp_path, samp24, n=2)
+    (folder / "with_header.txt").write_text("x y z\n1.5 2.5 3.5\n2 3 4\n4 4 4\n")
+    (folder / "tile_parameter.txt").write_text(f"{folder / 'tile_0.txt'} 0 1 0 1 1 1 0\n")
+    for side in ("tile_0.log", "dtm.vrt", "tile_0.grd", "run.state.json", "tile_9.aldpat-tmp-1-1.txt",
+                 ".hidden.txt"):
+        (folder / side).write_text("1 2 3\n")
+    (folder / "readme.txt").write_text("Tiles of sample 24, cut for the demo.\nAsk before deleting.\n")
+    (folder / "polygon.txt").write_text("513800,5403150\n513850,5403150\n513850,5403190\n")
+    (folder / "notes.docx").write_bytes(b"PK\x03\x04")
+    skipped: list[str] = []
+    got, errors = expand_inputs([str(folder)], skipped=skipped)
+    assert [p.name for p in got] == ["tile_0.txt", "tile_1.txt", "with_header.txt"] and errors == []
+    assert skipped == [f"{folder}: skipped 3 files that are not point data: notes.docx, polygon.txt, readme.txt"]
+    # the pattern of the README's examples matches tile_parameter.txt: skipped too
+    got, _ = expand_inputs([str(folder / "tile_*.txt")])
+    assert [p.name for p in got] == ["tile_0.txt", "tile_1.txt"]
+    done = aldpat("info", folder, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.count("\n") == 1 and "not point data: notes.docx" in done.stderr
+    assert "tile_parameter" not in done.stderr and "tile_0.log" not in done.stderr
+
+
 def test_output_beside_input_by_default_and_suffix_option(tmp_path, samp24):
     src = tmp_path / "a.txt"
     shutil.copy(samp24, src)
