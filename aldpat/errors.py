@@ -10,6 +10,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
+#: C0 controls, DEL, C1 controls and the Unicode line and paragraph separators: what could end a
+#: line of a message or a log, or hide text from the reader, is shown as an escape instead
+_ESCAPES = {c: f"\\x{c:02x}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0))}
+_ESCAPES.update({0x0A: "\\n", 0x0D: "\\r", 0x09: "\\t", 0x2028: "\\u2028", 0x2029: "\\u2029"})
+
+
+def one_line(text: object) -> str:
+    """``text`` on one line, every control character written as its escape (``\\n``, ``\\x1b``):
+    a file name holding a newline cannot start a new line of a message, a log or a worksheet
+    log's comment, so what is written reads back as itself."""
+    return str(text).translate(_ESCAPES)
+
 
 class AldpatError(Exception):
     """Base of every error aldpat reports to a user as one line."""
@@ -24,7 +36,7 @@ class AldpatError(Exception):
         where = ""
         if self.path is not None:
             where = self.path + (f":{self.line}" if self.line is not None else "") + ": "
-        return where + self.message
+        return one_line(where + self.message)
 
 
 class UsageError(AldpatError, ValueError):

@@ -20,7 +20,7 @@ from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show
 from aldpat.cli.run import run_command
-from aldpat.errors import AldpatError, UsageError
+from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.io.toml import load_toml
 from aldpat.jobs.registry import Task
 from aldpat.jobs.run import run_task
@@ -31,7 +31,7 @@ log = logging.getLogger("aldpat")
 
 
 def fail_usage(message: str) -> None:
-    click.echo(f"aldpat: error: {message}", err=True)
+    click.echo(f"aldpat: error: {one_line(message)}", err=True)
     sys.exit(2)
 
 

@@ -8,6 +8,10 @@ and every PNG a job wrote (``preview``, ``evaluate --map``) as a thumbnail. Thum
 embedded as data URIs and the style sheet is inline: the page needs no network and no other
 file, so it can be mailed or archived with the project. Links to the outputs are relative to the
 page, for opening them beside it.
+
+Every name and value on the page is text from files and worksheets, so it is escaped, and a link
+is only ever a path: percent-encoded, relative (``./``) or a ``file:`` URI, so an output named
+``javascript:alert(1).txt`` links to that file and runs nothing.
 """
 
 from __future__ import annotations
@@ -17,10 +21,12 @@ import datetime
 import html
 import io
 import os
+import urllib.parse
 from collections.abc import Iterable
 from pathlib import Path
 
 import aldpat
+from aldpat.errors import one_line
 from aldpat.io.atomic import atomic_output
 from aldpat.jobs.context import Record, Written
 from aldpat.jobs.inputs import expand_inputs
@@ -118,7 +124,8 @@ def _job_section(ws: Worksheet, status: JobStatus) -> str:
 
 
 def _e(text: object) -> str:
-    return html.escape(str(text), quote=True)
+    """Text as HTML shows it: markup escaped, control characters as their escapes."""
+    return html.escape(one_line(text), quote=True)
 
 
 def _relative(ws: Worksheet, path: str | Path) -> str:
@@ -126,6 +133,15 @@ def _relative(ws: Worksheet, path: str | Path) -> str:
         return Path(os.path.relpath(Path(path).resolve(), ws.folder.resolve())).as_posix()
     except ValueError:  # another drive (Windows)
         return Path(path).resolve().as_posix()
+
+
+def _href(ws: Worksheet, path: str | Path) -> str:
+    """A link to a file that can only be that file: the path relative to the page with each part
+    percent-encoded (so no ``scheme:`` can appear) behind ``./``, or a ``file:`` URI."""
+    rel = _relative(ws, path)
+    if Path(rel).is_absolute():
+        return Path(rel).as_uri()
+    return "./" + urllib.parse.quote(rel, safe="/")
 
 
 def _table_details(title: str, header: list[str], rows: Iterable[Iterable[object]], *, open_: bool = False) -> str:
@@ -153,7 +169,7 @@ def _outputs(ws: Worksheet, written: list[Written]) -> str:
     for w in written:
         rel = _relative(ws, w.path)
         count = "" if w.count is None else f"{w.count:,} points"
-        rows.append(f'<tr><td><a href="{_e(rel)}">{_e(rel)}</a></td><td class="num">{_e(count)}</td></tr>')
+        rows.append(f'<tr><td><a href="{_e(_href(ws, w.path))}">{_e(rel)}</a></td><td class="num">{_e(count)}</td></tr>')
     return (f"<details{' open' if len(written) <= OPEN_OUTPUTS else ''}><summary>outputs ({len(written)})</summary>"
             f"<table><tr><th>file</th><th>points</th></tr>{''.join(rows)}</table></details>")
 
@@ -180,7 +196,7 @@ def _records(records: list[Record]) -> str:
 def _figure(ws: Worksheet, path: Path) -> str:
     rel = _relative(ws, path)
     uri, (width, height) = thumbnail(path)
-    return (f'<figure><a href="{_e(rel)}"><img alt="{_e(path.name)}" width="{width}" height="{height}" '
+    return (f'<figure><a href="{_e(_href(ws, path))}"><img alt="{_e(path.name)}" width="{width}" height="{height}" '
             f'src="{uri}"></a><figcaption>{_e(rel)}</figcaption></figure>')
 
 

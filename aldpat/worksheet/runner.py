@@ -28,6 +28,7 @@ from pathlib import Path
 
 import aldpat
 from aldpat import interrupt
+from aldpat.errors import one_line
 from aldpat.io.atomic import atomic_output, remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import Progress
@@ -205,7 +206,39 @@ def _toml_value(value) -> str:
         return repr(value)
     if isinstance(value, (tuple, list)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    return json.dumps(str(value))
+    return toml_string(str(value))
+
+
+#: TOML basic-string escapes: the quote, the backslash and every control character
+_TOML_ESCAPES = {c: f"\\u{c:04X}" for c in (*range(0x20), 0x7F)}
+_TOML_ESCAPES.update({0x22: '\\"', 0x5C: "\\\\", 0x08: "\\b", 0x09: "\\t", 0x0A: "\\n", 0x0C: "\\f",
+                      0x0D: "\\r"})
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string that reads back as exactly ``text``: a file name holding a
+    quote or a newline stays one value. A lone surrogate (a file name's byte that is not UTF-8)
+    cannot be written in TOML at all; it becomes U+FFFD."""
+    if _has_surrogate(text):
+        try:
+            text = text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+        except UnicodeEncodeError:
+            text = text.encode("utf-8", "replace").decode("utf-8")
+    return '"' + text.translate(_TOML_ESCAPES) + '"'
+
+
+def _has_surrogate(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
+
+
+def _comment(text: object) -> str:
+    """A comment's text on one line: a message or a path holding a newline cannot start a
+    ``[[job]]`` of its own in the replayable log."""
+    return one_line(text)
 
 
 def job_table(job: Job) -> list[str]:
@@ -221,7 +254,7 @@ def job_table(job: Job) -> list[str]:
             value = getattr(part.values, name)
             if value is None:
                 continue  # an unset optional: leaving it out replays the same way
-            lines.append(f"{name} = {_toml_value(value)}    # {src}")
+            lines.append(f"{name} = {_toml_value(value)}    # {_comment(src)}")
     return lines
 
 
@@ -229,17 +262,17 @@ def write_worksheet_log(ws: Worksheet, statuses: list[JobStatus], command: str) 
     """``<worksheet-stem>.log``: a TOML worksheet that replays the run, with statuses as comments."""
     out: list[str] = [
         f"# aldpat {aldpat.__version__} worksheet log, written {time.strftime('%Y-%m-%d %H:%M:%S')}",
-        f"# command: {command}",
-        f"# worksheet: {ws.path}",
+        f"# command: {_comment(command)}",
+        f"# worksheet: {_comment(ws.path)}",
         "# Every job below is spelled out with every resolved parameter (its source in the comment);",
         "# run this file with `aldpat run` to replay the run.",
         "",
     ]
     for st in statuses:
-        out.append(f"# job {st.job.number}: {st.state}" + (f" -- {st.message}" if st.message else "")
+        out.append(f"# job {st.job.number}: {st.state}" + (f" -- {_comment(st.message)}" if st.message else "")
                    + (f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""))
         for path in st.outputs:
-            out.append(f"#   wrote {path}")
+            out.append(f"#   wrote {_comment(path)}")
         out += job_table(st.job)
         out.append("")
     log_file = log_path(ws)
