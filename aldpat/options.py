@@ -10,12 +10,13 @@ column order of the 9-column tapes (task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" 
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from aldpat.core.crs import parse_crs
-from aldpat.errors import ParamError
+from aldpat.errors import ParamError, one_line
 from aldpat.params import Checked, SharedOption, param
 
 
@@ -143,7 +144,7 @@ class OverwriteOption(SharedOption):
 
 
 @dataclass(frozen=True)
-class OutputParams(OverwriteOption):
+class OutputParams(OverwriteOption, Checked):
     """Options every file-writing task shares."""
 
     odir: str | None = param(None, "output folder, created if missing (default: beside each input)", path=True,
@@ -151,6 +152,22 @@ class OutputParams(OverwriteOption):
     suffix: str | None = param(None, "output name suffix, replacing the task's default")
     delimiter: str = param("space", "delimiter of text outputs", choices=("space", "comma"), manual="Preference")
     out_format: str = param("same", "output format", choices=("same", "text", "csv", "las", "laz"))
+
+    def check(self) -> None:
+        super().check()
+        if self.suffix is not None:
+            check_name_part("suffix", self.suffix)
+
+
+def check_name_part(key: str, text: str) -> None:
+    """Refuse a part of a file name (``--suffix``) that could leave the output folder or break a
+    line: a path separator, ``..`` or a control character."""
+    separators = {"/", "\\", os.sep, os.altsep or "/"}
+    if any(sep in text for sep in separators) or ".." in text:
+        raise ParamError(f"{key}: {text!r} holds a path separator or '..'; it is a part of a file name "
+                         "(use --odir for another folder)")
+    if one_line(text) != text:
+        raise ParamError(f"{key}: {one_line(text)!r} holds a control character")
 
 
 @dataclass(frozen=True)
@@ -165,9 +182,11 @@ class RunParams(Checked):
     """How the jobs are run (not recorded as task parameters)."""
 
     jobs: int = param(1, "worker processes (0 = all cores); results identical to -j 1", ge=0)
-    scheduler: str | None = param(None, "run the jobs on a Dask cluster: its scheduler's address (tcp://host:8786), "
-                                  "or local:N for N worker processes here; default: $ALDPAT_SCHEDULER, else none "
-                                  "(needs aldpat[dask]; inputs and outputs on a file system the workers share)",
+    scheduler: str | None = param(None, "run the jobs on a Dask cluster: its scheduler's address (tcp://host:8786, "
+                                  "tls://host:8786 with Dask's TLS settings), or local:N for N worker processes "
+                                  "here; default: $ALDPAT_SCHEDULER, else none (needs aldpat[dask]; inputs and "
+                                  "outputs on a file system the workers share; a worksheet or parameter file may "
+                                  "name an address only if the command line or $ALDPAT_SCHEDULER gives the same)",
                                   metavar="ADDRESS")
 
     def check(self) -> None:
@@ -190,9 +209,15 @@ def check_scheduler(text: str) -> None:
         return
     m = LOCAL_SCHEDULER.match(text)
     if m:
-        if m.group(1) is not None and int(m.group(1)) < 1:
-            raise ParamError(f"scheduler: {text!r}: local:N needs N of at least 1")
+        if m.group(1) is not None and not 1 <= int(m.group(1)) <= MAX_LOCAL_WORKERS:
+            raise ParamError(f"scheduler: {text!r}: local:N needs N from 1 to {MAX_LOCAL_WORKERS} "
+                             f"({os.cpu_count() or 1} cores here)")
         return
     if not SCHEDULER_ADDRESS.match(text):
         raise ParamError(f"scheduler: {text!r}: expected a Dask scheduler address such as tcp://host:8786, "
                          "or local:N for N worker processes on this machine")
+
+
+#: most worker processes ``local:N`` starts: four per core (each a whole Python process; more
+#: only queue for the cores and fill the memory)
+MAX_LOCAL_WORKERS = max(16, 4 * (os.cpu_count() or 1))

@@ -8,7 +8,7 @@ import click
 
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.render import show
-from aldpat.errors import UsageError
+from aldpat.errors import UsageError, one_line
 from aldpat.jobs.run import RunReport
 from aldpat.worksheet.model import load_worksheet
 from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, job_table, run_worksheet
@@ -37,20 +37,23 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
               help="override a key of job N (or settings.key=VALUE) for this run")
 @click.option("-j", "--jobs", type=click.IntRange(min=0), default=None,
               help="worker processes per job (0 = all cores), overriding the worksheet")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="run the jobs on this Dask cluster (tcp://host:8786, or local:N); a worksheet may name an "
+              "address only when it is this one or $ALDPAT_SCHEDULER, since the scheduler can run code here")
 @click.option("--report", is_flag=True, help="write <worksheet>.html beside the worksheet: every job's state, "
               "time, parameters, inputs, outputs, results and pictures, in one self-contained page "
               "(also: report = true in [settings])")
 @click.option("-v", "--verbose", count=True, help="more detail on stderr")
 @click.option("-q", "--quiet", count=True, help="only errors on stderr: no job statuses")
 @click.pass_context
-def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, report, verbose, quiet):
+def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, scheduler, report, verbose, quiet):
     """Run a worksheet: jobs in order, each Ready -> Running -> Done or Failed."""
     root = ctx.find_root().params
     quiet += root.get("quiet", 0)
     if verbose or quiet:
         setup_logging(verbose + root.get("verbose", 0), quiet)
     try:
-        ws = load_worksheet(worksheet, overrides)
+        ws = load_worksheet(worksheet, overrides, scheduler=scheduler)
         selected = _parse_only(only)
         report = report or ws.wants_report
         if selected and max(selected) > len(ws.jobs):
@@ -59,7 +62,7 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, report, 
         click.echo(f"aldpat: error: {exc}", err=True)
         sys.exit(2)
     except Exception as exc:  # noqa: BLE001  (e.g. a missing worksheet file: one line, exit 2)
-        click.echo(f"aldpat: error: {exc}", err=True)
+        click.echo(f"aldpat: error: {one_line(exc)}", err=True)
         sys.exit(2)
     if dry_run:
         for job in ws.jobs:
@@ -72,7 +75,7 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, report, 
 
     def on_status(st):
         if not quiet or st.state in (FAILED, BLOCKED):
-            extra = f": {st.message}" if st.message else ""
+            extra = f": {one_line(st.message)}" if st.message else ""
             timing = f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""
             click.echo(f"job {st.job.number} {st.job.task.key}: {st.state}{extra}{timing}", err=True)
         if st.state == DONE:  # results (info, evaluate) go to stdout even with -q
@@ -90,9 +93,9 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, report, 
         try:
             page = write_report(ws, statuses, command=command)
         except OSError as exc:
-            click.echo(f"aldpat: error: report not written: {exc}", err=True)
+            click.echo(f"aldpat: error: report not written: {one_line(exc)}", err=True)
             sys.exit(1)
         if not quiet:
-            click.echo(f"report: {page}", err=True)
+            click.echo(f"report: {one_line(page)}", err=True)
     failed = [s for s in statuses if s.state in (FAILED, BLOCKED)]
     sys.exit(1 if failed else 0)

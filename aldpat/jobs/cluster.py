@@ -1,11 +1,20 @@
 """Where jobs run when they leave this machine: a Dask distributed cluster.
 
-``--scheduler tcp://host:8786`` (or ``[settings] scheduler = ...`` in a worksheet, or the
-environment variable ``ALDPAT_SCHEDULER``) sends every job -- one input, one tile with its
-neighbours -- to the workers of a running Dask scheduler; ``--scheduler local:N`` starts a
-``LocalCluster`` of N single-threaded worker processes on this machine for the run (and keeps it
-for the next jobs of a worksheet). ``dask[distributed]`` is the optional extra ``aldpat[dask]``,
-imported only here.
+``--scheduler tcp://host:8786`` (or the environment variable ``ALDPAT_SCHEDULER``) sends every
+job -- one input, one tile with its neighbours -- to the workers of a running Dask scheduler;
+``--scheduler local:N`` starts a ``LocalCluster`` of N single-threaded worker processes on this
+machine for the run (and keeps it for the next jobs of a worksheet). ``dask[distributed]`` is the
+optional extra ``aldpat[dask]``, imported only here.
+
+Trust: Dask's protocol is pickle, so the scheduler and its workers can run any code in this
+process (and this process's jobs run on them). Which scheduler to trust is therefore the user's
+choice alone, made on the command line or in the environment: a worksheet or a parameter file
+(data, possibly mailed by someone else) may name ``local``, ``local:N`` or ``none`` -- they
+connect nowhere and start only this machine's own aldpat -- but an address there is refused
+unless the same address was given on the command line or in ``$ALDPAT_SCHEDULER``
+(:func:`scheduler_for`). Connections use the TLS security of Dask's configuration
+(``distributed.comm.tls.*``: a ``tls://`` address needs it), as ``dask worker`` does; a local
+cluster listens on the loopback interface only.
 
 The workers must see the inputs and outputs under the same paths as this process (a shared file
 system: the usual deployment); each job runs in the folder the command was started from, so
@@ -46,18 +55,32 @@ log = logging.getLogger(__name__)
 ENV = "ALDPAT_SCHEDULER"
 
 
-def scheduler_for(given: str | None) -> str | None:
-    """The scheduler a run uses: the option's, else ``$ALDPAT_SCHEDULER``; ``none`` means none."""
-    value = given if given is not None else os.environ.get(ENV) or None
+#: where a run's parameters may come from without the user having typed them -- a worksheet and
+#: the parameter files it or a command names (:data:`aldpat.params.SOURCES`) -- as a message says them
+UNTRUSTED_SOURCES = {"settings": "the worksheet's [settings]", "params file": "a parameter file",
+                     "worksheet": "the worksheet"}
+
+
+def scheduler_for(given: str | None, source: str = "cli") -> str | None:
+    """The scheduler a run uses: the option's, else ``$ALDPAT_SCHEDULER``; ``none`` means none.
+
+    ``source`` says where ``given`` came from: an address from a worksheet or a parameter file
+    (:data:`UNTRUSTED_SOURCES`) is refused unless the user gave the same address on the command
+    line or in ``$ALDPAT_SCHEDULER``: whoever runs the scheduler can run code in this process."""
+    from_env = os.environ.get(ENV) or None
+    value = given if given is not None else from_env
     if value is None or value.lower() in NO_SCHEDULER:
         return None
     try:
         check_scheduler(value)
     except ParamError as exc:
         raise UsageError(f"{exc} (from ${ENV})" if given is None else str(exc)) from None
+    if given is not None and source in UNTRUSTED_SOURCES and not LOCAL_SCHEDULER.match(value) \
+            and value != from_env:
+        raise UsageError(f"scheduler: {value!r} comes from {UNTRUSTED_SOURCES[source]}; "
+                         "a Dask scheduler and its workers can run code in this process, so only the command "
+                         f"line (--scheduler {value}) or ${ENV} may choose one")
     return value
-
-
 def _distributed() -> Any:
     try:
         return importlib.import_module("distributed")
@@ -85,8 +108,9 @@ def client_for(scheduler: str) -> Any:
             before = os.environ.get(THREADS_ENV)
             os.environ[THREADS_ENV] = str(share_for(workers))
             try:
+                # loopback only: the workers of a local cluster take jobs from this process alone
                 cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                   dashboard_address=":0")
+                                                   host="127.0.0.1", dashboard_address="127.0.0.1:0")
             finally:
                 if before is None:
                     os.environ.pop(THREADS_ENV, None)
@@ -94,13 +118,25 @@ def client_for(scheduler: str) -> Any:
                     os.environ[THREADS_ENV] = before
             client = distributed.Client(cluster)
         else:
+            security = _security(distributed, scheduler)
             try:
-                client = distributed.Client(scheduler, timeout="20s")
+                client = distributed.Client(scheduler, timeout="20s", security=security)
             except OSError as exc:
                 raise UsageError(f"scheduler {scheduler}: cannot connect: {exc}") from None
         _clients[scheduler] = client
         log.info("dask scheduler %s: dashboard %s", scheduler, client.dashboard_link)
         return client
+
+
+def _security(distributed: Any, scheduler: str) -> Any:
+    """The TLS settings of Dask's configuration (``distributed.comm.tls.*``, as ``dask worker``
+    reads them); a ``tls://`` address without them is refused before connecting."""
+    security = distributed.Security()  # from dask.config
+    if scheduler.startswith("tls://") and not security.tls_ca_file:
+        raise UsageError(f"scheduler {scheduler}: tls:// needs Dask's TLS settings: distributed.comm.tls.ca-file "
+                         "(the authority that signed the scheduler's certificate), and .client.cert and .client.key, "
+                         "in the Dask configuration or DASK_DISTRIBUTED__COMM__TLS__* variables")
+    return security
 
 
 def _keep_malloc_defaults() -> None:

@@ -80,7 +80,7 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
         run = dataclasses.replace(run, chunk_workers=workers)  # one big input: its chunks use the cores
     workers = max(1, min(workers, len(jobs)))
     results: list[JobResult] = []
-    scheduler = scheduler_for(run.run.values.scheduler)
+    scheduler = scheduler_for(run.run.values.scheduler, run.run.sources.get("scheduler", "cli"))
     if progress is not None:
         progress.started(len(jobs))
     with units.listening(progress.units if progress is not None else None):

@@ -16,6 +16,7 @@ from typing import Any
 
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.toml import load_toml
+from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.registry import Task, get_task
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
@@ -106,8 +107,13 @@ def _rebase(value: Any, folder: Path) -> Any:
     return value
 
 
-def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Worksheet:
-    """Read, override and validate a worksheet; raise UsageError naming job and key."""
+def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *,
+                   scheduler: str | None = None) -> Worksheet:
+    """Read, override and validate a worksheet; raise UsageError naming job and key.
+
+    ``scheduler`` is ``aldpat run --scheduler``: the user's own choice, which every job takes (a
+    worksheet's own ``scheduler`` may name only ``local[:N]``, ``none``, or this same address or
+    ``$ALDPAT_SCHEDULER``'s: :func:`aldpat.jobs.cluster.scheduler_for`)."""
     path = Path(path).resolve()
     doc = load_toml(path)
     for key in doc:
@@ -128,13 +134,14 @@ def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = ()
         else:
             raw_jobs[number - 1][key] = value
     folder = path.parent
-    jobs = [_load_job(n, raw, settings, folder, path) for n, raw in enumerate(raw_jobs, start=1)]
+    given = {"scheduler": scheduler} if scheduler is not None else {}
+    jobs = [_load_job(n, raw, settings, folder, path, given) for n, raw in enumerate(raw_jobs, start=1)]
     _check_settings(settings, jobs, path)
     _link_and_check_inputs(jobs, path)
     return Worksheet(path, settings, jobs)
 
 
-def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path) -> Job:
+def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path, given: dict) -> Job:
     where = f"job {number}: "
     name = raw.get("task")
     if not isinstance(name, str):
@@ -181,10 +188,16 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path)
         raise UsageError(f"{where}params: expected a file name or a table", path=wpath)
     own = {k: v for k, v in raw.items() if k not in JOB_KEYS}
     layers.append(("worksheet", rebased(own, folder)))
+    if given:
+        layers.append(("cli", given))
     try:
         run = resolve_run(task, layers, where=where)
     except ParamError as exc:
         raise UsageError(str(exc), path=wpath) from None
+    try:  # refused now, before any job runs, rather than when the job comes
+        scheduler_for(run.run.values.scheduler, run.run.sources["scheduler"])
+    except UsageError as exc:
+        raise UsageError(f"{where}{exc.message}", path=wpath) from None
     return Job(number, task, raw, inputs, run)
 
 

@@ -132,9 +132,13 @@ def test_worksheet_on_a_scheduler_and_two_workers(parts, tmp_path, cluster):
     address, _ = cluster
     aldpat("run", worksheet(tmp_path / "one", parts, None)).ok()
     sheet = worksheet(tmp_path / "dask", parts, address)
-    aldpat("run", sheet).ok()
+    # the worksheet alone may not choose a scheduler: the user names the same one
+    refused = aldpat("run", sheet)
+    assert refused.returncode == 2 and "comes from the worksheet's [settings]" in refused.stderr
+    assert not (tmp_path / "dask" / "ground").exists()
+    aldpat("run", sheet, env={"ALDPAT_SCHEDULER": address}).ok()
     assert len(same_files(tmp_path / "one", tmp_path / "dask")) == 8
-    again = aldpat("run", sheet, "--resume").ok()  # resume is the runner's: the same on a cluster
+    again = aldpat("run", sheet, "--resume", "--scheduler", address).ok()  # resume is the runner's: the same on a cluster
     assert again.stderr.count("Skipped") == 2
 
 
@@ -151,8 +155,8 @@ def test_a_worker_killed_mid_run_changes_nothing(tmp_path, cluster):
         np.savetxt(inputs[-1], np.c_[x + 1000 * k, y, z], fmt="%.2f")
     aldpat("run", worksheet(tmp_path / "one", inputs, None)).ok()
     sheet = worksheet(tmp_path / "dask", inputs, address)
-    run = subprocess.Popen([*aldpat_command(), "run", str(sheet)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True)
+    run = subprocess.Popen([*aldpat_command(), "run", str(sheet), "--scheduler", address], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
     ground = tmp_path / "dask" / "ground"
     deadline = time.time() + 120
     while not (ground.exists() and any(ground.glob("*.txt"))) and time.time() < deadline:
