@@ -30,6 +30,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from aldpat.core.paths import not_local
 from aldpat.errors import ParamError
 
 log = logging.getLogger(__name__)
@@ -327,6 +328,8 @@ def coerce(spec: Spec, value: Any, where: str = "") -> Any:
     v = _scalar(spec.kind, value, spec, where)
     if isinstance(v, str):
         v = _renamed_value(spec, v, where)
+        if spec.path and (why := not_local(v)) is not None:
+            raise ParamError(f"{where}{spec.name}: {v!r} is {why}")
     _check_bounds(spec, v, where)
     return v
 

@@ -16,14 +16,17 @@ second implementation to keep right.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from aldpat.core.grid_extent import GridSpec
-from aldpat.errors import UsageError
+from aldpat.core.paths import not_local
+from aldpat.errors import InputFormatError, UsageError, one_line
 from aldpat.io.atomic import atomic_output
 from aldpat.io.esri_grid import filled_with_nodata
 
@@ -37,7 +40,7 @@ def _rasterio() -> Any:
     """rasterio with the submodules used here, or a usage error saying how to install it."""
     try:
         rasterio = importlib.import_module("rasterio")
-        for sub in ("rasterio.shutil", "rasterio.transform"):
+        for sub in ("rasterio.shutil", "rasterio.transform", "rasterio.errors"):
             importlib.import_module(sub)
         return rasterio
     except ImportError:
@@ -83,18 +86,65 @@ def write_geotiff(path: str | Path, values: np.ndarray, spec: GridSpec, *, cog: 
     return path
 
 
+#: GDAL's settings while aldpat reads a raster, behind :func:`open_raster`'s own checks: no
+#: side-car files (.aux.xml) read or written beside a user's grid, no directory listing, no file
+#: found by /vsicurl/, and -- for the GDAL versions that know these settings -- no raw bands and
+#: no Python pixel functions in a VRT
+READ_SETTINGS = {
+    "GDAL_PAM_ENABLED": "NO",
+    "GDAL_DISABLE_READDIR_ON_OPEN": "EMPTY_DIR",
+    "CPL_VSIL_CURL_ALLOWED_EXTENSIONS": ".aldpat-none",
+    "GDAL_VRT_ENABLE_RAWRASTERBAND": "NO",
+    "GDAL_VRT_RAWRASTERBAND_ALLOWED_SOURCE": "SIBLING_OR_CHILD_OF_VRT_PATH",
+    "GDAL_VRT_ENABLE_PYTHON": "NO",
+}
+
+
+@contextlib.contextmanager
+def open_raster(path: str | Path) -> Iterator[Any]:
+    """Open a GeoTIFF or a VRT mosaic for reading through GDAL, and nothing else: the path a local
+    file, a VRT's content checked first (:func:`aldpat.io.vrt.check_mosaic`), a GeoTIFF
+    recognised by its first bytes, and GDAL held to that one driver (it would otherwise pick a
+    driver by content) under :data:`READ_SETTINGS`."""
+    from aldpat.io.vrt import check_grid_file, check_mosaic
+
+    rasterio = _rasterio()
+    path = Path(path)
+    if path.suffix.lower() == ".vrt":
+        why = not_local(str(path))
+        if why is not None:
+            raise InputFormatError(f"is {why}", path=path)
+        check_mosaic(path)
+        driver = "VRT"
+    else:
+        check_grid_file(path)
+        driver = "GTiff"
+    with rasterio.Env(**READ_SETTINGS):
+        try:
+            ds = rasterio.open(str(path), driver=driver)
+        except rasterio.errors.RasterioIOError as exc:
+            raise InputFormatError(f"cannot read as a grid: {one_line(exc)[:200]}", path=path) from None
+        with ds:
+            yield ds
+
+
 def geotiff_header(path: str | Path) -> tuple[GridSpec, float | None, str | None]:
     """The nodes, the nodata value and the CRS (WKT) of a GeoTIFF, without reading its values."""
-    rasterio = _rasterio()
-    with rasterio.open(str(path)) as ds:
+    with open_raster(path) as ds:
         return _spec_of(ds), ds.nodata, (ds.crs.to_wkt() if ds.crs else None)
 
 
 def read_geotiff(path: str | Path) -> tuple[np.ndarray, GridSpec]:
-    """A GeoTIFF grid as written here: values with rows from the south, NaN for blank nodes."""
-    rasterio = _rasterio()
-    with rasterio.open(str(path)) as ds:
-        return ds.read(1, masked=True).astype(np.float64).filled(np.nan)[::-1], _spec_of(ds)
+    """A GeoTIFF grid (or a VRT mosaic of grids) as written here: values with rows from the south,
+    NaN for blank nodes. Blank nodes are those holding the nodata value (not a mask GDAL would
+    look for in side-car files)."""
+    with open_raster(path) as ds:
+        spec = _spec_of(ds)
+        band = ds.read(1)
+        values = band.astype(np.float64)
+        if ds.nodata is not None:  # compared as the band stores it (a float32 band's 1.70141e38)
+            values[(band == np.asarray(ds.nodata, dtype=band.dtype)) | np.isnan(values)] = np.nan
+        return values[::-1], spec
 
 
 def _spec_of(ds: Any) -> GridSpec:

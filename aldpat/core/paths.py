@@ -1,0 +1,23 @@
+"""What a path aldpat opens may be: a file of this machine's file systems, never a URL nor one of
+GDAL's virtual file systems (``/vsicurl/``, ``/vsizip/``...), whoever gave it -- a command line,
+a worksheet, a parameter file or a VRT's source list. A worksheet someone mails is data: opening
+what it names may not reach the network or read through archives and raw-file drivers."""
+
+from __future__ import annotations
+
+import re
+
+#: ``http://``, ``s3://``, ``file://``...: a scheme
+_URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*://")
+#: ``/vsicurl/``, ``/vsizip/``, ``/vsimem/``... (``\\vsi...\\`` on Windows)
+_VSI = re.compile(r"^[/\\]vsi[a-z0-9_]*([/\\]|$)", re.IGNORECASE)
+
+
+def not_local(text: str) -> str | None:
+    """Why ``text`` is not a local file path (``None`` when it is one)."""
+    text = str(text).strip()
+    if _VSI.match(text):
+        return "a GDAL virtual file system path (/vsi...), not a local file"
+    if _URL.match(text):
+        return "a URL, not a local file"
+    return None
