@@ -1,21 +1,44 @@
-"""Reading TOML (worksheets and ``--params`` files) with one-line errors."""
+"""Reading TOML (worksheets and ``--params`` files) with one-line errors, and any small text
+file aldpat reads whole (``@list`` files) with a bound on its size."""
 
 from __future__ import annotations
 
 import tomllib
 from pathlib import Path
 
-from aldpat.errors import InputMissingError, UsageError
+from aldpat.errors import InputFormatError, InputMissingError, UsageError
+
+#: the largest worksheet or parameter file read: a worksheet of 10,000 jobs is about 2 MB
+MAX_TOML_BYTES = 32 << 20
+
+
+def read_limited(path: str | Path, limit: int, *, what: str) -> str:
+    """The UTF-8 text of ``path``, read with a bound: a file (or ``/dev/zero``, a pipe that never
+    ends) longer than ``limit`` bytes is refused after reading ``limit`` bytes, never read on.
+    ``OSError`` (a missing file) is the caller's to word."""
+    path = Path(path)
+    with open(path, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise InputFormatError(f"{what} larger than {limit >> 20} MB; is it the right file?", path=path)
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputFormatError(f"{what} is not UTF-8 text (byte {exc.start + 1})", path=path) from None
 
 
 def load_toml(path: str | Path) -> dict:
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_limited(path, MAX_TOML_BYTES, what="TOML file")
     except FileNotFoundError:
         raise InputMissingError("no such file", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"cannot read: {exc}", path=path) from None
+    except IsADirectoryError:
+        raise UsageError("is a folder, not a TOML file", path=path) from None
+    except InputFormatError as exc:
+        raise UsageError(exc.message, path=path) from None
+    except OSError as exc:
+        raise UsageError(f"cannot read: {(exc.strerror or str(exc)).lower()}", path=path) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -15,10 +15,12 @@ import glob
 from collections.abc import Iterable
 from pathlib import Path
 
-from aldpat.errors import AldpatError, InputMissingError
+from aldpat.core.paths import not_local
+from aldpat.errors import AldpatError, InputFormatError, InputMissingError
 from aldpat.io.atomic import TMP_MARK
 from aldpat.io.registry import EXTENSIONS
 from aldpat.io.tile_parameters import PARAMETER_FILE
+from aldpat.io.toml import read_limited
 
 #: file names aldpat writes beside points that are not points
 SIDE_NAMES = frozenset({PARAMETER_FILE})
@@ -30,6 +32,11 @@ SIDE_SUFFIXES = frozenset({".log", ".html", ".json", ".toml", ".prj", ".vrt", ".
 _SNIFF_BYTES = 16384
 #: names of skipped files listed in a folder's one line
 _NAMED = 5
+#: ``@list`` files naming ``@list`` files: at most this deep (a list naming itself, or two naming
+#: each other, is refused as a cycle before that)
+MAX_LIST_DEPTH = 16
+#: the largest ``@list`` file read: ten million paths of a hundred characters
+MAX_LIST_BYTES = 1 << 30
 
 
 def never_an_input(path: Path) -> bool:
@@ -85,22 +92,52 @@ def expand_inputs(items: Iterable[str | Path], base: Path | None = None,
     """
     out: list[Path] = []
     errors: list[AldpatError] = []
+    _expand(items, base, skipped, out, errors, ())
+    seen: set[Path] = set()
+    unique = []
+    for p in out:
+        key = p.resolve()
+        if key not in seen:
+            seen.add(key)
+            unique.append(p)
+    return unique, errors
+
+
+def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] | None, out: list[Path],
+            errors: list[AldpatError], lists: tuple[Path, ...]) -> None:
+    """:func:`expand_inputs` of ``items``, read from the ``@list`` files ``lists`` (outermost first)."""
     for raw in items:
         item = str(raw)
+        why = not_local(item.removeprefix("@"))
+        if why is not None:
+            errors.append(InputMissingError(f"is {why}", path=item))
+            continue
         if item.startswith("@"):
             listfile = _rooted(item[1:], base)
             try:
-                lines = listfile.read_text(encoding="utf-8").splitlines()
+                key = listfile.resolve()
+            except (OSError, RuntimeError):  # a symlink loop
+                key = listfile
+            if key in lists:
+                errors.append(InputFormatError("input list names itself (through "
+                                               f"{' -> '.join(p.name for p in lists)})", path=listfile))
+                continue
+            if len(lists) >= MAX_LIST_DEPTH:
+                errors.append(InputFormatError(f"input lists nested more than {MAX_LIST_DEPTH} deep", path=listfile))
+                continue
+            try:
+                text = read_limited(listfile, MAX_LIST_BYTES, what="input list")
+            except InputFormatError as exc:
+                errors.append(exc)
+                continue
             except OSError:
                 errors.append(InputMissingError("cannot read input list", path=listfile))
                 continue
-            sub = [ln.strip() for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
-            got, errs = expand_inputs(sub, listfile.parent, skipped)
-            out += got
-            errors += errs
+            sub = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+            _expand(sub, listfile.parent, skipped, out, errors, (*lists, key))
             continue
         path = _rooted(item, base)
-        if any(ch in item for ch in "*?["):
+        if any(ch in item for ch in "*?[") and not path.is_file():  # a file named "x[1].txt" is that file
             matches = sorted(Path(p) for p in glob.glob(str(path), recursive=True))
             matches = [m for m in matches if m.is_file() and not never_an_input(m)]
             if not matches:
@@ -120,14 +157,6 @@ def expand_inputs(items: Iterable[str | Path], base: Path | None = None,
             out.append(path)
         else:
             errors.append(InputMissingError("no such file", path=path))
-    seen: set[Path] = set()
-    unique = []
-    for p in out:
-        key = p.resolve()
-        if key not in seen:
-            seen.add(key)
-            unique.append(p)
-    return unique, errors
 
 
 def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:
