@@ -9,8 +9,10 @@ separate-returns).
 
 from __future__ import annotations
 
+import json
 import re
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import laspy
@@ -144,4 +146,215 @@ def las_cases(folder: Path) -> list[Case]:
         ext = ".laz" if fmt % 2 else ".las"
         cases.append(Case(f"LAS 1.4 point format {fmt}", _las(folder / f"format{fmt}{ext}", 400, point_format=fmt,
                                                                 version="1.4"), count=400))
+    return cases
+
+
+# ------------------------------------------------------------------------------ hostile and careless
+#
+# Worksheets, parameter files, grids and command lines an attacker would mail, or a careless user
+# would type: each with the exit status aldpat must end with (1: refused, 2: usage error, 0:
+# accepted as harmless), the one stderr line that says why, and what must hold afterwards
+# (nothing connected to, nothing written outside the output folder, no input replaced...).
+
+
+@dataclass
+class Hostile:
+    category: str  # security, data loss, resources, LAS header
+    name: str
+    args: list  # aldpat's arguments
+    cwd: Path
+    status: int
+    message: str | None = None  # regex one stderr line must match
+    #: checked after the run: a description of what went wrong, or None
+    holds: Callable[[], str | None] | None = None
+    limit: float = 60.0  # seconds this case may take
+    env: dict = field(default_factory=dict)
+
+
+def _toml_text(value: str) -> str:
+    return json.dumps(value)  # a JSON string is a TOML basic string for these (ASCII) values
+
+
+def _worksheet(path: Path, jobs: list[dict], settings: dict | None = None) -> Path:
+    lines = []
+    if settings:
+        lines.append("[settings]")
+        lines += [f"{k} = {_toml_text(v) if isinstance(v, str) else json.dumps(v)}" for k, v in settings.items()]
+    for job in jobs:
+        lines.append("[[job]]")
+        lines += [f"{k} = {_toml_text(v) if isinstance(v, str) else json.dumps(v)}" for k, v in job.items()]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def _tiff(path: Path, values: np.ndarray) -> Path:
+    import rasterio
+    from rasterio.transform import from_origin
+
+    with rasterio.open(path, "w", driver="GTiff", width=values.shape[1], height=values.shape[0], count=1,
+                       dtype="float32", transform=from_origin(0, values.shape[0], 1, 1), nodata=-9999.0) as ds:
+        ds.write(values.astype(np.float32), 1)
+    return path
+
+
+def _vrt(path: Path, band: str, size: int = 4) -> Path:
+    path.write_text(f'<VRTDataset rasterXSize="{size}" rasterYSize="{size}">\n'
+                    '  <GeoTransform>0.0, 1.0, 0.0, 4.0, 0.0, -1.0</GeoTransform>\n'
+                    f"{band}\n</VRTDataset>\n", encoding="utf-8")
+    return path
+
+
+def _source(name: str, relative: bool = True) -> str:
+    return ('  <VRTRasterBand dataType="Float32" band="1">\n    <ComplexSource>\n'
+            f'      <SourceFilename relativeToVRT="{int(relative)}">{name}</SourceFilename>\n'
+            "      <SourceBand>1</SourceBand>\n    </ComplexSource>\n  </VRTRasterBand>")
+
+
+def _none_of(*paths: Path) -> Callable[[], str | None]:
+    def check() -> str | None:
+        there = [str(p) for p in paths if p.exists()]
+        return f"written: {there}" if there else None
+    return check
+
+
+def _no_png(folder: Path) -> Callable[[], str | None]:
+    def check() -> str | None:
+        pngs = sorted(str(p) for p in folder.rglob("*.png"))
+        return f"a picture was written: {pngs}" if pngs else None
+    return check
+
+
+def security_cases(root: Path, port: int) -> list[Hostile]:
+    """A worksheet, a parameter file or a grid may not make aldpat connect anywhere or read what
+    the user did not name; what reaches HTML or a log reads back as itself. ``port``: a socket
+    on this machine that must never be connected to."""
+    root.mkdir(parents=True, exist_ok=True)
+    points = _write(root / "points.txt", _lines(_points(60), "points"))
+    address = f"tcp://127.0.0.1:{port}"
+    cases = []
+    ws = _worksheet(root / "sched-settings" / "w.toml", [{"task": "info", "inputs": [str(points)]}],
+                    {"scheduler": address})
+    cases.append(Hostile("security", "worksheet [settings] names a scheduler", ["run", ws], root, 2,
+                         r"scheduler: .*comes from the worksheet's \[settings\].*--scheduler"))
+    ws = _worksheet(root / "sched-job" / "w.toml", [{"task": "info", "inputs": [str(points)], "scheduler": address}])
+    cases.append(Hostile("security", "a worksheet job names a scheduler", ["run", ws], root, 2,
+                         r"job 1: scheduler: .*comes from the worksheet"))
+    params = root / "sched-params" / "p.toml"
+    params.parent.mkdir(parents=True)
+    params.write_text(f"scheduler = {_toml_text(address)}\n", encoding="utf-8")
+    ws = _worksheet(params.parent / "w.toml", [{"task": "filter", "algorithm": "pm", "inputs": [str(points)],
+                                                "params": "p.toml", "odir": "out"}])
+    cases.append(Hostile("security", "a worksheet's parameter file names a scheduler", ["run", ws], root, 2,
+                         r"scheduler: .*comes from a parameter file", _none_of(params.parent / "out")))
+    cases.append(Hostile("security", "a command's --params file names a scheduler",
+                         ["filter", "pm", points, "--params", params, "--odir", root / "sched-params" / "cmd"], root, 2,
+                         r"scheduler: .*comes from a parameter file", _none_of(root / "sched-params" / "cmd")))
+    ws = _worksheet(root / "sched-many" / "w.toml", [{"task": "info", "inputs": [str(points)]}],
+                    {"scheduler": "local:100000"})
+    cases.append(Hostile("security", "a worksheet asks for 100,000 local workers", ["run", ws], root, 2,
+                         r"local:N needs N from 1 to \d+"))
+    ws = _worksheet(root / "sched-local" / "w.toml", [{"task": "info", "inputs": [str(points)]}], {"scheduler": "none"})
+    cases.append(Hostile("security", "a worksheet's scheduler = none is harmless", ["run", ws], root, 0))
+
+    # GDAL reads only grid files the user named
+    grids = root / "grids"
+    grids.mkdir()
+    secret = grids / "secret.txt"
+    secret.write_text("password=hunter2\n" * 8)
+    _tiff(grids / "good.tif", np.arange(16.0).reshape(4, 4))
+    _vrt(grids / "mosaic.vrt", _source("good.tif"))
+    cases.append(Hostile("security", "a VRT mosaic of a local GeoTIFF is read", ["preview", grids / "mosaic.vrt",
+                         "--odir", grids / "ok"], root, 0))
+    raw = ('  <VRTRasterBand dataType="Byte" band="1" subClass="VRTRawRasterBand">\n'
+           '    <SourceFilename relativeToVRT="1">secret.txt</SourceFilename>\n'
+           "    <ImageOffset>0</ImageOffset><PixelOffset>1</PixelOffset><LineOffset>4</LineOffset>\n"
+           "  </VRTRasterBand>")
+    bad_vrts = {
+        "raw band over a text file": (_vrt(grids / "raw.vrt", raw), r"raw\.vrt: .*VRTRawRasterBand"),
+        "raw band in a file named .tif": (_vrt(grids / "raw-as.tif", raw), r"raw-as\.tif: is not a \.tif grid"),
+        "/vsicurl/ source": (_vrt(grids / "curl.vrt", _source(f"/vsicurl/http://127.0.0.1:{port}/x.tif", False)),
+                             r"curl\.vrt: VRT source .* is not a local file"),
+        "http URL source": (_vrt(grids / "http.vrt", _source(f"http://127.0.0.1:{port}/x.tif", False)),
+                            r"http\.vrt: VRT source .* is not a local file"),
+        "zip member source": (_vrt(grids / "zip.vrt", _source("/vsizip/grids.zip/good.tif", False)),
+                              r"zip\.vrt: VRT source .* is not a local file"),
+        "driver connection string": (_vrt(grids / "hdf.vrt", _source(f"HDF5:{grids}/good.tif://x", False)),
+                                     r"hdf\.vrt: VRT source .* is not a local file"),
+        "nested VRT": (_vrt(grids / "nested.vrt", _source("raw.vrt")), r"nested\.vrt: source 'raw\.vrt' is not a grid"),
+        "text file as a source": (_vrt(grids / "text.vrt", _source("secret.txt")), r"text\.vrt: source 'secret\.txt'"),
+        "text file named .tif as a source": (_vrt(grids / "named.vrt", _source("secret.tif")),
+                                             r"named\.vrt: source 'secret\.tif' is not a \.tif grid"),
+        "derived band with a pixel function": (
+            _vrt(grids / "derived.vrt", '  <VRTRasterBand dataType="Float32" band="1" subClass="VRTDerivedRasterBand">'
+                 "\n    <PixelFunctionType>sum</PixelFunctionType>\n  </VRTRasterBand>"),
+            r"derived\.vrt: .*VRTDerivedRasterBand"),
+        "Python pixel function": (
+            _vrt(grids / "python.vrt", '  <VRTRasterBand dataType="Float32" band="1">\n'
+                 "    <PixelFunctionLanguage>Python</PixelFunctionLanguage>\n"
+                 "    <PixelFunctionCode>import os</PixelFunctionCode>\n  </VRTRasterBand>"),
+            r"python\.vrt: VRT element <PixelFunctionLanguage> is not allowed"),
+        "entity expansion": (grids / "entities.vrt", r"entities\.vrt: VRT declares a DOCTYPE or entities"),
+        "warped dataset": (grids / "warped.vrt", r"warped\.vrt: .*VRTWarpedDataset"),
+    }
+    (grids / "secret.tif").write_text("not a tiff\n")
+    (grids / "entities.vrt").write_text('<?xml version="1.0"?>\n<!DOCTYPE lol [<!ENTITY a "aaaaaaaaaa">'
+                                        '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>\n'
+                                        '<VRTDataset rasterXSize="4" rasterYSize="4">&b;</VRTDataset>\n')
+    (grids / "warped.vrt").write_text('<VRTDataset rasterXSize="4" rasterYSize="4" subClass="VRTWarpedDataset">'
+                                      "<GDALWarpOptions/></VRTDataset>\n")
+    for name, (path, message) in bad_vrts.items():
+        cases.append(Hostile("security", f"preview of a VRT: {name}", ["preview", path, "--odir", grids / "out"],
+                             root, 1, message, _no_png(grids / "out")))
+    cases.append(Hostile("security", "a path parameter is a URL", ["grid", points, "--tile-params",
+                         f"http://127.0.0.1:{port}/tile_parameter.txt", "--odir", root / "url"], root, 2,
+                         r"tile_params: .* is a URL, not a local file", _none_of(root / "url")))
+    cases.append(Hostile("security", "a path parameter is a /vsi path", ["ortho-height", points, "--crs", "17N",
+                         "--geoid", f"/vsicurl/http://127.0.0.1:{port}/egm.gtx", "--odir", root / "vsi"], root, 2,
+                         r"geoid: .* is a GDAL virtual file system path", _none_of(root / "vsi")))
+    cases.append(Hostile("security", "an input is a /vsicurl/ path", ["info", f"/vsicurl/http://127.0.0.1:{port}/a.las"],
+                         root, 1, r"/vsicurl/http://127\.0\.0\.1:\d+/a\.las: is a GDAL virtual file system path"))
+
+    # names and values that reach HTML, a log or the replayable worksheet log read back as themselves
+    odd = root / "names"
+    odd.mkdir()
+    js = _write(odd / "javascript:alert(document.domain).txt", _lines(_points(60), "points"))
+    ws = _worksheet(odd / "report.toml", [{"task": "thin", "inputs": [js.name], "odir": "out", "cell": 2.0}],
+                    {"report": True})
+
+    def report_links() -> str | None:
+        page = (odd / "report.html").read_text(encoding="utf-8")
+        hrefs = re.findall(r'href="([^"]*)"', page)
+        bad = [h for h in hrefs if not (h.startswith(("./", "file:")))]
+        return f"links that are not plain paths: {bad}" if bad or not hrefs else None
+    cases.append(Hostile("security", "an input named javascript:... in the run report", ["run", ws], root, 0,
+                         holds=report_links))
+    injected = "_x\n[[job]]\ntask = \"info\"\ninputs = [\"a.txt\"]\n"
+    for name, suffix in (("a newline and a [[job]]", injected), ("/../../", "/../../escaped"),
+                         ("a backslash", "\\..\\x"), ("'..'", "..hidden"), ("an escape sequence", "_\x1b[31mred")):
+        cases.append(Hostile("security", f"--suffix holding {name}",
+                             ["thin", points, "--suffix", suffix, "--odir", root / "suffix" / "out"], root, 2,
+                             r"suffix: .*(path separator or '\.\.'|control character)",
+                             _none_of(root / "suffix")))
+        ws = _worksheet(root / "suffix-ws" / "w.toml", [{"task": "thin", "inputs": [str(points)], "suffix": suffix,
+                                                         "odir": "out"}])
+        cases.append(Hostile("security", f"a worksheet's suffix holding {name}", ["run", ws], root, 2,
+                             r"job 1: suffix: ", _none_of(root / "suffix-ws" / "out", root / "escaped")))
+    newline_name = odd / "two\nlines.txt"
+    newline_name.write_text("1 2 3\nnot a point\n")
+    cases.append(Hostile("security", "a bad input whose name holds a newline", ["info", newline_name], root, 1,
+                         r"two\\nlines\.txt:2: "))
+    tricky = _write(odd / 'x"\n[[job]]\ntask = "info".txt', _lines(_points(60), "points"))
+    ws = _worksheet(odd / "replay.toml", [{"task": "thin", "inputs": [tricky.name], "odir": "tricky", "cell": 2.0}])
+
+    def log_replays() -> str | None:
+        import tomllib
+
+        log = tomllib.loads((odd / "replay.log").read_text(encoding="utf-8"))
+        jobs = log.get("job", [])
+        if len(jobs) != 1 or jobs[0]["inputs"] != [str(tricky)]:
+            return f"the log replays other jobs: {jobs}"
+        return None
+    cases.append(Hostile("security", "an input name that would inject a job into the worksheet log", ["run", ws],
+                         root, 0, holds=log_replays))
     return cases

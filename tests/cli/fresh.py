@@ -67,3 +67,41 @@ def count_points(path: Path) -> int:
 def leftovers(folder: Path) -> list[str]:
     """Temporary files anywhere under ``folder`` (there must never be any after a command)."""
     return sorted(str(p) for p in Path(folder).rglob("*.aldpat-tmp*"))
+
+
+def aldpat_batch(cases: list[dict], *, total: float = 600) -> list[dict]:
+    """Run many command lines, each ``{"args": [...], "cwd": ..., "limit": seconds, "env": {...}}``,
+    in one fresh process (:mod:`tests.cli.batch`); return each one's ``status`` (an exit status,
+    ``"hang"`` or ``"escaped"``), ``stdout``, ``stderr`` and ``seconds``. A case stuck where its
+    own time limit cannot reach is ``"hang"`` too: the process is ended and the cases after it run
+    in a new one. ``total`` bounds the whole batch."""
+    import json
+    import tempfile
+    import time
+
+    results: list[dict] = []
+    deadline = time.monotonic() + total
+    with tempfile.TemporaryDirectory(prefix="aldpat-batch-") as scratch:
+        while len(results) < len(cases):
+            todo = [dict(c, args=[str(a) for a in c["args"]], cwd=str(c["cwd"])) for c in cases[len(results):]]
+            spec, got = Path(scratch) / "cases.json", Path(scratch) / "results.json"
+            spec.write_text(json.dumps(todo), encoding="utf-8")
+            got.unlink(missing_ok=True)
+            env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+            env.pop("COLUMNS", None)
+            proc = subprocess.Popen([sys.executable, "-m", "tests.cli.batch", str(spec), str(got)], cwd=REPO, env=env,
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+            # the slowest case's own limit, and a margin for start-up, past the batch's deadline
+            budget = max(deadline - time.monotonic(), max(c.get("limit", 30.0) for c in todo) + 30)
+            try:
+                proc.communicate(timeout=budget)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.communicate()
+            done = json.loads(got.read_text(encoding="utf-8")) if got.exists() else []
+            results += done
+            if len(results) < len(cases):  # the process died or was ended in the middle of a case
+                stuck = todo[len(done)]
+                results.append({"args": stuck["args"], "status": "hang" if proc.returncode in (-9, None) else
+                                f"died ({proc.returncode})", "stdout": "", "stderr": "", "seconds": budget})
+    return results
