@@ -6,6 +6,7 @@
     python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
     python bench/bench_auto.py lowout       # the low-outlier test on top of the defaults
     python bench/bench_auto.py terraces     # walled terraces: the defaults against the former ones
+    python bench/bench_auto.py scenes       # the known-answer scenes of each terrain type
 
 Reads the seven ISPRS reference samples (``bench/data_paths.py`` says where). ``sweep`` scores every combination of the candidate
 constants below with the package's own filter (``aldpat.filters.base.ground_filter``) and
@@ -144,16 +145,36 @@ def terraces(_samples) -> None:
             print(f"| {label}{mode} | {sc.type1:.2f} | {sc.type2:.2f} | {sc.total:.2f} |")
 
 
+def scenes(_samples) -> None:
+    """The known-answer scenes of tests/filters/terrain_scenes.py (a lower building in a ring's
+    courtyard, a terraced built-up hillside, data gaps and low outliers on a slope, a bridge with
+    ramps, a large building with data gaps, walled terraces): the share of the ground called
+    ground and of the objects called objects, with the defaults and with ``--auto``."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "filters"))
+    from terrain_scenes import FAILURE_SCENES
+
+    print("| scene | points | ground kept % | objects removed % | `--auto`: ground kept % | objects removed % |")
+    print("|---|---|---|---|---|---|")
+    for name, make in FAILURE_SCENES.items():
+        x, y, z, truth = make()
+        cells = []
+        for p in (GapmParams(), auto_params(x, y, z)):
+            ground = ground_filter(x, y, z, "gapm", p).is_ground
+            cells += [f"{100 * ground[truth].mean():.2f}", f"{100 * (~ground[~truth]).mean():.2f}"]
+        print(f"| {name} | {len(z):,} | " + " | ".join(cells) + " |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "terraces"))
+    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "terraces", "scenes"))
     ap.add_argument("--auto", action="store_true", help="sweep: every combination with --auto")
     args = ap.parse_args()
-    samples = load_samples() if args.what != "terraces" else []
+    samples = load_samples() if args.what not in ("terraces", "scenes") else []
     if args.what == "sweep":
         sweep(samples, auto=args.auto)
     else:
-        {"report": report, "others": others, "lowout": lowout, "terraces": terraces}[args.what](samples)
+        {"report": report, "others": others, "lowout": lowout, "terraces": terraces,
+         "scenes": scenes}[args.what](samples)
 
 
 if __name__ == "__main__":

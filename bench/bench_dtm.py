@@ -11,6 +11,19 @@ difference of each tiled DTM (its VRT mosaic) from the whole file's.
 ``bench/_work/``, and runs ``aldpat dtm`` over them in a fresh process with ``-j 1`` and ``-j 2``:
 wall time, points per second and peak memory of the process (with ``-j 2`` the workers' own
 memory is not in the parent's figure: see the ``-j 1`` row for one job's).
+
+``python bench/bench_dtm.py levels [--auto] [--filter-params FILE] [--keep DIR]`` -- reads the raw
+ISPRS sites CSite1, FSite5 and FSite8 (``bench/data_paths.py``) and makes each into a 1 m DTM with
+``aldpat dtm`` (gapm's defaults unless told otherwise). It counts the DTM's nodes that stand more
+than 3 m above a local lower envelope (building remnants) or more than 3 m below a local upper
+envelope (pits), and the connected patches they form. The lower envelope (:func:`envelopes`) is
+the DTM with its pits narrower than 20 m filled (a closing with a disk of radius 10 m) and then
+every bump narrower than 60 m taken off (an opening with a disk of radius 30 m); the upper one the
+same two steps the other way round. Both are taken over the DTM's own nodes 10 m or more inside its
+edge (where a TIN slants down to the outermost points) and keep planes and steps as they are, so a
+node counts only where it stands out of its neighbourhood, not where the ground is steep or runs
+to the DTM's edge. For
+CSite1 it also prints the DTM's height at (512959, 5403189), where a stepped building stood.
 """
 
 from __future__ import annotations
@@ -24,7 +37,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import measure, mib
-from data_paths import FSITE5, ISPRS_SAMPLES
+from data_paths import FSITE5, ISPRS_SAMPLES, ISPRS_SITES
 
 WORK = Path(__file__).resolve().parent / "_work"
 SAMPLES = ("samp12", "samp21", "samp24", "samp42", "samp51", "samp53", "samp61")
@@ -136,6 +149,106 @@ def run_speed(n: int, cell: float) -> None:
         print(f"  -j {jobs}: {m['seconds']:.1f} s, {rate / 1e3:,.0f} k points/s, peak {mib(m['peak_bytes'])}")
 
 
+#: The raw sites ``levels`` makes DTMs of, and a point of each where a remnant was seen (or none).
+SITES = {"CSite1_red2-utm": (512959.0, 5403189.0), "FSite5_orig-utm": None, "FSite8_red2-utm": None}
+#: A node this far above (below) the lower envelope counts as a remnant (pit), m.
+LEVEL = 3.0
+#: Radii (m) of the envelope's closing (the widest pit) and opening (the widest remnant), halved.
+PIT_RADIUS = 10.0
+REMNANT_RADIUS = 30.0
+#: Nodes this close (m) to the DTM's edge or to a blank node are left out: a TIN slants down to the
+#: outermost points there, which no filter decides.
+EDGE = 10.0
+
+
+def envelopes(z: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """The local lower and upper envelopes of a DTM, over its nodes ``EDGE`` or more inside its
+    edge and its blank nodes (NaN elsewhere).
+
+    Lower: pits narrower than ``2 * PIT_RADIUS`` filled (a grey-scale closing with a disk), then
+    bumps narrower than ``2 * REMNANT_RADIUS`` taken off (an opening with a disk); a remnant stands
+    above it. Upper: the same two steps the other way round; a pit lies below it. Filling the pits
+    (taking off the bumps) first keeps them from pulling the envelope down (up) around them. Both
+    steps keep planes and steps as they are, so the envelopes follow the terrain's slopes and its
+    terraces. Only the DTM's own nodes count: a disk reaching past them is the part of it over
+    nodes, so a slope running to the edge is not cut as a bump would be (and a bump cut by the
+    edge is not counted).
+    """
+    from scipy import ndimage
+
+    from aldpat.core import morphology
+
+    pit, remnant = round(PIT_RADIUS / cell), round(REMNANT_RADIUS / cell)
+    z = np.asarray(z, np.float64)
+    inner = ndimage.binary_erosion(np.isfinite(z), morphology.disk_footprint(round(EDGE / cell)), border_value=0)
+    pad = pit + remnant
+    zp = np.pad(np.where(inner, z, np.nan), pad, constant_values=np.nan)
+    blank = np.isnan(zp)
+    big = 1e9  # stands for a node that is not there: never the minimum (maximum) of a disk
+
+    def step(values: np.ndarray, radius: int, op: str) -> np.ndarray:
+        """Erosion (``min``) or dilation (``max``) over the nodes of each disk; computed over the
+        padded grid, so that disks centred off the DTM take part."""
+        fill = big if op == "min" else -big
+        fn = morphology.erosion if op == "min" else morphology.dilation
+        out = fn(np.where(np.isnan(values), fill, values), radius, window="disk")
+        out[np.abs(out) >= big / 2] = np.nan
+        return out
+
+    def closing(values: np.ndarray) -> np.ndarray:
+        out = step(step(values, pit, "max"), pit, "min")
+        out[blank] = np.nan  # it stands for the DTM's own nodes only
+        return out
+
+    def opening(values: np.ndarray) -> np.ndarray:
+        out = step(step(values, remnant, "min"), remnant, "max")
+        out[blank] = np.nan
+        return out
+
+    lower, upper = opening(closing(zp)), closing(opening(zp))
+    return lower[pad:-pad, pad:-pad], upper[pad:-pad, pad:-pad]
+
+
+def level_counts(z: np.ndarray, cell: float) -> dict:
+    """Nodes (and 8-connected patches of them) more than ``LEVEL`` above the lower envelope
+    (remnants) and below the upper one (pits), of the nodes the envelopes cover."""
+    from scipy import ndimage
+
+    lower, upper = envelopes(z, cell)
+    out = {"nodes": int(np.isfinite(lower).sum())}
+    with np.errstate(invalid="ignore"):
+        for name, depth in (("remnant", z - lower), ("pit", upper - z)):
+            mask = depth > LEVEL
+            out[name] = int(mask.sum())
+            out[f"{name}_patches"] = int(ndimage.label(mask, structure=np.ones((3, 3)))[1])
+            out[f"{name}_worst"] = float(depth[mask].max()) if mask.any() else 0.0
+    return out
+
+
+def run_levels(auto: bool, filter_params: str | None, keep: str | None) -> None:
+    import rasterio
+
+    options: dict = {"cell": 1.0, "auto": auto}
+    if filter_params:
+        options["filter_params"] = filter_params
+    print(f"aldpat dtm --cell 1{' --auto' if auto else ''}"
+          f"{' --filter-params ' + filter_params if filter_params else ''}; envelope: closing r {PIT_RADIUS:g} m, "
+          f"opening r {REMNANT_RADIUS:g} m; counted beyond {LEVEL:g} m")
+    print("| site | nodes | remnant nodes (patches, highest m) | pit nodes (patches, deepest m) | probe height |")
+    print("|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        odir = Path(keep) if keep else Path(tmp)
+        for name, probe in SITES.items():
+            _dtm([ISPRS_SITES / f"{name}.laz"], odir, **options)
+            with rasterio.open(odir / f"{name}_dtm.tif") as ds:
+                z = ds.read(1, masked=True).filled(np.nan).astype(np.float64)
+                cell = ds.res[0]
+                at = f"{next(ds.sample([probe]))[0]:.1f} m at {probe[0]:.0f}, {probe[1]:.0f}" if probe else ""
+            c = level_counts(z, cell)
+            print(f"| {name} | {c['nodes']:,} | {c['remnant']:,} ({c['remnant_patches']}, {c['remnant_worst']:.1f}) | "
+                  f"{c['pit']:,} ({c['pit_patches']}, {c['pit_worst']:.1f}) | {at} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="command", required=True)
@@ -143,9 +256,15 @@ def main() -> None:
     sp = sub.add_parser("speed", help="aldpat dtm over FSite5 in LAZ tiles")
     sp.add_argument("--tiles", type=int, default=3, help="N: N x N tiles")
     sp.add_argument("--cell", type=float, default=1.0)
+    lv = sub.add_parser("levels", help="remnants and pits in the DTMs of the raw sites CSite1, FSite5, FSite8")
+    lv.add_argument("--auto", action="store_true", help="aldpat dtm --auto")
+    lv.add_argument("--filter-params", help="aldpat dtm --filter-params FILE")
+    lv.add_argument("--keep", help="write the DTMs into this folder (kept) instead of a temporary one")
     args = ap.parse_args()
     if args.command == "tiles":
         run_tiles()
+    elif args.command == "levels":
+        run_levels(args.auto, args.filter_params, args.keep)
     else:
         run_speed(args.tiles, args.cell)
 
