@@ -38,6 +38,15 @@ log = logging.getLogger(__name__)
 #: Where a resolved value came from, lowest priority first.
 SOURCES = ("default", "settings", "params file", "worksheet", "cli")
 
+#: How far from everyday use a parameter is, with the heading ``--help`` lists it under, in the
+#: order it lists them: what most runs set, what a run needs now and then, and the settings of the
+#: published method itself (windows, thresholds, seed sizes: change them with the paper in hand).
+LEVELS = {
+    "common": "Options",
+    "advanced": "Advanced options",
+    "internal": "Method internals (as published; change with the source in hand)",
+}
+
 
 @dataclass(frozen=True)
 class Spec:
@@ -61,6 +70,7 @@ class Spec:
     required: bool = False  # no default: the user must give a value (a usage error otherwise)
     renamed_from: tuple[str, ...] = ()  # earlier names, still accepted with a deprecation message
     renamed_values: tuple[tuple[str, str], ...] = ()  # (earlier value, value) pairs, the same way
+    level: str = "common"  # a key of LEVELS: where --help lists it
 
     @property
     def option(self) -> str:
@@ -107,11 +117,16 @@ def param(
     required: bool = False,
     renamed_from: typing.Iterable[str] = (),
     renamed_values: Mapping[str, str] | None = None,
+    level: str = "common",
 ) -> Any:
     """Declare a parameter as a dataclass field (see module docstring).
 
-    Sequence defaults are given as tuples so that parameter objects stay immutable.
+    Sequence defaults are given as tuples so that parameter objects stay immutable. ``level``
+    (:data:`LEVELS`) says under which heading ``--help`` lists it: ``common`` (the default),
+    ``advanced`` or ``internal`` (the published method's own settings).
     """
+    if level not in LEVELS:
+        raise ValueError(f"level {level!r} is not one of {', '.join(LEVELS)}")
     if isinstance(default, list):
         default = tuple(default)  # parameter objects stay immutable
     meta = {
@@ -128,6 +143,7 @@ def param(
         "required": required,
         "renamed_from": tuple(renamed_from),
         "renamed_values": tuple((renamed_values or {}).items()),
+        "level": level,
     }
     return dataclasses.field(default=default, metadata={"aldpat": meta})
 

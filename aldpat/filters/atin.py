@@ -88,26 +88,27 @@ class AtinParams(RaisedSegmentOption, PointFilterParams):
     cell: float = param(1.0, "parsing grid: the lowest point of each cell is a candidate", unit="m",
                              gt=0, manual="Cell Size")
     z_difference: float = param(0.75, "a candidate closer than this to the plane of the triangle below it "
-                                     "is added", unit="m", gt=0, manual="Z difference")
+                                     "is added", unit="m", gt=0, manual="Z difference", level="internal")
     angle_threshold: float = param(15.0, "largest angle between the triangle and the lines to its vertices "
                                         "(0: no angle test)", unit="degrees", ge=0, le=90,
-                                   manual="Angle Threshold")
+                                   manual="Angle Threshold", level="internal")
     angle_min_distance: float = param(1.5, "the angle test takes a vertex nearer than this as if it were this "
                                            "far (on short edges a little noise is a large angle)", unit="m",
-                                      ge=0)
+                                      ge=0, level="internal")
     init_trigrid_size: float = param(30.0, "seed squares: the lowest point of each is a seed; larger than "
-                                           "the largest object", unit="m", gt=0, manual="Init TriGrid Size")
+                                           "the largest object", unit="m", gt=0, manual="Init TriGrid Size",
+                                           level="internal")
     tile_x_width: float = param(1000.0, "width of the rectangles processed one at a time", unit="m", gt=0,
-                                manual="Tile X Width")
+                                manual="Tile X Width", level="advanced")
     tile_y_height: float = param(1000.0, "height of the rectangles processed one at a time", unit="m", gt=0,
-                                 manual="Tile Y Height")
+                                 manual="Tile Y Height", level="advanced")
     tile_buffer: float = param(100.0, "surroundings added to each rectangle so its edge points see the "
-                                     "same TIN", unit="m", ge=0, manual="Tile Buffer")
+                                     "same TIN", unit="m", ge=0, manual="Tile Buffer", level="advanced")
     best_per_triangle: bool = param(
         False, "each round adds only the passing point nearest its triangle in each triangle "
-              "(Axelsson); off: every passing point at once")
+              "(Axelsson); off: every passing point at once", level="internal")
     mirror: bool = param(True, "also add a candidate whose mirror point through the nearest vertex "
-                               "passes (steep terrain, manual Fig. 16)")
+                               "passes (steep terrain, manual Fig. 16)", level="internal")
 
     object_step: float = default_of(RaisedSegmentOption, "object_step", 1.5)
 

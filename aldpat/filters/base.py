@@ -71,7 +71,7 @@ class FilterOutputOption(SharedOption):
                         "or every point classified (LAS class 2/1, text column class)",
                         choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
     marks: bool = param(False, "add each point's mark: 0 for ground, else the half window (cells) "
-                        "at which it was removed (column / LAS extra byte 'mark')")
+                        "at which it was removed (column / LAS extra byte 'mark')", level="advanced")
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,7 @@ class LowOutlierOption(SharedOption):
     low_outlier_window: int = param(
         4, "half window of the low-outlier test: a clump of low points must cover less than a fifth "
         "of the (2k+1)^2 window to be caught",
-        unit="cells", ge=1,
+        unit="cells", ge=1, level="advanced",
     )
 
 
@@ -103,11 +103,11 @@ class RaisedSegmentOption(SharedOption):
         "raised-segment test: cells whose heights differ by more than this split the grid into "
         "segments, and a segment standing above its surroundings is an object whatever its size "
         "(buildings larger than the filter's largest window or seed square); 0: off",
-        unit="m", ge=0,
+        unit="m", ge=0, level="advanced",
     )
     object_share: float = param(
         0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
-        ge=0, le=1,
+        ge=0, le=1, level="advanced",
     )
 
 
@@ -120,23 +120,23 @@ class GroundParams(RaisedSegmentOption, LowOutlierOption, FilterOutputOption, Ch
         "real",
         "output points at their own x, y (real) or one point per cell at the cell centre (center)",
         choices=("real", "center"),
-        manual="Data Mode",
+        manual="Data Mode", level="advanced",
     )
     ground_tolerance: float = param(
         0.3,
         "a non-lowest point of a cell is ground within this height of the final ground surface",
         unit="m",
-        ge=0,
+        ge=0, level="advanced",
     )
     surface_threshold: float | None = param(
         None,
         "final test (SMRF): every point within this height of the interpolated ground surface, plus "
         "surface_slope x its local slope, is ground and every other point is not; none: off (the "
         "lowest point of a cell takes the cell's class, the others ground_tolerance)",
-        unit="m", ge=0,
+        unit="m", ge=0, level="advanced",
     )
     surface_slope: float = param(
-        1.0, "slope scalar of the final test: metres of tolerance per unit of terrain slope", ge=0,
+        1.0, "slope scalar of the final test: metres of tolerance per unit of terrain slope", ge=0, level="advanced",
     )
 
 
@@ -153,7 +153,7 @@ class PointFilterParams(LowOutlierOption, FilterOutputOption, ChunkOption, Check
         "real",
         "output points at their own x, y (real) or one point per cell at the cell centre (center)",
         choices=("real", "center"),
-        manual="Data Mode",
+        manual="Data Mode", level="advanced",
     )
 
     def cell_shape(self) -> tuple[float, float]:

@@ -39,27 +39,29 @@ OLD_DIRECTIONS = {"row": "x", "column": "y", "both": "xy"}
 @dataclass(frozen=True)
 class ClusterPmParams(GroundParams):
     window_series: tuple[int, ...] = param(
-        (1, 2, 4, 8, 16, 24), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1,
+        (1, 2, 4, 8, 16, 24), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1, level="internal",
     )
     threshold_series: tuple[float, ...] = param(
         (0.3, 0.5, 0.8, 1.2, 2.0, 2.5), "elevation difference threshold of each window", unit="m", gt=0,
+        level="internal",
     )
     cluster_window_size: int | None = param(
         8, "smallest half window with cluster analysis and recovery; none: plain PM", unit="cells", ge=1,
+        level="internal",
     )
     cluster_threshold: float = param(
-        2.0, "cluster threshold: largest height change per cell inside one cluster", unit="m", gt=0,
+        2.0, "cluster threshold: largest height change per cell inside one cluster", unit="m", gt=0, level="internal",
     )
     gap_threshold: float | None = param(
         None, "slope per cell allowed across cells removed earlier; none: cluster_threshold "
-        "(the dissertation uses one threshold for both and allows two)", unit="m", gt=0,
+        "(the dissertation uses one threshold for both and allows two)", unit="m", gt=0, level="internal",
     )
     recover_across_gaps: bool = param(
         False, "let a removed run whose side is a cell removed earlier be recovered too (the "
-        "printed UpdateMark); by default its sides must be cells still standing",
+        "printed UpdateMark); by default its sides must be cells still standing", level="internal",
     )
     direction: str = param("xy", "filter along x (rows), y (columns) or both", choices=tuple(AXES),
-                           renamed_values=OLD_DIRECTIONS)
+                           renamed_values=OLD_DIRECTIONS, level="internal")
 
     def check(self) -> None:
         super().check()

@@ -41,9 +41,9 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class ETEWParams(ElevationLimitsOption, GroundParams):
     slope: float = param(0.4, "terrain slope: a point more than slope x window width above the window's "
-                              "lowest point is removed", unit="m/m", gt=0, manual="Slope")
+                              "lowest point is removed", unit="m/m", gt=0, manual="Slope", level="internal")
     loop_times: int = param(5, "number of iterations; the window doubles each time", ge=1, le=30,
-                            manual="Loop Times")
+                            manual="Loop Times", level="internal")
 
 
 def etew_reach(p: ETEWParams) -> int:

@@ -59,31 +59,32 @@ class GapmParams(GroundParams):
     surface_slope: float = default_of(GroundParams, "surface_slope", 1.5)
     window_series: tuple[int, ...] = param(
         (1, 2, 4, 8, 12, 16, 20), "half window sizes, ascending (full window 2k+1)", unit="cells", ge=1,
+        level="internal",
     )
     cluster_thresholds: tuple[float, ...] = param(
         (0.3, 0.5, 1.0, 1.0, 1.0, 2.0, 2.0),
         "one per window: the cluster threshold (height change per cell) and the floor of the "
         "adaptive threshold; below init_thresh_bin the constant filtering threshold",
-        unit="m", gt=0,
+        unit="m", gt=0, level="internal",
     )
     row_windows: tuple[int, ...] | None = param(
         (1, 2, 4, 8, 12, 16, 20), "windows of window_series used along rows (x); none: no row filtering",
-        unit="cells", ge=1,
+        unit="cells", ge=1, level="internal",
     )
     column_windows: tuple[int, ...] | None = param(
         (1, 2, 4, 8, 12, 16), "windows of window_series used along columns (y); none: no column filtering",
-        unit="cells", ge=1,
+        unit="cells", ge=1, level="internal",
     )
     init_thresh_bin: int = param(
         4, "smallest half window that uses the adaptive (cluster + trend) threshold [initThreshBin]",
-        unit="cells", ge=0,
+        unit="cells", ge=0, level="internal",
     )
     max_threshold_divisor: float = param(
-        4.0, "the adaptive threshold is capped at cluster threshold x half window / this", gt=0,
+        4.0, "the adaptive threshold is capped at cluster threshold x half window / this", gt=0, level="internal",
     )
     use_cluster_diff: bool = param(
         False, "also cap the threshold across clusters by the jump to the neighbouring cluster "
-        "(§6.2.3 steps 1 and 5; the printed CalThreshArray leaves it out)",
+        "(§6.2.3 steps 1 and 5; the printed CalThreshArray leaves it out)", level="internal",
     )
     auto: bool = param(
         False, "derive the cell from the point density and the largest window from the largest "
@@ -95,7 +96,7 @@ class GapmParams(GroundParams):
         "sequential: at every window rows then columns open one surface and share one mark "
         "matrix (AdaptiveMorphFilter lines 2-21); separate: rows and columns are filtered apart "
         "and a cell removed by either is non-ground (the two mark matrices of §6.2.5)",
-        choices=("sequential", "separate"),
+        choices=("sequential", "separate"), level="internal",
     )
 
     def check(self) -> None:

@@ -43,30 +43,30 @@ log = logging.getLogger(__name__)
 class MultipassParams(GroundParams):
     window_series: tuple[int, ...] = param(
         (1, 2, 4, 8, 16, 20), "first pass half windows, ascending (keep the largest small enough "
-        "not to cut terrain)", unit="cells", ge=1,
+        "not to cut terrain)", unit="cells", ge=1, level="internal",
     )
     threshold_series: tuple[float, ...] = param(
-        (0.4, 0.48, 0.56, 1.0, 1.6, 2.0), "first pass threshold of each window", unit="m", gt=0,
+        (0.4, 0.48, 0.56, 1.0, 1.6, 2.0), "first pass threshold of each window", unit="m", gt=0, level="internal",
     )
     second_window_series: tuple[int, ...] = param(
-        (20, 16, 8, 4, 2, 1), "second pass half windows, largest first", unit="cells", ge=1,
+        (20, 16, 8, 4, 2, 1), "second pass half windows, largest first", unit="cells", ge=1, level="internal",
     )
     second_threshold_series: tuple[float, ...] = param(
-        (2.0, 2.0, 2.0, 2.0, 2.0, 2.0), "second pass threshold of each window", unit="m", gt=0,
+        (2.0, 2.0, 2.0, 2.0, 2.0, 2.0), "second pass threshold of each window", unit="m", gt=0, level="internal",
     )
-    passes: int = param(1, "how many times interpolation and the second pass are repeated", ge=1)
+    passes: int = param(1, "how many times interpolation and the second pass are repeated", ge=1, level="internal")
     min_conn: int = param(
         0, "connected removed or empty sets of at most this many cells keep nearest-neighbour "
-        "values instead of priority interpolation [minConn]", unit="cells", ge=0,
+        "values instead of priority interpolation [minConn]", unit="cells", ge=0, level="internal",
     )
-    connectivity: int = param(8, "neighbours that connect empty cells", choices=(4, 8))
+    connectivity: int = param(8, "neighbours that connect empty cells", choices=(4, 8), level="internal")
     fill_rise: float = param(
         0.8, "height the priority interpolation may rise per cell away from a low boundary "
         "cell; 0 floods every removed set at its lowest boundary, as the queue of §4.2.4 does",
-        unit="m", ge=0,
+        unit="m", ge=0, level="internal",
     )
     direction: str = param("xy", "filter along x (rows), y (columns) or both", choices=tuple(AXES),
-                           renamed_values=OLD_DIRECTIONS)
+                           renamed_values=OLD_DIRECTIONS, level="internal")
 
     def check(self) -> None:
         super().check()

@@ -28,14 +28,16 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class OutlierParams(GroundParams):
     window: int = param(1, "half window of the opening and closing (1 to 3 cells suit outliers)",
-                        unit="cells", ge=1)
+                        unit="cells", ge=1, level="internal")
     high_threshold: float | None = param(
         2.0, "a cell this far above its opening is a high outlier; none: keep high points", unit="m", gt=0,
+        level="internal",
     )
     low_threshold: float | None = param(
         2.0, "a cell this far below its closing is a low outlier; none: keep low points", unit="m", gt=0,
+        level="internal",
     )
-    shape: str = param("square", "window shape", choices=("square", "disk"))
+    shape: str = param("square", "window shape", choices=("square", "disk"), level="internal")
 
 
 def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | None = 2.0,

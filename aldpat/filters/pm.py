@@ -45,24 +45,26 @@ class ProgressiveParams(GroundParams):
     """
 
     slope: float = param(0.3, "terrain slope that raises the threshold as the window grows", unit="m/m",
-                         ge=0, manual="Slope")
+                         ge=0, manual="Slope", level="internal")
     init_threshold: float = param(0.5, "threshold of the smallest windows: the error of the measurements",
-                                  unit="m", ge=0, manual="Init Threshold")
+                                  unit="m", ge=0, manual="Init Threshold", level="internal")
     max_threshold: float = param(3.0, "cap of the threshold (the lowest building height; 9999: none)",
-                                 unit="m", ge=0, manual="Max Threshold")
+                                 unit="m", ge=0, manual="Max Threshold", level="internal")
     window_base: float = param(2.0, "base of the power series of half windows, k_i = base^(i*increment)",
-                               gt=1, manual="Window Base")
-    power_increment: float = param(0.5, "exponent step of the power series", gt=0, manual="Power Increment")
+                               gt=1, manual="Window Base", level="internal")
+    power_increment: float = param(0.5, "exponent step of the power series", gt=0, manual="Power Increment",
+                                   level="internal")
     window_series_length: int = param(9, "number of windows of the power series", ge=1,
-                                      manual="Window Series Length")
+                                      manual="Window Series Length", level="internal")
     window_series: tuple[int, ...] | None = param(
         None, "half windows in cells, ascending, replacing the power series (full window 2k+1)",
-        unit="cells", ge=1, manual="Wind Series",
+        unit="cells", ge=1, manual="Wind Series", level="internal",
     )
     threshold_series: tuple[float, ...] | None = param(
         None, "one threshold per window, replacing the slope rule", unit="m", ge=0, manual="Threshold Series",
+        level="internal",
     )
-    min_window: int = param(1, "smallest half window used", unit="cells", ge=1, manual="Min WndSize")
+    min_window: int = param(1, "smallest half window used", unit="cells", ge=1, manual="Min WndSize", level="internal")
 
     def check(self) -> None:
         super().check()
@@ -72,12 +74,12 @@ class ProgressiveParams(GroundParams):
 @dataclass(frozen=True)
 class PMParams(ProgressiveParams):
     direction: str = param("xy", "open along x (rows), y (columns) or x then y at every window",
-                           choices=("x", "y", "xy"), manual="Direction")
+                           choices=("x", "y", "xy"), manual="Direction", level="internal")
     rotate_angle: float = param(0.0, "angle the data are rotated by (counter-clockwise) before filtering",
-                                unit="deg", ge=-360, le=360, manual="Rotate Angle")
+                                unit="deg", ge=-360, le=360, manual="Rotate Angle", level="internal")
     rotate_times: int = param(
         0, "number of rotations: filter at 1, 2 ... times the angle; a point is ground only if every "
-        "rotation keeps it (0: unrotated)", ge=0, le=36, manual="Rotate Times",
+        "rotation keeps it (0: unrotated)", ge=0, le=36, manual="Rotate Times", level="internal",
     )
 
 

@@ -63,18 +63,19 @@ class IpfParams(PointFilterParams):
     cell: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
                              manual="Cell Size")
     z_difference: float = param(1.0, "a candidate within this height of the surface joins the ground set",
-                                unit="m", gt=0, manual="Z Difference")
+                                unit="m", gt=0, manual="Z Difference", level="internal")
     outlier_tolerance: float = param(0.6, "at the end, every point within this height of the final "
-                                          "surface is ground", unit="m", gt=0, manual="Outlier Tolerance")
+                                          "surface is ground", unit="m", gt=0, manual="Outlier Tolerance",
+                                          level="internal")
     init_window_length: float = param(30.0, "first moving window: larger than the largest object",
-                                      unit="m", gt=0, manual="Init Window Length")
+                                      unit="m", gt=0, manual="Init Window Length", level="internal")
     window_series_length: int | None = param(
         None, "number of windows (none: floor(log2(init_window_length)) + 1, down to 1 m)", ge=1,
-        manual="Window Series Length",
+        manual="Window Series Length", level="internal",
     )
     window_series: tuple[float, ...] | None = param(
         None, "window lengths, largest first (none: init_window_length halved window_series_length - 1 "
-              "times)", unit="m", gt=0, manual="Window Series",
+              "times)", unit="m", gt=0, manual="Window Series", level="internal",
     )
 
     def check(self) -> None:
@@ -110,23 +111,24 @@ class Poly2Params(IpfParams):
     sigma_difference: float = param(
         0.2, "a rejected candidate is recovered only when the current surface fits the ground points "
               "better than the previous one by this much (RMS residual)", unit="m", ge=0,
-        manual="Sigma Difference",
+        manual="Sigma Difference", level="internal",
     )
     cell: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
                              manual="Cell Size")
     z_difference: float = param(0.5, "a candidate within this height of the surface joins the ground set",
-                                unit="m", gt=0, manual="Z Difference")
+                                unit="m", gt=0, manual="Z Difference", level="internal")
     init_window_length: float = param(40.0, "first moving window: larger than the largest object",
-                                      unit="m", gt=0, manual="Init Window Length")
+                                      unit="m", gt=0, manual="Init Window Length", level="internal")
     outlier_tolerance: float = param(0.8, "at the end, every point within this height of the final "
-                                          "surface is ground", unit="m", gt=0, manual="Outlier Tolerance")
+                                          "surface is ground", unit="m", gt=0, manual="Outlier Tolerance",
+                                          level="internal")
     neighbor_range: int = param(6, "fewest ground points a local fit uses (its window grows until it "
-                                    "holds them)", ge=1, manual="Neighbor Range")
+                                    "holds them)", ge=1, manual="Neighbor Range", level="internal")
     interpolation_window: float = param(10.0, "window in which the two surfaces' fit to the ground "
                                               "points is compared", unit="m", gt=0,
-                                        manual="Interpolation Wnd")
+                                        manual="Interpolation Wnd", level="internal")
     power: int = param(1, "degree of the local polynomial (1 plane, 2 quadratic)", choices=(1, 2),
-                       manual="Power")
+                       manual="Power", level="internal")
 
     @property
     def degree(self) -> int:  # type: ignore[override]

@@ -53,11 +53,11 @@ MARK_STEEP = 1
 class SlopeParams(CellHeightOption, ElevationLimitsOption, PointFilterParams):
     cell: float = param(1.0, "cell width of the lowest-point mesh", unit="m", gt=0, manual="Width")
     search_radius: float = param(8.0, "neighbours within this distance are compared", unit="m", gt=0,
-                                 manual="Search Radius")
+                                 manual="Search Radius", level="internal")
     min_distance: float = param(0.5, "pairs closer than this are not compared (a slope over a tiny "
-                                     "distance says nothing)", unit="m", ge=0, manual="Min Distance")
+                                     "distance says nothing)", unit="m", ge=0, manual="Min Distance", level="internal")
     max_slope: float = param(0.8, "a point is non-ground when the slope from it down to a neighbour "
-                                  "reaches this", unit="m/m", gt=0, manual="Max Slope")
+                                  "reaches this", unit="m/m", gt=0, manual="Max Slope", level="internal")
 
     def check(self) -> None:
         super().check()
