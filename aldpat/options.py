@@ -36,7 +36,7 @@ class OrderOption(SharedOption):
 class OriginOption(SharedOption):
     origin: tuple[float, float] | None = param(
         None, "grid origin X Y (default: cells aligned to whole multiples of the cell size)", unit="m",
-        metavar="X Y",
+        metavar="X Y", level="advanced",
     )
 
 
@@ -60,7 +60,7 @@ class CellHeightOption(SharedOption):
         cell: float  # declared, with its default and help, by each class taking this option
 
     cell_height: float | None = param(None, "cell height (none: square cells of cell)", unit="m", gt=0,
-                                      manual="Height", renamed_from=("height",))
+                                      manual="Height", renamed_from=("height",), level="advanced")
 
     def cell_shape(self) -> tuple[float, float]:
         """Width and height of the cells."""
@@ -71,9 +71,9 @@ class CellHeightOption(SharedOption):
 @dataclass(frozen=True)
 class ElevationLimitsOption(SharedOption, Checked):
     max_z: float | None = param(None, "highest elevation allowed for ground (none: no limit)", unit="m",
-                                manual="Max Z")
+                                manual="Max Z", level="advanced")
     min_z: float | None = param(None, "lowest elevation allowed for ground (none: no limit)", unit="m",
-                                manual="Min Z")
+                                manual="Min Z", level="advanced")
 
     def check(self) -> None:
         super().check()
@@ -114,13 +114,15 @@ class ChunkOption(SharedOption, Checked):
 
     chunk: float | None = param(None, "process each input in square chunks of this size (rounded to whole cells), "
                                 "each with a buffer, in bounded memory and in parallel with -j; none: whole",
-                                unit="m", gt=0)
+                                unit="m", gt=0, level="advanced")
     chunk_buffer: str = param("auto", "buffer around each chunk in metres, or auto: what the filter needs "
-                              "(twice its windows' reach; a point filter's own buffer)", metavar="M|auto")
+                              "(twice its windows' reach; a point filter's own buffer)", metavar="M|auto",
+                              level="advanced")
     tmpdir: str | None = param(None, "folder for the chunks' temporary files (default: the output folder)",
-                               path=True, metavar="DIR")
+                               path=True, metavar="DIR", level="advanced")
     catalog: bool = param(False, "with --chunk: take all inputs as one catalog (tiles without buffers of their "
-                          "own), so each chunk's buffer reaches into the neighbouring files; one output per input")
+                          "own), so each chunk's buffer reaches into the neighbouring files; one output per input",
+                          level="advanced")
 
     def check(self) -> None:
         super().check()
@@ -149,14 +151,21 @@ class OutputParams(OverwriteOption, Checked):
 
     odir: str | None = param(None, "output folder, created if missing (default: beside each input)", path=True,
                              metavar="DIR")
-    suffix: str | None = param(None, "output name suffix, replacing the task's default")
-    delimiter: str = param("space", "delimiter of text outputs", choices=("space", "comma"), manual="Preference")
-    out_format: str = param("same", "output format", choices=("same", "text", "csv", "las", "laz"))
+    suffix: str | None = param(None, "output name suffix, replacing the task's default", level="advanced")
 
     def check(self) -> None:
         super().check()
         if self.suffix is not None:
             check_name_part("suffix", self.suffix)
+
+
+@dataclass(frozen=True)
+class PointOutputParams(OutputParams):
+    """Options of a task whose outputs are point files (not grids, pictures or shapefiles)."""
+
+    delimiter: str = param("space", "delimiter of text outputs", choices=("space", "comma"), manual="Preference",
+                           level="advanced")
+    out_format: str = param("same", "output format", choices=("same", "text", "csv", "las", "laz"))
 
 
 def check_name_part(key: str, text: str) -> None:
@@ -174,7 +183,8 @@ def check_name_part(key: str, text: str) -> None:
 class InputParams:
     """How inputs are read."""
 
-    format: str = param("auto", "input format (auto: by extension)", choices=("auto", "text", "las"))
+    format: str = param("auto", "input format (auto: by extension)", choices=("auto", "text", "las"),
+                        level="advanced")
 
 
 @dataclass(frozen=True)
@@ -187,7 +197,7 @@ class RunParams(Checked):
                                   "here; default: $ALDPAT_SCHEDULER, else none (needs aldpat[dask]; inputs and "
                                   "outputs on a file system the workers share; a worksheet or parameter file may "
                                   "name an address only if the command line or $ALDPAT_SCHEDULER gives the same)",
-                                  metavar="ADDRESS")
+                                  metavar="ADDRESS", level="advanced")
 
     def check(self) -> None:
         super().check()

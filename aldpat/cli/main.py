@@ -15,6 +15,7 @@ import click
 
 import aldpat
 from aldpat import interrupt
+from aldpat.cli.help import GuidedCommand, GuidedGroup
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
@@ -24,7 +25,7 @@ from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.io.toml import load_toml
 from aldpat.jobs.registry import Task
 from aldpat.jobs.run import run_task
-from aldpat.params import renamed_keys
+from aldpat.params import renamed_keys, spec_map
 from aldpat.tasks import TASKS
 
 log = logging.getLogger("aldpat")
@@ -96,40 +97,100 @@ def make_command(task: Task) -> click.Command:
     params += [renamed_option(s, old) for s in specs for old in s.renamed_from]
     params.append(params_file_opt)
     params.append(click.Option(["-v", "--verbose"], count=True, help="more detail on stderr"))
-    params.append(click.Option(["-q", "--quiet"], count=True, help="only errors on stderr, no progress"))
-    return click.Command(
+    params.append(click.Option(["-q", "--quiet"], count=True, help="only errors on stderr, no progress or summary"))
+    return GuidedCommand(
         task.name, callback=callback, params=params, help=task.summary + ("\n\n" + task.epilog if task.epilog else ""),
         short_help=task.summary.rstrip("."), context_settings={"max_content_width": 110},
-        no_args_is_help=task.inputs != "none",
+        no_args_is_help=task.inputs != "none", examples=task.examples,
     )
 
 
-class Root(click.Group):
-    """Lists commands in registry order and reports unknown ones with a suggestion."""
-
-    def resolve_command(self, ctx, args):
-        try:
-            return super().resolve_command(ctx, args)
-        except click.UsageError:
-            import difflib
-
-            hint = difflib.get_close_matches(args[0], list(self.commands), n=1) if args else []
-            raise click.UsageError(f"no command {args[0]!r}" + (f"; did you mean {hint[0]!r}?" if hint else ""))
+#: ``aldpat --help`` lists the commands in the order of ALDPAT's workflow (the README's table),
+#: under these headings; a command not named here is listed last, under "Other commands".
+WORKFLOW: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("Prepare strips and tiles (manual tasks 1-7)",
+     ("split-tape", "separate-returns", "ortho-height", "strip-boundary", "merge-boundary", "shapefile", "tile")),
+    ("Ground and terrain (tasks 8-10)", ("filter", "grid", "grd2bin", "dtm", "preview")),
+    ("Points and checks", ("thin", "polygon-extract", "info", "evaluate", "convert")),
+    ("Projects", ("run",)),
+)
 
 
-@click.group(cls=Root, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110})
+class WorkflowRoot(GuidedGroup):
+    """``aldpat``: examples, then the commands in the workflow's order (:data:`WORKFLOW`)."""
+
+    examples = (
+        ("aldpat info site.laz", "count, bounds, density and CRS of a point file"),
+        ("aldpat filter gapm site.laz --odir ground/", "its ground points (aldpat filter --help: which filter)"),
+        ("aldpat dtm site.laz --cell 1 --odir dtm/", "a bare-earth DTM, a Cloud Optimized GeoTIFF"),
+    )
+
+    def list_commands(self, ctx):
+        placed = [name for _, names in WORKFLOW for name in names if name in self.commands]
+        return placed + sorted(set(self.commands) - set(placed))
+
+    def format_commands(self, ctx, formatter):
+        rest = sorted(set(self.commands) - {n for _, names in WORKFLOW for n in names})
+        width = max(map(len, self.commands))
+        for heading, names in (*WORKFLOW, ("Other commands", tuple(rest))):
+            rows = [(n, self.commands[n].get_short_help_str(formatter.width - 6 - width))
+                    for n in names if n in self.commands and not self.commands[n].hidden]
+            if rows:
+                with formatter.section(heading):
+                    formatter.write_dl(rows, col_max=width + 2)
+
+
+class FilterGroup(GuidedGroup):
+    """``aldpat filter``: which filter to start with, and each one's measured error."""
+
+    examples = (
+        ("aldpat filter gapm site.laz", "the ground points of one file, beside it (gapm's defaults)"),
+        ("aldpat filter gapm tiles/ -j 0 --odir ground/", "every point file of a folder, on all cores"),
+        ("aldpat filter atin site.laz --params atin.toml", "another filter, its parameters from a TOML file"),
+    )
+
+    def list_commands(self, ctx):
+        from aldpat.filters.scores import ISPRS_SCORES
+
+        return sorted(self.commands, key=lambda n: (ISPRS_SCORES[n].total if n in ISPRS_SCORES else 1e9, n))
+
+    def guide(self, ctx):
+        from aldpat.filters import FILTERS
+        from aldpat.filters.scores import ISPRS_SCORES, START_WITH
+
+        auto = " (--auto derives its cell and windows from the data)" \
+            if "auto" in spec_map(FILTERS[START_WITH].params) else ""
+        return (f"Start with {START_WITH}: its defaults have the lowest error measured, "
+                f"{ISPRS_SCORES[START_WITH].text()}{auto}. Below, each filter with its mean total error with its "
+                "defaults on seven ISPRS filter-test reference samples, and where measured on samples held out of "
+                "choosing them (bench/README.md). 'aldpat filter ALGO --help' lists a filter's options, the few "
+                "most runs set first.")
+
+    def format_commands(self, ctx, formatter):
+        from aldpat.filters.scores import ISPRS_SCORES
+
+        rows = []
+        for name in self.list_commands(ctx):
+            score = ISPRS_SCORES[name].text() if name in ISPRS_SCORES else "not measured"
+            rows.append((name, f"{score}; {self.commands[name].get_short_help_str(200)}"))
+        with formatter.section("Filters (ISPRS mean total error)"):
+            formatter.write_dl(rows)
+
+
+@click.group(cls=WorkflowRoot, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110})
 @click.version_option(aldpat.__version__, prog_name="aldpat")
 @click.option("-v", "--verbose", count=True, help="more detail on stderr (-vv: debugging)")
-@click.option("-q", "--quiet", count=True, help="only errors on stderr, no progress")
+@click.option("-q", "--quiet", count=True, help="only errors on stderr, no progress or summary")
 def cli(verbose: int, quiet: int) -> None:
     """Batch airborne LiDAR processing: the ALDPAT tasks and its research ground filters,
     on ASCII and LAS/LAZ, from a shell or a TOML worksheet."""
     setup_logging(verbose, quiet)
 
 
-@cli.group("filter", cls=Root)
+@cli.group("filter", cls=FilterGroup, subcommand_metavar="ALGO INPUT...",
+           short_help="Separate ground from non-ground points: twelve filters, which to start with")
 def filter_group() -> None:
-    """Separate ground from non-ground points (aldpat filter ALGO --help lists its parameters)."""
+    """Separate ground from non-ground points."""
 
 
 def _register_commands() -> None:

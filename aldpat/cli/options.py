@@ -11,6 +11,7 @@ import dataclasses
 
 import click
 
+from aldpat.cli.help import with_level
 from aldpat.params import Spec
 
 #: short spellings of a few common options
@@ -18,6 +19,13 @@ SHORT = {"jobs": "-j", "output": "-o"}
 
 
 def option_for(spec: Spec) -> click.Option:
+    """The option of ``spec``, listed in ``--help`` under the heading of its level."""
+    option = _option(spec)
+    with_level(option, spec.level)
+    return option
+
+
+def _option(spec: Spec) -> click.Option:
     names = [spec.option]
     if spec.name in SHORT:
         names.insert(0, SHORT[spec.name])

@@ -6,6 +6,7 @@ import sys
 
 import click
 
+from aldpat.cli.help import GuidedCommand
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.render import show
 from aldpat.errors import UsageError, one_line
@@ -27,7 +28,13 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
     return out
 
 
-@click.command("run")
+@click.command("run", cls=GuidedCommand, examples=(
+    ("aldpat run jobs/demo.toml --report",
+     "every job of the demo worksheet, and demo.html beside it: states, times, errors and pictures"),
+    ("aldpat run project.toml --resume",
+     "only the jobs whose inputs, parameters or outputs changed since they last finished"),
+    ("aldpat run project.toml --dry-run", "check the worksheet and show each job as it would run"),
+))
 @click.argument("worksheet", metavar="JOB.toml")
 @click.option("--resume", is_flag=True, help="skip jobs whose inputs, parameters and outputs are unchanged "
               "since they last finished")

@@ -64,7 +64,7 @@ class JobContext:
 
     def __init__(self, task: Task, output: Any, input_opts: Any, result: JobResult):
         self.task = task
-        self.output = output  # OutputParams instance (or None)
+        self.output = output  # an OutputParams (PointOutputParams for point outputs), or None
         self.input = input_opts
         self.result = result
         #: inputs a planned job reads besides its own (:attr:`Task.plan`): neighbouring tiles
@@ -81,7 +81,7 @@ class JobContext:
         if use_suffix_option and self.output is not None and self.output.suffix is not None:
             suffix = self.output.suffix
         if ext is None:
-            ext = output_extension(reader, self.output.out_format if self.output else None) \
+            ext = output_extension(reader, getattr(self.output, "out_format", None)) \
                 if reader is not None else source.suffix
         folder = self.output_dir(source)
         return folder / f"{source.stem}{suffix}{ext}"
@@ -97,7 +97,7 @@ class JobContext:
 
     @property
     def delimiter(self) -> str:
-        return self.output.delimiter if self.output is not None else "space"
+        return getattr(self.output, "delimiter", "space")
 
     def write_points(self, path: Path, names: tuple[str, ...], *, like=None, **kwargs):
         """An atomic point writer honouring ``--overwrite`` and ``--delimiter``."""

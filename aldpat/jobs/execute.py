@@ -48,7 +48,8 @@ def execute_finish(task: Task, results: list[JobResult], run: ResolvedRun, comma
 def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
              body: Callable[[JobContext], None]) -> JobResult:
     result = JobResult(inputs=list(sources))
-    ctx = JobContext(task, run.output.values if run.output else None, run.input.values, result)
+    ctx = JobContext(task, run.output.values if run.output else None, run.input.values if run.input else None,
+                     result)
     ctx.workers = run.chunk_workers
     start = time.perf_counter()
     try:

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aldpat.errors import UsageError
-from aldpat.options import InputParams, OutputParams, RunParams
+from aldpat.options import InputParams, OutputParams, PointOutputParams, RunParams
 from aldpat.params import specs
 
 if TYPE_CHECKING:
@@ -41,6 +41,13 @@ class Task:
     #: ``plan(sources, params, input_params) -> jobs``: a ``run_one`` task whose job reads more than its
     #: own input (``dtm``: the neighbours within its buffer) lists them after it, ``[own, *others]``
     plan: Callable | None = None
+    #: the inputs are point files, so ``--format`` applies (False: grids, boundary files)
+    reads_points: bool = True
+    #: the outputs are point files, so ``--delimiter`` and ``--out-format`` apply (False: grids,
+    #: pictures, shapefiles): a command lists only the options that do something for it
+    writes_points: bool = True
+    #: ``(command line, what it does)`` pairs that open the command's ``--help``
+    examples: tuple[tuple[str, str], ...] = ()
 
     @property
     def key(self) -> str:
@@ -49,7 +56,9 @@ class Task:
     @property
     def option_classes(self) -> tuple[type, ...]:
         """Every params class a command line / worksheet job of this task accepts."""
-        common = (InputParams, OutputParams) if self.writes_outputs else (InputParams,)
+        common: tuple[type, ...] = (InputParams,) if self.reads_points else ()
+        if self.writes_outputs:
+            common += (PointOutputParams,) if self.writes_points else (OutputParams,)
         return (self.params,) + common + (RunParams,)
 
     def all_specs(self):

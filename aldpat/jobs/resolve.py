@@ -19,7 +19,7 @@ class ResolvedRun:
     task: Task
     params: Resolved  # the task's own parameters
     output: Resolved | None
-    input: Resolved
+    input: Resolved | None  # None for a task whose inputs are not point files
     run: Resolved
     #: processes a job may use for its chunks (``--chunk``): the ``-j`` workers when the run is
     #: one job, else 1 (the jobs already use them)
@@ -49,4 +49,5 @@ def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], whe
         names = {s.name for s in specs(cls)}
         sub = [(src, {k: v for k, v in m.items() if k.replace("-", "_") in names}) for src, m in layers]
         parts[cls] = resolve(cls, sub, where)
-    return ResolvedRun(task, parts[task.params], parts.get(OutputParams), parts[InputParams], parts[RunParams])
+    output = next((part for cls, part in parts.items() if issubclass(cls, OutputParams)), None)
+    return ResolvedRun(task, parts[task.params], output, parts.get(InputParams), parts[RunParams])

@@ -51,7 +51,7 @@ class RunReport:
 def plan_jobs(task: Task, sources: list[Path], run: ResolvedRun) -> list[list[str]]:
     """The inputs of each job: one each (``run_one``), all (``run_all``), or as the task plans."""
     if task.plan is not None:
-        return task.plan(sources, run.params.values, run.input.values)
+        return task.plan(sources, run.params.values, run.input.values if run.input else None)
     if task.run_one is not None:
         return [[str(s)] for s in sources]
     return [[str(s) for s in sources]]

@@ -39,4 +39,10 @@ register_task(Task(
     summary="Copy points between ASCII and LAS/LAZ (txt2las, las2txt), keeping attributes and precision.",
     params=ConvertParams,
     run_one=convert_one,
+    examples=(
+        ("aldpat convert strips/*.txt --out-format laz --crs EPSG:32617 --odir laz/",
+         "text strips to LAZ, their CRS in the headers"),
+        ("aldpat convert site.laz --out-format text --fields xyz",
+         "a LAZ file to x y z text beside it"),
+    ),
 ))

@@ -59,15 +59,16 @@ class DtmParams(OriginOption, CrsOption, Checked):
     auto: bool = param(False, "gapm: derive the cell and windows from the data (as 'aldpat filter gapm --auto')")
     buffer: float = param(30.0, "points of the other inputs within this distance of an input's extent are "
                           "filtered and triangulated with it (at least the largest object's half width)",
-                          unit="m", ge=0)
+                          unit="m", ge=0, level="advanced")
     tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile': each DTM covers its "
                                     "tile's row, so adjacent DTMs share their edge nodes", path=True,
                                     metavar="FILE")
     grid_format: str = param("cog", "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
-                             choices=tuple(GEOTIFF_FORMATS))
-    nodata: float | None = param(None, "value of nodes outside the ground points' triangles; none: -9999")
+                             choices=tuple(GEOTIFF_FORMATS), level="advanced")
+    nodata: float | None = param(None, "value of nodes outside the ground points' triangles; none: -9999",
+                                 level="advanced")
     max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this",
-                                       unit="m", gt=0)
+                                       unit="m", gt=0, level="advanced")
     mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every DTM written",
                                path=True, metavar="FILE.vrt")
 
@@ -162,4 +163,13 @@ register_task(Task(
     run_one=dtm_one,
     plan=plan_neighbours,
     finish=grid_mosaic,
+    writes_points=False,
+    examples=(
+        ("aldpat dtm site.laz --cell 1",
+         "site_dtm.tif beside it: gapm's ground points, a TIN, nodes 1 m apart, a Cloud Optimized GeoTIFF"),
+        ("aldpat dtm tiles/ --odir dtm/ --mosaic dtm/dtm.vrt -j 0",
+         "every tile with its neighbours' points within --buffer, and one virtual raster over them all"),
+        ("aldpat dtm site.laz --algorithm atin --filter-params atin.toml",
+         "another ground filter, with its parameters from a TOML file"),
+    ),
 ))

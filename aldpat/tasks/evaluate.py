@@ -42,8 +42,8 @@ class EvaluateParams(JsonOption, OverwriteOption):
                       "classified when a column after x y z holds only 1 and 2, else terrain)",
                       choices=("auto", "terrain", "classified"))
     class_column: int | None = param(None, "1-based column holding the class in a classified text result "
-                                     "(default: found as --mode says)", ge=1)
-    tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0)
+                                     "(default: found as --mode says)", ge=1, level="advanced")
+    tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0, level="advanced")
     map: str | None = param(None, "also draw the calls over the reference as a PNG: bare earth rejected red, "
                             "objects accepted blue, right calls green / grey ({stem}: the result's name)",
                             path=True, metavar="FILE.png")
@@ -165,4 +165,12 @@ register_task(Task(
     run_one=evaluate_one,
     plan=plan_evaluations,
     writes_outputs=False,
+    examples=(
+        ("aldpat evaluate samp24_gapm.txt --reference samp24.txt",
+         "Type I / II / total error and kappa against ISPRS labels"),
+        ("aldpat evaluate site_gapm.laz --reference site.laz --map calls.png",
+         "against a reference LAS's class 2, with a map of the wrong calls"),
+        ("aldpat evaluate ground/*.txt --reference samp24.txt --json",
+         "one JSON object per result"),
+    ),
 ))

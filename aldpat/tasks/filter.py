@@ -31,6 +31,7 @@ from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
+from aldpat.params import spec_map
 
 log = logging.getLogger(__name__)
 
@@ -284,7 +285,22 @@ def _register_all() -> None:
             filter_one(source, params, ctx, algorithm=_name)
 
         register_task(Task(name=name, group="filter", summary=spec.summary, params=spec.params,
-                           run_one=run, plan=plan_catalog))
+                           run_one=run, plan=plan_catalog, examples=filter_examples(name, spec.params)))
+
+
+def filter_examples(name: str, params: type) -> tuple[tuple[str, str], ...]:
+    """The examples opening ``aldpat filter NAME --help``: one file, a folder of tiles, and the
+    parameters the filter derives from the data (``--auto``) or reads from a file."""
+    if "auto" in spec_map(params):
+        last = (f"aldpat filter {name} site.laz --auto", "the cell and windows derived from the data (the log says which)")
+    else:
+        last = (f"aldpat filter {name} site.laz --params {name}.toml",
+                "the parameters from a TOML file (keys as the options, without --)")
+    return (
+        (f"aldpat filter {name} site.laz", "the ground of one file, written beside it"),
+        (f"aldpat filter {name} tiles/ -j 0 --odir ground/", "every point file of a folder, on all cores"),
+        last,
+    )
 
 
 _register_all()

@@ -46,4 +46,12 @@ register_task(Task(
             "grids (manual task 10).",
     params=Grd2BinParams,
     run_one=grd2bin_one,
+    reads_points=False,
+    writes_points=False,
+    examples=(
+        ("aldpat grd2bin grids/*.grd --crs EPSG:32617",
+         "ArcGIS float grids (.flt/.hdr/.prj) beside the Surfer grids"),
+        ("aldpat grd2bin dtm.grd --to cog --crs 17N",
+         "a Cloud Optimized GeoTIFF"),
+    ),
 ))

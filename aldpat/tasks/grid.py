@@ -51,21 +51,23 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
                                     "input's tile row, so adjacent tile grids share their last/first row and "
                                     "column", path=True, metavar="FILE")
     bounds: tuple[float, float, float, float] | None = param(
-        None, "grid range MINX MINY MAXX MAXY: the outer nodes lie on it", unit="m", metavar="MINX MINY MAXX MAXY")
+        None, "grid range MINX MINY MAXX MAXY: the outer nodes lie on it", unit="m", metavar="MINX MINY MAXX MAXY",
+        level="advanced")
     grid_format: str = param("surfer7", "grid written: Surfer 7 binary (DSRB), 6 binary (DSBB), 6 ASCII (DSAA), "
                              "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
                              choices=SURFER_FORMATS + tuple(GEOTIFF_FORMATS))
     nodata: float | None = param(None, "blank value of a surfer7 or GeoTIFF grid; none: Surfer's 1.70141e38, "
-                                 "GeoTIFF's -9999")
+                                 "GeoTIFF's -9999", level="advanced")
     max_distance: float | None = param(None, "leave nodes blank farther than this from any point (linear: "
-                                       "in triangles with a longer edge)", unit="m", gt=0)
-    power: float = param(2.0, "inverse distance weighting power (idw)", gt=0)
+                                       "in triangles with a longer edge)", unit="m", gt=0, level="advanced")
+    power: float = param(2.0, "inverse distance weighting power (idw)", gt=0, level="internal")
     radius: float | None = param(None, "search radius for neighbours (idw, kriging); none: unlimited",
-                                 unit="m", gt=0)
-    max_points: int = param(16, "neighbours used per node (idw, kriging)", ge=1)
-    variogram: str = param("linear", "variogram model fitted to the data (kriging)", choices=MODELS)
-    nugget: float = param(0.0, "variogram nugget (kriging)", unit="m^2", ge=0)
-    drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS)
+                                 unit="m", gt=0, level="internal")
+    max_points: int = param(16, "neighbours used per node (idw, kriging)", ge=1, level="internal")
+    variogram: str = param("linear", "variogram model fitted to the data (kriging)", choices=MODELS, level="internal")
+    nugget: float = param(0.0, "variogram nugget (kriging)", unit="m^2", ge=0, level="internal")
+    drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS,
+                       level="internal")
     mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every grid written, so tile "
                                "grids open as one raster", path=True, metavar="FILE.vrt")
 
@@ -261,4 +263,13 @@ register_task(Task(
     params=GridParams,
     run_one=grid_one,
     finish=grid_mosaic,
+    writes_points=False,
+    examples=(
+        ("aldpat grid ground/*.txt --cell 1",
+         "a Surfer 7 grid of each file, TIN interpolation"),
+        ("aldpat grid ground/ --cell 1 --grid-format cog --crs 17N",
+         "Cloud Optimized GeoTIFFs"),
+        ("aldpat grid 'ground/tile_*.txt' --tile-params tiles/tile_parameter.txt --mosaic dtm.vrt",
+         "tile grids sharing their edge nodes, and one raster over them"),
+    ),
 ))

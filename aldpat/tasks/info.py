@@ -76,4 +76,10 @@ register_task(Task(
     params=InfoParams,
     run_one=info_one,
     writes_outputs=False,
+    examples=(
+        ("aldpat info tiles/*.laz",
+         "count, bounds, z range, density, fields and CRS of each file"),
+        ("aldpat info site.txt --json",
+         "one JSON object per input, for scripts"),
+    ),
 ))

@@ -62,4 +62,10 @@ register_task(Task(
             "strips) (manual task 5).",
     params=MergeBoundaryParams,
     run_all=merge_boundary_all,
+    examples=(
+        ("aldpat merge-boundary bounds/*_Bound.txt --output merged_bound.txt",
+         "the strips' boundaries in one file, -1111 between strips"),
+        ("aldpat merge-boundary @bounds.txt --output merged.txt --delimiter comma",
+         "the files listed in bounds.txt, comma-delimited"),
+    ),
 ))

@@ -30,9 +30,9 @@ class OrthoHeightParams(CrsOption):
     geoid: str | None = param(None, "geoid grid: a GTX or GeoTIFF file (such as egm96_15.gtx) or a grid name "
                               "PROJ knows", path=True, metavar="GRID", required=True)
     to_crs: str | None = param(None, "re-project x, y to this CRS (datum, UTM zone, State Plane...)")
-    reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N)")
+    reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N)", level="advanced")
     z_unit: str = param("m", "unit of the input and output heights (the geoid is in metres)",
-                        choices=tuple(Z_UNITS))
+                        choices=tuple(Z_UNITS), level="advanced")
 
     def check(self) -> None:
         super().check()
@@ -105,4 +105,10 @@ register_task(Task(
             "(manual task 3, Corpscon's job).",
     params=OrthoHeightParams,
     run_one=ortho_height_one,
+    examples=(
+        ("aldpat ortho-height strips/*.txt --geoid egm96_15.gtx --crs EPSG:4979",
+         "orthometric heights, H = h - N, from an EGM96 grid"),
+        ("aldpat ortho-height site.laz --geoid egm96_15.gtx --to-crs EPSG:32617",
+         "and x, y re-projected to UTM 17N"),
+    ),
 ))

@@ -115,4 +115,10 @@ register_task(Task(
             "outside with --outside (manual: Extract Points by Polygon).",
     params=PolygonExtractParams,
     run_one=polygon_extract_one,
+    examples=(
+        ("aldpat polygon-extract site.laz --polygon area.txt",
+         "the points inside the polygon of x,y vertices"),
+        ("aldpat polygon-extract strips/*.txt --polygon lakes.shp --outside",
+         "the points outside a shapefile's polygons"),
+    ),
 ))

@@ -47,8 +47,9 @@ OTHER_RGB = (160, 160, 160)
 @dataclass(frozen=True)
 class PreviewParams:
     azimuth: float = param(315.0, "direction the light of a hillshade comes from, clockwise from north",
-                           unit="degrees", ge=0, lt=360)
-    altitude: float = param(45.0, "height of that light above the horizon", unit="degrees", gt=0, le=90)
+                           unit="degrees", ge=0, lt=360, level="advanced")
+    altitude: float = param(45.0, "height of that light above the horizon", unit="degrees", gt=0, le=90,
+                            level="advanced")
     z_factor: float = param(1.0, "vertical exaggeration of a hillshade", gt=0)
     color_by: str = param("elevation", "colour of a point plan view: the highest point's elevation, or "
                           "ground (green) / other (grey)", choices=("elevation", "class"))
@@ -202,4 +203,13 @@ register_task(Task(
     summary="Quick-look PNGs: the hillshade of a grid, or a plan view of points by elevation or by class.",
     params=PreviewParams,
     run_one=preview_one,
+    writes_points=False,
+    examples=(
+        ("aldpat preview dtm/*.tif",
+         "a hillshade PNG of each grid"),
+        ("aldpat preview dtm.vrt --z-factor 3",
+         "the relief of gentle terrain exaggerated three times"),
+        ("aldpat preview ground/site_gapm.laz --color-by class",
+         "a plan view of points by class"),
+    ),
 ))

@@ -34,7 +34,8 @@ class SeparateReturnsParams(FieldsOption, OrderOption, Checked):
     stop_gap: float = param(5.0, "where first minus last return elevation is below this, the last return is "
                             "replaced by the first", unit="m", manual="Stop Gap")
     last_odir: str | None = param(None, "folder for the last-return (_2) files, which the manual recommends "
-                                  "keeping apart (default: with the first-return files)", path=True, metavar="DIR")
+                                  "keeping apart (default: with the first-return files)", path=True, metavar="DIR",
+                                  level="advanced")
 
     def check(self) -> None:
         super().check()
@@ -129,4 +130,10 @@ register_task(Task(
             "returns within the stop gap of the first (manual task 2).",
     params=SeparateReturnsParams,
     run_one=separate_returns_one,
+    examples=(
+        ("aldpat separate-returns strips/*.txt --odir returns/",
+         "first returns (_1) and last returns (_2) of each strip"),
+        ("aldpat separate-returns strip01.txt --stop-gap 5 --utm-zone auto",
+         "last returns within 5 m of the first replaced, UTM zone prefix found"),
+    ),
 ))

@@ -63,4 +63,12 @@ register_task(Task(
             "name, .prj from --crs (manual task 6).",
     params=ShapefileParams,
     run_all=shapefile_all,
+    reads_points=False,
+    writes_points=False,
+    examples=(
+        ("aldpat shapefile merged_bound.txt --output strips.shp --crs EPSG:32617",
+         "one polygon per strip, with a .prj"),
+        ("aldpat shapefile merged_bound.txt --crs 17N --odir gis/",
+         "gis/merged_bound.shp, named after its input"),
+    ),
 ))

@@ -132,4 +132,10 @@ register_task(Task(
             "the interval (manual task 1).",
     params=SplitTapeParams,
     run_one=split_tape_one,
+    examples=(
+        ("aldpat split-tape tape.txt --interval 60 --odir strips/",
+         "a new strip wherever GPS time jumps by more than 60 s"),
+        ("aldpat split-tape tapes/*.txt --order first-last --odir strips/",
+         "tapes whose 9 columns hold the first return before the last"),
+    ),
 ))

@@ -63,4 +63,10 @@ register_task(Task(
     summary="Boundary polygon of a strip from a min-z grid, scanning rows or columns (manual task 4).",
     params=StripBoundaryParams,
     run_one=strip_boundary_one,
+    examples=(
+        ("aldpat strip-boundary returns/*_1.txt --cell 2 --odir bounds/",
+         "the boundary ring of each strip from a 2 m grid"),
+        ("aldpat strip-boundary strip01_1.txt --cell 5 --scan y",
+         "a north-south strip: scan the columns for their lowest and highest y"),
+    ),
 ))

@@ -38,7 +38,7 @@ class ThinParams(CellHeightOption, OriginOption):
     method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
                         "nearest the cell centre", choices=METHODS, manual="Method")
     xy: str = param("float", "output x and y as read (float) or rounded to the nearest integer",
-                    choices=("float", "integer"), manual="XY Type")
+                    choices=("float", "integer"), manual="XY Type", level="advanced")
 
 
 
@@ -92,4 +92,10 @@ register_task(Task(
             "(manual: Reduce Point Density).",
     params=ThinParams,
     run_one=thin_one,
+    examples=(
+        ("aldpat thin site.laz --cell 5",
+         "the lowest point of each 5 m cell"),
+        ("aldpat thin tiles/ --cell 2 --method median --odir thin/",
+         "the median point of each 2 m cell, every tile"),
+    ),
 ))

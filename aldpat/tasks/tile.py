@@ -64,12 +64,13 @@ class TileParams(FieldsOption, OriginOption, Checked):
                           manual="Height")
     buffer: float = param(0.0, "buffer added on every side of a tile", unit="m", ge=0, manual="Buffer Size")
     direction: str = param("xy", "tile along x and y, along x only (tiles span the y range) or along y only",
-                           choices=DIRECTIONS, manual="Tile Direction")
+                           choices=DIRECTIONS, manual="Tile Direction", level="advanced")
     bounds: tuple[float, float, float, float] | None = param(
         None, "area to tile: MINX MINY MAXX MAXY (default: the rectangle covering all inputs); the tiles "
         "meeting it are cut whole", unit="m",
-        metavar="MINX MINY MAXX MAXY", manual="Min/Max X Y")
-    append: bool = param(False, "append to existing tile files and tile_parameter.txt, as ALDPAT did")
+        metavar="MINX MINY MAXX MAXY", manual="Min/Max X Y", level="advanced")
+    append: bool = param(False, "append to existing tile files and tile_parameter.txt, as ALDPAT did",
+                         level="advanced")
 
     def check(self) -> None:
         super().check()
@@ -292,4 +293,10 @@ register_task(Task(
             "(manual task 7).",
     params=TileParams,
     run_all=tile_all,
+    examples=(
+        ("aldpat tile site.laz --width 500 --height 500 --buffer 30 --odir tiles/",
+         "500 m tiles with 30 m buffers, on a 500 m lattice"),
+        ("aldpat tile strips/*.txt --width 1000 --height 1000 --buffer 50 --odir tiles/",
+         "every strip cut into the same 1 km tiles"),
+    ),
 ))
