@@ -19,7 +19,7 @@ from aldpat.cli.help import GuidedCommand, GuidedGroup
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
-from aldpat.cli.render import show
+from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.io.toml import load_toml
@@ -83,6 +83,8 @@ def make_command(task: Task) -> click.Command:
             click.echo(f"aldpat: error: {exc}", err=True)
             sys.exit(1)
         show(report, bool(getattr(report.params, "json", False)))
+        if not quiet:
+            summarize(report.results, task)
         for result in report.results:
             for w in result.outputs:
                 log.info("wrote %s%s", w.path, f" ({w.count} points)" if w.count is not None else "")

@@ -8,7 +8,7 @@ import click
 
 from aldpat.cli.help import GuidedCommand
 from aldpat.cli.logs import setup_logging
-from aldpat.cli.render import show
+from aldpat.cli.render import show, summarize
 from aldpat.errors import UsageError, one_line
 from aldpat.jobs.run import RunReport
 from aldpat.worksheet.model import load_worksheet
@@ -85,6 +85,8 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, schedule
             extra = f": {one_line(st.message)}" if st.message else ""
             timing = f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""
             click.echo(f"job {st.job.number} {st.job.task.key}: {st.state}{extra}{timing}", err=True)
+            if st.state == DONE and not quiet:
+                summarize(st.results, st.job.task)
         if st.state == DONE:  # results (info, evaluate) go to stdout even with -q
             show(RunReport(st.job.task.key, st.results, []),
                  as_json=bool(getattr(st.job.run.params.values, "json", False)))

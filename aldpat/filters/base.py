@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_nearest, flat_cell_indices, lowest_grid
 from aldpat.core.memory import one_arena, release_free_memory
@@ -590,6 +591,7 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
     if not angles:
         angles = (0.0,)
 
+    units.stage("grid")
     set_aside, base = low_outliers(x, y, z, params, extent)
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
@@ -602,8 +604,11 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
         else:
             xr, yr = _rotate(x, y, angle)
             grid = _lowest_without(xr, yr, z, set_aside, params.cell, None)
+        units.stage("filter" if len(angles) == 1 else f"filter at {angle:g} degrees")
         classes = cell_classes(spec, CellHeights.of(grid), params)
+        units.stage("classify", len(z))
         pm, ig = classes.classify(xr, yr, z, grid.cell_index)
+        units.advance(len(z))
         if point_marks is None:
             point_marks, is_ground = pm, ig
         else:
@@ -644,12 +649,14 @@ def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Exten
 def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None = None) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
+    units.stage("grid")
     set_aside = low_outliers(x, y, z, params, extent)[0] if params.low_outliers is not None else None
     # the filter's own grid, gridded once for it and the report; low outliers are no cell's lowest
     grid = cell_grid(x, y, z, params, extent, leave_out=set_aside)
     if len(z) == 0:
         point_marks = np.zeros(0, np.int32)
     else:
+        units.stage("filter")  # a point filter classifies every point as it filters
         point_marks = np.asarray(spec.fn(x, y, z, grid, params), dtype=np.int32)
         if point_marks.shape != z.shape:
             raise AssertionError(f"filter {spec.name!r} returned {point_marks.shape} marks for {len(z)} points")

@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.lowest_grid import Extent, floor_index, grid_spec
 from aldpat.filters.base import CellClasses, CellHeights, cell_classes, get_filter
@@ -96,4 +97,5 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
     cells = lowest_codes(read(), bounds, heights, params.cell, params.origin)
     log.debug("%s: %d x %d cells of %g m from two passes", algorithm, cells.spec.rows, cells.spec.cols,
               params.cell)
+    units.stage("filter")
     return cell_classes(spec, cells, params, origin=params.origin)

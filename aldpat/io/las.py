@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.table import PointTable
@@ -115,8 +116,12 @@ class LasReader:
                                    path=self.path)
 
     def read(self) -> PointTable:
-        """The whole file as one table (one chunk: no concatenation, no second copy)."""
-        return next(iter(self.chunks(size=max(self.count, 1))))
+        """The whole file as one table (one chunk: no concatenation, no second copy), told as
+        the job's read pass (:mod:`aldpat.core.units`)."""
+        units.stage("read", self.count)
+        table = next(iter(self.chunks(size=max(self.count, 1))))
+        units.advance(len(table))
+        return table
 
 
 def buffer_marks(table: PointTable) -> np.ndarray | None:

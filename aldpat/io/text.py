@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.errors import InputFormatError
 from aldpat.io.table import PointTable
 from aldpat.io.textfmt import BLOCK_ROWS, column_formats, format_block
@@ -204,7 +205,9 @@ class TextReader:
         return number + 1
 
     def read(self) -> PointTable:
-        return PointTable.concat(list(self.chunks()))
+        """The whole file as one table, told chunk by chunk as the job's read pass
+        (:mod:`aldpat.core.units`)."""
+        return PointTable.concat(list(units.counted(self.chunks(), "read")))
 
     # -------------------------------------------------------------------------- errors
     def _raise_at(self, data_row: int, fallback: str | None = None) -> None:

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aldpat.errors import one_line
 from aldpat.io.registry import output_extension, write_points
 
 if TYPE_CHECKING:
@@ -48,6 +49,8 @@ class JobResult:
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # values the job derived (written to its log)
     records: list[Record] = field(default_factory=list)  # machine-readable results (info, evaluate)
+    #: what the job counted (:meth:`JobContext.tally`): points read, ground points, grid nodes
+    counts: dict[str, int] = field(default_factory=dict)
     error: str | None = None
     usage: bool = False  # the error was a usage error (exit status 2)
     detail: str | None = None  # traceback of an unexpected failure (shown with -v)
@@ -57,6 +60,39 @@ class JobResult:
     @property
     def ok(self) -> bool:
         return self.error is None
+
+    @property
+    def ground_share(self) -> float | None:
+        """Ground points as a share of the points read (None when the job did not count them)."""
+        points, ground = self.counts.get("points"), self.counts.get("ground")
+        return ground / points if points and ground is not None else None
+
+    def summary(self, one_input: bool = True) -> str:
+        """One line saying what the job did: its input, points read, ground share or grid nodes,
+        time, and its output -- ``site.laz: 131,622 points, 48.2 % ground, 3.1 s -> site_gapm.laz``.
+        ``one_input``: the job is its first input's (the others, a tile's neighbours, are read
+        for it), not a job of all its inputs together."""
+        n = len(self.inputs)
+        name = Path(self.inputs[0]).name if one_input and n else f"{n} input{'' if n == 1 else 's'}"
+        parts = []
+        if "points" in self.counts:
+            parts.append(f"{self.counts['points']:,} points")
+        if self.ground_share is not None:
+            parts.append(f"{100 * self.ground_share:.1f} % ground")
+        did = ", ".join(parts)
+        if "nodes" in self.counts:
+            nodes, blank = self.counts["nodes"], self.counts.get("blank", 0)
+            grid = f"{nodes:,} nodes" + (f" ({100 * blank / nodes:.1f} % blank)" if blank and nodes else "")
+            did = f"{did} -> {grid}" if did else grid
+        did = f"{did}, {self.seconds:.1f} s" if did else f"{self.seconds:.1f} s"
+        if self.outputs:
+            first = self.outputs[0]
+            out = first.path + (f" ({first.count:,} points)" if first.count is not None and "points" not in self.counts
+                                else "")
+            if len(self.outputs) > 1:
+                out += f" and {len(self.outputs) - 1} more"
+            did += f" -> {out}"
+        return one_line(f"{name}: {did}")
 
 
 class JobContext:
@@ -124,3 +160,10 @@ class JobContext:
 
     def emit(self, record: Record) -> None:
         self.result.records.append(record)
+
+    def tally(self, **counts: int) -> None:
+        """Add to what the job counted, for the line a command ends with and the run report:
+        ``points`` (read from its input), ``ground`` (of those, ground), ``nodes`` and ``blank``
+        (grid nodes written, and of those left blank)."""
+        for key, n in counts.items():
+            self.result.counts[key] = self.result.counts.get(key, 0) + int(n)

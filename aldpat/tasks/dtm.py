@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
@@ -116,7 +117,7 @@ def _buffer_points(ctx: JobContext, region: Bounds) -> tuple[np.ndarray, np.ndar
     """x, y, z of the neighbours' points inside ``region``, read chunk by chunk."""
     xs, ys, zs = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
     for path in ctx.neighbours:
-        for chunk in ctx.open_input(path).chunks():
+        for chunk in units.counted(ctx.open_input(path).chunks(), f"read {path.name} (buffer)"):
             inside = region.holds(chunk.x, chunk.y)
             xs.append(np.asarray(chunk.x[inside], np.float64))
             ys.append(np.asarray(chunk.y[inside], np.float64))
@@ -144,15 +145,18 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     if n_ground == 0:
         raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=source)
     check_spread(x[ground], y[ground], "linear", source)
+    units.stage("triangulate")
     values = interpolate(x[ground], y[ground], z[ground], spec, method="linear", max_distance=params.max_distance)
     blank = int(np.isnan(values).sum())
     if blank == values.size:
         raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=source)
     out = ctx.output_path(source, "_dtm", ".tif")
+    units.stage("write")
     write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
                   crs=params.crs or reader.crs, overwrite=ctx.overwrite)
     log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
     ctx.wrote(out)
+    ctx.tally(points=len(table), ground=int(ground[:len(table)].sum()), nodes=values.size, blank=blank)
 
 
 register_task(Task(

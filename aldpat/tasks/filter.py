@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.streamed import streamable
@@ -150,10 +151,13 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     n_ground = int(ground.sum())
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
+    units.stage("write", len(rows))
     for path, which in _outputs(source, params, ctx, reader, algorithm):
         with ctx.write_points(path, names, like=reader) as writer:
             writer.write(_part(rows, which, ground))
         ctx.wrote(path, writer.count)
+    units.advance(len(rows))
+    ctx.tally(points=len(table), ground=int(res.is_ground.sum()))
     log.info("%s: %d of %d points ground (%s)", source, n_ground, len(ground), algorithm)
 
 
@@ -170,7 +174,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         check_writable(path, overwrite=ctx.overwrite)
 
     def coded_chunks():
-        for table in reader.chunks(STREAM_CHUNK):
+        for table in units.counted(reader.chunks(STREAM_CHUNK), "read + grid", reader.count):
             yield table.x, table.y, z_codes(table)
 
     heights = reader.height_codes()
@@ -254,7 +258,8 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
         writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
                    for path, which in outputs]
         start = 0
-        for table in (reader.chunks() if chunk is None else reader.chunks(chunk)):
+        for table in units.counted(reader.chunks() if chunk is None else reader.chunks(chunk), "classify + write",
+                                   reader.count):
             stop = start + len(table)
             marks, classes = classes_of(table, start, stop)
             cls = for_point_format(classes, point_format)
@@ -267,6 +272,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
             start = stop
     for writer, path, _ in writers:
         ctx.wrote(path, writer.count)
+    ctx.tally(points=n, ground=n_ground)
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
     log.info("%s: %d of %d points ground (in chunks)", source, n_ground, n)

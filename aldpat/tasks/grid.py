@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core import units
 from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
@@ -143,7 +144,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         values = binner.result()  # binning streams already: --chunk changes nothing
     else:
         xs, ys, zs = [], [], []
-        for chunk in reader.chunks():
+        for chunk in units.counted(reader.chunks(), "read", reader.count):
             xs.append(np.asarray(chunk.x, dtype=np.float64))
             ys.append(np.asarray(chunk.y, dtype=np.float64))
             zs.append(np.asarray(chunk.z, dtype=np.float64))
@@ -156,6 +157,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         assert spec is not None  # from the points when neither tile parameters nor bounds give it
         if params.method in SURFACE_METHODS:
             check_spread(x, y, params.method, source)
+        units.stage("interpolate")
         values = interpolate(x, y, z, spec, method=params.method, power=params.power, radius=params.radius,
                              max_points=params.max_points, max_distance=params.max_distance,
                              variogram=params.variogram, nugget=params.nugget, drift=params.drift)
@@ -163,6 +165,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if blank == values.size:
         raise DataError(f"every node is blank: none of the {count} points lies near the grid range "
                         f"{spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g}", path=source)
+    units.stage("write")
     if params.grid_format in GEOTIFF_FORMATS:
         write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
                       crs=params.crs or reader.crs, overwrite=ctx.overwrite)
@@ -172,6 +175,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if blank:
         ctx.warn(f"{out.name}: {blank} of {values.size} nodes are blank (no data near them)")
     ctx.wrote(out)
+    ctx.tally(points=count, nodes=values.size, blank=blank)
 
 
 def chunk_buffer_for(params: GridParams) -> float:

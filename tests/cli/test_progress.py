@@ -7,7 +7,7 @@ import pty
 import re
 import subprocess
 
-from tests.cli.fresh import DATA, aldpat_command
+from tests.cli.fresh import DATA, TEST_DATA, aldpat, aldpat_command
 
 
 def in_a_terminal(*args, cwd) -> tuple[int, str]:
@@ -47,3 +47,37 @@ def test_a_worksheet_shows_each_jobs_bar(tmp_path):
     assert code == 0, drawn
     assert ("29", "29") in set(re.findall(r"(\d+)/(\d+)", drawn))  # the job's 28 chunks and the job
     assert "job 1 filter pm: Done" in drawn
+
+
+def passes_drawn(drawn: str, label: str) -> list[str]:
+    """The passes a run of one job showed, in order (``label: pass`` lines of the bar)."""
+    plain = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", drawn)
+    seen: list[str] = []
+    for m in re.finditer(rf"{re.escape(label)}: ([a-z +]+?)\s+━", plain):
+        if not seen or seen[-1] != m.group(1):
+            seen.append(m.group(1))
+    return seen
+
+
+def test_one_big_file_shows_its_passes_then_what_it_did(tmp_path):
+    """A file read whole shows read, grid, filter, classify, write; a LAS/LAZ filtered in two
+    streaming passes shows them as its two passes around the filter, with its points counted."""
+    code, drawn = in_a_terminal("filter", "gapm", DATA / "samp24.txt", "--odir", tmp_path, cwd=tmp_path)
+    assert code == 0, drawn
+    assert passes_drawn(drawn, "filter gapm") == ["read", "grid", "filter", "classify", "write"]
+    assert "0/1" not in drawn  # a run of one job does not count its one job
+    assert re.search(r"samp24\.txt: 7,492 points, \d+\.\d % ground, \d+\.\d s -> \S*samp24_gapm\.txt", drawn)
+
+    code, drawn = in_a_terminal("filter", "gapm", TEST_DATA / "fsite5_strip.laz", "--odir", tmp_path, cwd=tmp_path)
+    assert code == 0, drawn
+    assert passes_drawn(drawn, "filter gapm") == ["read + grid", "filter", "classify + write"]
+    assert "20,643 of 20,643 points" in drawn
+
+
+def test_without_a_terminal_no_bar_and_one_line_per_input_unless_quiet(tmp_path):
+    done = aldpat("dtm", DATA / "samp24.txt", "--cell", "2", "--odir", tmp_path).ok()
+    assert "━" not in done.stderr and done.stdout == ""
+    assert re.fullmatch(r"samp24\.txt: 7,492 points, \d+\.\d % ground -> [\d,]+ nodes \(\d+\.\d % blank\), "
+                        r"\d+\.\d s -> \S*samp24_dtm\.tif\n", done.stderr), done.stderr
+    quiet = aldpat("dtm", DATA / "samp24.txt", "--cell", "2", "--odir", tmp_path, "--overwrite", "-q").ok()
+    assert quiet.stderr == ""
