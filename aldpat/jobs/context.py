@@ -107,6 +107,8 @@ class JobContext:
         self.neighbours: list[Path] = []
         #: processes the job may use for its chunks (``--chunk``)
         self.workers = 1
+        #: the run's scratch folder, where a first pass leaves what the task's jobs read
+        self.scratch: Path | None = None
 
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,

@@ -26,9 +26,10 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
     """Run one job (in this process or a worker) and write its log; never raises. ``task``
     reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
     def body(ctx: JobContext) -> None:
-        if task.run_one is not None:
+        run_one = task.first_pass if run.stage == "first" else task.run_one
+        if run_one is not None:
             ctx.neighbours = [Path(s) for s in sources[1:]]  # a planned job's other inputs
-            task.run_one(Path(sources[0]), run.params.values, ctx)
+            run_one(Path(sources[0]), run.params.values, ctx)
         else:
             assert task.run_all is not None  # a task has one of the two
             task.run_all([Path(s) for s in sources], run.params.values, ctx)
@@ -51,6 +52,7 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
     ctx = JobContext(task, run.output.values if run.output else None, run.input.values if run.input else None,
                      result)
     ctx.workers = run.chunk_workers
+    ctx.scratch = Path(run.scratch) if run.scratch is not None else None
     start = time.perf_counter()
     try:
         with interrupt.doing(f"running: {job_names(sources)}"):

@@ -48,6 +48,12 @@ class Task:
     writes_points: bool = True
     #: ``(command line, what it does)`` pairs that open the command's ``--help``
     examples: tuple[tuple[str, str], ...] = ()
+    #: ``first(sources, params, input_params) -> jobs``: the jobs of a pass run before the task's own,
+    #: each calling ``first_pass(source, params, ctx)``; what they write under ``ctx.scratch`` the
+    #: task's jobs read (``dtm`` over tiles: every tile's ground classes, which the DTMs of its
+    #: neighbours need near their shared edges). An empty list: no first pass.
+    first: Callable | None = None
+    first_pass: Callable | None = None
 
     @property
     def key(self) -> str:

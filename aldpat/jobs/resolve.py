@@ -24,6 +24,10 @@ class ResolvedRun:
     #: processes a job may use for its chunks (``--chunk``): the ``-j`` workers when the run is
     #: one job, else 1 (the jobs already use them)
     chunk_workers: int = 1
+    #: which function the jobs run: the task's own (``"main"``) or its first pass (``"first"``)
+    stage: str = "main"
+    #: the run's scratch folder, shared by its passes (None when the task has no first pass)
+    scratch: str | None = None
 
     def record(self) -> list[tuple[str, str, str]]:
         rows = self.params.record()

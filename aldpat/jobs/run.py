@@ -3,16 +3,18 @@ one for all), hand them to an executor, and report what happened (exit status 0,
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aldpat.core import units
 from aldpat.errors import UsageError
+from aldpat.io.chunks import scratch_folder
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.context import JobResult, Written
 from aldpat.jobs.execute import Progress, execute_finish, report_result
@@ -75,26 +77,48 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
             raise UsageError("no inputs given")
         return RunReport(task.key, [], input_errors)
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
-    workers = run.run.values.jobs or (os.cpu_count() or 1)
-    if len(jobs) == 1 and workers > 1:
-        run = dataclasses.replace(run, chunk_workers=workers)  # one big input: its chunks use the cores
-    workers = max(1, min(workers, len(jobs)))
+    first = task.first(sources, run.params.values, run.input.values) if task.first is not None and sources else []
+    wanted = run.run.values.jobs or (os.cpu_count() or 1)
+    if len(jobs) == 1 and wanted > 1:
+        run = dataclasses.replace(run, chunk_workers=wanted)  # one big input: its chunks use the cores
     results: list[JobResult] = []
     scheduler = scheduler_for(run.run.values.scheduler, run.run.sources.get("scheduler", "cli"))
     if progress is not None:
-        progress.started(len(jobs))
-    with units.listening(progress.units if progress is not None else None):
-        if scheduler is not None:
-            from aldpat.jobs.cluster import run_on_cluster
-
-            run_on_cluster(task, jobs, run, command, scheduler, results, progress)
-        elif workers == 1:
-            run_in_this_process(task, jobs, run, command, results, progress)
-        else:
-            run_in_processes(task, jobs, run, command, workers, results, progress)
+        progress.started(len(first) + len(jobs))
+    with units.listening(progress.units if progress is not None else None), \
+            _scratch(run, sources) if first else contextlib.nullcontext(run) as run:
+        if first:
+            passed: list[JobResult] = []
+            _execute(task, first, dataclasses.replace(run, stage="first"), command, scheduler, wanted, passed,
+                     progress)
+            results += [r for r in passed if not r.ok]  # the task's jobs say what it means for them
+        _execute(task, jobs, run, command, scheduler, wanted, results, progress)
     if task.finish is not None:
         last = execute_finish(task, results, run, command)
         if last.outputs or not last.ok:  # a finish step with nothing to do is not a job
             results.append(last)
             report_result(last, None)
     return RunReport(task.key, results, input_errors, run.params.values)
+
+
+def _execute(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, scheduler: str | None,
+             wanted: int, results: list[JobResult], progress: Progress | None) -> None:
+    """Run ``jobs`` on the cluster, here, or in up to ``wanted`` worker processes."""
+    workers = max(1, min(wanted, len(jobs)))
+    if scheduler is not None:
+        from aldpat.jobs.cluster import run_on_cluster
+
+        run_on_cluster(task, jobs, run, command, scheduler, results, progress)
+    elif workers == 1:
+        run_in_this_process(task, jobs, run, command, results, progress)
+    else:
+        run_in_processes(task, jobs, run, command, workers, results, progress)
+
+
+@contextlib.contextmanager
+def _scratch(run: ResolvedRun, sources: list[Path]) -> Iterator[ResolvedRun]:
+    """The run with a scratch folder for its passes, in the output folder (beside the first input
+    without ``--odir``), removed however the run ends."""
+    odir = getattr(run.output.values, "odir", None) if run.output is not None else None
+    with scratch_folder(None, Path(odir) if odir else sources[0].parent) as folder:
+        yield dataclasses.replace(run, scratch=str(folder))
