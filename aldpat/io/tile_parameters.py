@@ -131,7 +131,12 @@ def tile_row_for(params_path: str | Path, input_path: str | Path) -> TileRow:
     matches its tile (``tile_1_2.txt``) through the longest row stem it starts with followed by
     ``_``, because task 9 grids the filter's output of task 8.
     """
-    rows = read_tile_parameters(params_path)
+    return row_for(read_tile_parameters(params_path), input_path, params_path)
+
+
+def row_for(rows: list[TileRow], input_path: str | Path, params_path: str | Path) -> TileRow:
+    """The row of ``rows`` (read from ``params_path``) describing ``input_path`` (see
+    :func:`tile_row_for`)."""
     input_path = Path(input_path)
     target = input_path.resolve()
     for row in rows:
