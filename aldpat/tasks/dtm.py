@@ -12,17 +12,26 @@ with a TIN -- run tile by tile and written as a GeoTIFF or Cloud Optimized GeoTI
    ALGO --params`` takes -- or ``--auto``;
 3. the ground points are triangulated (Delaunay TIN, linear inside each triangle: Surfer's
    "Triangulation with Linear Interpolation" of task 9) onto nodes ``cell`` apart over the
-   input's own extent, on whole multiples of the cell from ``origin``, so that adjacent tiles
-   share their edge nodes (manual Fig. 7); with ``tile_params`` the extent is the tile's row of
-   ``tile_parameter.txt``;
+   input's own extent, on whole multiples of the cell from ``origin``;
 4. the grid is written as ``<stem>_dtm.tif``, float32, with the CRS (``--crs`` or the LAS's).
+
+Over tiles from ``aldpat tile`` (``tile_params``, or the ``tile_parameter.txt`` beside the inputs
+listing them) every point is one tile's own (:mod:`aldpat.io.tile_project`), and a node on a
+shared edge must come out the same in both tiles: a first pass filters each tile -- its own
+points with its neighbours' within ``buffer`` as context -- and keeps the classes of its own
+points; then each tile's DTM covers its core only, on one lattice for the project, from the
+ground points it and its neighbours own, each as its own tile classed it, with the nodes on its
+edges computed alike in every tile holding them (:mod:`aldpat.core.tile_edges`). A tile whose
+core holds no node with a value is a warning, and the mosaic is made of the others.
 
 ``--mosaic dtm.vrt`` adds a GDAL virtual raster over every tile's DTM.
 """
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,13 +45,14 @@ from aldpat.filters import FILTERS, ground_filter
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.geotiff import write_geotiff
+from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
 from aldpat.tasks.filter import apply_auto
-from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for
+from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for, tile_grid
 
 log = logging.getLogger(__name__)
 
@@ -61,8 +71,9 @@ class DtmParams(OriginOption, CrsOption, Checked):
     buffer: float = param(30.0, "points of the other inputs within this distance of an input's extent are "
                           "filtered and triangulated with it (at least the largest object's half width)",
                           unit="m", ge=0, level="advanced")
-    tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile': each DTM covers its "
-                                    "tile's row, so adjacent DTMs share their edge nodes", path=True,
+    tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile' (default: the one beside "
+                                    "the inputs, when it lists them): each DTM covers its tile's core on one "
+                                    "lattice, and adjacent DTMs share their edge nodes", path=True,
                                     metavar="FILE")
     grid_format: str = param("cog", "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
                              choices=tuple(GEOTIFF_FORMATS), level="advanced")
@@ -70,8 +81,8 @@ class DtmParams(OriginOption, CrsOption, Checked):
                                  level="advanced")
     max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this",
                                        unit="m", gt=0, level="advanced")
-    mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every DTM written",
-                               path=True, metavar="FILE.vrt")
+    mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every DTM written (a path "
+                               "like any other: not inside --odir)", path=True, metavar="FILE.vrt")
 
     def check(self) -> None:
         super().check()
@@ -95,20 +106,23 @@ def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> lis
     why."""
     if params.buffer == 0 or len(sources) < 2:
         return [[str(s)] for s in sources]
+    tiles = {s for s in sources if _tile_or_none(s, params) is not None}  # their jobs find their neighbours
     bounds: dict[Path, Bounds | None] = {}
     for s in sources:
+        if s in tiles:
+            continue
         try:
             bounds[s] = point_bounds(s, format=input_params.format)
         except AldpatError:
             bounds[s] = None
     jobs = []
     for s in sources:
-        own = bounds[s]
+        own = bounds.get(s)
         if own is None:
             jobs.append([str(s)])
             continue
         region = own.grown(params.buffer)
-        near = [o for o in sources if o != s and (b := bounds[o]) is not None and region.meets(b)]
+        near = [o for o in sources if o != s and (b := bounds.get(o)) is not None and region.meets(b)]
         jobs.append([str(s)] + [str(o) for o in near])
     return jobs
 
@@ -126,12 +140,16 @@ def _buffer_points(ctx: JobContext, region: Bounds) -> tuple[np.ndarray, np.ndar
 
 
 def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
+    tile = find_tile_job(source, params.tile_params)
+    if tile is not None:
+        dtm_over_tiles(tile, params, ctx)
+        return
     reader = ctx.open_input(source)
     table = reader.read()
     if len(table) == 0:
         raise DataError("no points", path=source)
-    spec = grid_spec_for(source, params, ctx, xy=(table.x, table.y))
-    assert spec is not None  # from the tile row, else from the points
+    spec = grid_spec_for(params, xy=(table.x, table.y))
+    assert spec is not None  # from the points
     region = Bounds(spec.xmin, spec.ymin, spec.xmax, spec.ymax).grown(params.buffer)
     bx, by, bz = _buffer_points(ctx, region)
     x = np.concatenate([np.asarray(table.x, np.float64), bx])
@@ -159,6 +177,93 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     ctx.tally(points=len(table), ground=int(ground[:len(table)].sum()), nodes=values.size, blank=blank)
 
 
+def _tile_or_none(source: Path, params: DtmParams) -> TileJob | None:
+    try:
+        return find_tile_job(source, params.tile_params)
+    except AldpatError:
+        return None  # the job says why
+
+
+def first_jobs(sources: list[Path], params: DtmParams, input_params) -> list[list[str]]:
+    """Over tiles: a first-pass job for every input tile and every neighbour within ``buffer``
+    (an input or not: a DTM does not depend on which tiles were asked for at once)."""
+    jobs: list[list[str]] = []
+    seen: set[Path] = set()
+    for s in sources:
+        tile = _tile_or_none(s, params)
+        if tile is None:
+            continue
+        for path in [s, *(tile.file_of(row) for row in tile.near(params.buffer))]:
+            if path.resolve() not in seen and path.is_file():
+                seen.add(path.resolve())
+                jobs.append([str(path)])
+    return jobs
+
+
+def _classes_file(scratch: Path | None, path: Path, ext: str = ".npy") -> Path:
+    if scratch is None:
+        raise DataError("no first pass ran for the tiles (their ground classes are missing)", path=path)
+    return scratch / (hashlib.sha1(str(Path(path).resolve()).encode()).hexdigest()[:20] + ext)
+
+
+def classify_tile(source: Path, params: DtmParams, ctx: JobContext) -> None:
+    """First pass over tiles: the ground classes of the points ``source`` owns (and of its buffer
+    points standing in for a neighbour without a file), filtered with the neighbours' points within
+    ``buffer`` as context; kept in the run's scratch folder for every DTM that needs them."""
+    tile = find_tile_job(source, params.tile_params)
+    if tile is None:
+        raise DataError("not a tile of the tile parameter file", path=source)
+    fmt = ctx.input.format if ctx.input is not None else None
+    parts = tile_points(tile, params.buffer, fmt=fmt)
+    own = parts[0]
+    flags = np.zeros(own.count, np.uint8)
+    if len(own.x):
+        x, y, z = (np.concatenate([getattr(p, a) for p in parts]) for a in "xyz")
+        fparams = apply_auto(params.ground_params(), x, y, z, ctx)
+        ground = ground_filter(x, y, z, params.algorithm, fparams).is_ground
+        flags[own.index] = ground[:len(own.x)]
+        ctx.note(f"{len(own.x)} points of {source.name} and {len(x) - len(own.x)} of {len(parts) - 1} "
+                 f"neighbouring tiles within {params.buffer:g} m; {int(ground[:len(own.x)].sum())} of its own "
+                 f"ground ({params.algorithm})")
+    out = _classes_file(ctx.scratch, source)
+    tmp = out.with_name(f"{out.stem}.{os.getpid()}.tmp.npy")
+    np.save(tmp, flags)
+    tmp.replace(out)
+    _classes_file(ctx.scratch, source, ".txt").write_text("\n".join(ctx.result.notes), encoding="utf-8")
+
+
+def _ground_of(part: OwnedPoints, scratch: Path | None) -> np.ndarray:
+    path = _classes_file(scratch, part.path)
+    if not path.is_file():
+        raise DataError(f"the ground classes of {part.path.name} are missing: the ground filter failed on it",
+                        path=part.path)
+    return np.load(path, mmap_mode="r")[part.index] == 1
+
+
+def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
+    """A tile's DTM from the ground points it and its neighbours own, each classed by its own tile
+    in the first pass (see the module docstring)."""
+    fmt = ctx.input.format if ctx.input is not None else None
+    parts = tile_points(tile, params.buffer, fmt=fmt, warn=ctx.warn)
+    for line in _classes_file(ctx.scratch, tile.source, ".txt").read_text(encoding="utf-8").splitlines():
+        ctx.note(line)  # what the first pass found (--auto's parameters)
+    ground = np.concatenate([_ground_of(p, ctx.scratch) for p in parts])
+    x, y, z = (np.concatenate([getattr(p, a) for p in parts])[ground] for a in "xyz")
+    ctx.note(f"{int(ground.sum())} ground points within {params.buffer:g} m of the core of {tile.source.name}, "
+             f"{int(ground[:len(parts[0].x)].sum())} of them its own")
+    made = tile_grid(tile, x, y, z, params, "linear", {"max_distance": params.max_distance}, ctx) \
+        if len(x) else None
+    if made is None:
+        if not len(x):
+            ctx.warn(f"{tile.source.name}: no ground point in or near its core; no DTM written")
+        return
+    values, spec = made
+    out = ctx.output_path(tile.source, "_dtm", ".tif")
+    write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
+                  crs=params.crs or ctx.open_input(tile.source).crs, overwrite=ctx.overwrite)
+    ctx.wrote(out)
+
+
 register_task(Task(
     name="dtm",
     summary="Points to a bare-earth DTM GeoTIFF/COG in one step: ground filter, TIN grid, tile by tile with "
@@ -176,4 +281,6 @@ register_task(Task(
         ("aldpat dtm site.laz --algorithm atin --filter-params atin.toml",
          "another ground filter, with its parameters from a TOML file"),
     ),
+    first=first_jobs,
+    first_pass=classify_tile,
 ))

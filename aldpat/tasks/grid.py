@@ -1,11 +1,16 @@
-"""``aldpat grid``: interpolate a tile's points to a Surfer grid (Surfer's job in ALDPAT).
+"""``aldpat grid``: interpolate points to a Surfer grid or a GeoTIFF (Surfer's job in ALDPAT).
 
-ALDPAT 1.0 user manual (2007), task 9 "Gridding Tiles": each tile is gridded with the range of its
-row in ``tile_parameter.txt`` (task 7, Fig. 8) and the cell size, so that "the last row and
-column of a grid tile overlaps with the first row and column of the adjacent tiles" (Fig. 7);
-without the reference file the range comes from the tile's points. The range may also be given
-as ``--bounds``. Methods and blanking: :mod:`aldpat.core.interpolate`, :mod:`aldpat.core.kriging`;
-extents: :mod:`aldpat.core.grid_extent`; files: :mod:`aldpat.io.surfer`.
+ALDPAT 1.0 user manual (2007), task 9 "Gridding Tiles": each tile is gridded over its row in
+``tile_parameter.txt`` (task 7, Fig. 8), so that "the last row and column of a grid tile overlaps
+with the first row and column of the adjacent tiles" (Fig. 7). Over tiles (``--tile-params``, or
+the ``tile_parameter.txt`` beside the inputs listing them) a grid holds the nodes of one lattice
+for the whole project inside its tile's core, interpolated from the points the tile owns and
+those its neighbours own within ``buffer`` (:mod:`aldpat.io.tile_project`), with the nodes on
+shared edges computed alike in every tile (:mod:`aldpat.core.tile_edges`). Otherwise the range is
+``--bounds``, or the points' extent on whole multiples of the cell. Methods and blanking:
+:mod:`aldpat.core.interpolate`, :mod:`aldpat.core.kriging`; files: :mod:`aldpat.io.surfer`.
+Output names say the method (``<stem>_<method>.grd``), so grids of one input by two methods sit
+side by side.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from aldpat.core.grid_extent import (
 )
 from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
+from aldpat.core.tile_edges import core_nodes, grid_tile
 from aldpat.errors import DataError, ParamError
 from aldpat.io.bounds import point_bounds
 from aldpat.io.chunks import ChunkLattice, map_chunks, scratch_folder, spill_chunks
@@ -33,7 +39,7 @@ from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.surfer import BLANK as SURFER_BLANK
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS
 from aldpat.io.surfer import read_surfer, write_surfer
-from aldpat.io.tile_parameters import tile_row_for
+from aldpat.io.tile_project import TileJob, find_tile_job, tile_points
 from aldpat.io.vrt import TileGrid, write_mosaic
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.registry import Task, register_task
@@ -48,9 +54,12 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
     cell: float = param(1.0, "grid cell size: spacing of the nodes", unit="m", gt=0)
     method: str = param("linear", "interpolation: nearest point, Delaunay TIN, inverse distance, ordinary "
                         "kriging, or the min/max/mean of the points in each node's cell", choices=METHODS)
-    tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile': the grid range is the "
-                                    "input's tile row, so adjacent tile grids share their last/first row and "
-                                    "column", path=True, metavar="FILE")
+    tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile' (default: the one beside "
+                                    "the inputs, when it lists them): each grid covers its tile's core on one "
+                                    "lattice, and adjacent tile grids share their edge nodes", path=True,
+                                    metavar="FILE")
+    buffer: float = param(30.0, "over tiles: the points of neighbouring tiles within this distance of a tile's "
+                          "core are gridded with it", unit="m", ge=0)
     bounds: tuple[float, float, float, float] | None = param(
         None, "grid range MINX MINY MAXX MAXY: the outer nodes lie on it", unit="m", metavar="MINX MINY MAXX MAXY",
         level="advanced")
@@ -70,7 +79,8 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
     drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS,
                        level="internal")
     mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every grid written, so tile "
-                               "grids open as one raster", path=True, metavar="FILE.vrt")
+                               "grids open as one raster (a path like any other: not inside --odir)", path=True,
+                               metavar="FILE.vrt")
 
     def check(self) -> None:
         super().check()
@@ -84,27 +94,19 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
             raise ParamError("nodata: applies to surfer7 and GeoTIFF grids; Surfer 6 grids always use 1.70141e38")
 
 
-def grid_spec_for(source: Path, params, ctx: JobContext | None = None,
-                  xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
-    """The grid range from the tile row or the bounds; None when it must come from the data.
-    ``params`` has ``cell``, ``origin`` and ``tile_params``, and may have ``bounds`` (``grid``'s,
-    ``dtm``'s)."""
+def grid_spec_for(params, xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
+    """The grid range from ``--bounds`` (``grid``'s), else from the points ``xy`` on whole
+    multiples of the cell; None when it must come from points not read yet."""
     bounds = getattr(params, "bounds", None)
-    if params.tile_params:
-        row = tile_row_for(params.tile_params, source)
-        lo_hi = (row.minx, row.maxx, row.miny, row.maxy)
-    elif bounds:
+    if bounds:
         minx, miny, maxx, maxy = bounds
-        lo_hi = (minx, maxx, miny, maxy)
-    elif xy is not None:
+        if not (whole_cells(minx, maxx, params.cell) and whole_cells(miny, maxy, params.cell)):
+            log.warning("range %g..%g x %g..%g is not a whole number of %g m cells; the grid is extended "
+                        "east/north to cover it", minx, maxx, miny, maxy, params.cell)
+        return from_bounds(minx, miny, maxx, maxy, params.cell)
+    if xy is not None:
         return from_data(*xy, params.cell, origin=params.origin or (0.0, 0.0))
-    else:
-        return None
-    minx, maxx, miny, maxy = lo_hi
-    if ctx is not None and not (whole_cells(minx, maxx, params.cell) and whole_cells(miny, maxy, params.cell)):
-        ctx.warn(f"{source.name}: range {minx:g}..{maxx:g} x {miny:g}..{maxy:g} is not a whole number of "
-                 f"{params.cell:g} m cells; the grid is extended east/north to cover it")
-    return from_bounds(minx, miny, maxx, maxy, params.cell)
+    return None
 
 
 #: Methods that fit a surface through the points: they need three points not on one line.
@@ -126,9 +128,13 @@ def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> Non
 
 
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
+    tile = find_tile_job(source, params.tile_params) if not params.bounds else None  # --bounds: that range
+    if tile is not None:
+        grid_over_tiles(tile, params, ctx)
+        return
     reader = ctx.open_input(source)
-    out = ctx.output_path(source, "", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
-    spec = grid_spec_for(source, params, ctx)
+    out = ctx.output_path(source, f"_{params.method}", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
+    spec = grid_spec_for(params)
     if params.chunk is not None and params.method not in BINNING:
         if spec is None:
             b = point_bounds(source, format=ctx.input.format if ctx.input is not None else None)
@@ -153,29 +159,85 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         if count == 0:
             raise DataError("no points to grid", path=source)
         if spec is None:
-            spec = grid_spec_for(source, params, ctx, xy=(x, y))
-        assert spec is not None  # from the points when neither tile parameters nor bounds give it
+            spec = grid_spec_for(params, xy=(x, y))
+        assert spec is not None  # from the points when no bounds give it
         if params.method in SURFACE_METHODS:
             check_spread(x, y, params.method, source)
         units.stage("interpolate")
-        values = interpolate(x, y, z, spec, method=params.method, power=params.power, radius=params.radius,
-                             max_points=params.max_points, max_distance=params.max_distance,
-                             variogram=params.variogram, nugget=params.nugget, drift=params.drift)
-    blank = int(np.isnan(values).sum())
-    if blank == values.size:
+        values = interpolate(x, y, z, spec, method=params.method, **interpolation_options(params))
+    if np.isnan(values).all():
         raise DataError(f"every node is blank: none of the {count} points lies near the grid range "
                         f"{spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g}", path=source)
+    write_grid(out, values, spec, params, params.crs or reader.crs, ctx, count)
+    log.info("%s: %d points -> %d x %d nodes", source, count, spec.nx, spec.ny)
+
+
+def interpolation_options(params: GridParams) -> dict:
+    return {"power": params.power, "radius": params.radius, "max_points": params.max_points,
+            "max_distance": params.max_distance, "variogram": params.variogram, "nugget": params.nugget,
+            "drift": params.drift}
+
+
+def write_grid(out: Path, values: np.ndarray, spec: GridSpec, params, crs, ctx: JobContext, points: int) -> None:
+    """Write a grid as ``params.grid_format`` says (a GeoTIFF takes ``crs``), warn of blank nodes,
+    record it and what made it (``points`` read)."""
     units.stage("write")
     if params.grid_format in GEOTIFF_FORMATS:
-        write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
-                      crs=params.crs or reader.crs, overwrite=ctx.overwrite)
+        write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata, crs=crs,
+                      overwrite=ctx.overwrite)
     else:
         write_surfer(out, values, spec, fmt=params.grid_format, blank=params.nodata, overwrite=ctx.overwrite)
-    log.info("%s: %d points -> %d x %d nodes (%d blank)", source, count, spec.nx, spec.ny, blank)
+    blank = int(np.isnan(values).sum())
     if blank:
         ctx.warn(f"{out.name}: {blank} of {values.size} nodes are blank (no data near them)")
     ctx.wrote(out)
-    ctx.tally(points=count, nodes=values.size, blank=blank)
+    ctx.tally(points=points, nodes=values.size, blank=blank)
+
+
+def tile_grid(tile: TileJob, x: np.ndarray, y: np.ndarray, z: np.ndarray, params, method: str, options: dict,
+              ctx: JobContext) -> tuple[np.ndarray, GridSpec] | None:
+    """A tile's nodes from the points it and its neighbours own within ``params.buffer``; None,
+    with a warning, when the tile holds no node with a value (its grid is left out, and a mosaic
+    is made of the others)."""
+    name = tile.source.name
+    spec = core_nodes(tile.core, params.cell, params.origin or (0.0, 0.0))
+    if spec is None:
+        ctx.warn(f"{name}: no node of the {params.cell:g} m lattice lies in its core; no grid written")
+        return None
+    try:
+        if method in SURFACE_METHODS:
+            check_spread(x, y, method, tile.source)
+
+        def grid(px, py, pz, part: GridSpec) -> np.ndarray:
+            return interpolate(px, py, pz, part, method=method, **options)
+
+        values = grid_tile(x, y, z, spec, tile.core, params.origin or (0.0, 0.0), params.buffer, grid)
+    except DataError as exc:
+        ctx.warn(f"{name}: no grid written: {exc}")
+        return None
+    if np.isnan(values).all():
+        ctx.warn(f"{name}: every node of its core is blank (none lies among the points); no grid written")
+        return None
+    return values, spec
+
+
+def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
+    """One tile's grid over its core (see the module docstring)."""
+    fmt = ctx.input.format if ctx.input is not None else None
+    parts = tile_points(tile, params.buffer, fmt=fmt, warn=ctx.warn)
+    x, y, z = (np.concatenate([getattr(p, a) for p in parts]) for a in "xyz")
+    ctx.note(f"{len(parts[0].x)} points of {tile.source.name} and {len(x) - len(parts[0].x)} of "
+             f"{len(parts) - 1} neighbouring tiles within {params.buffer:g} m of its core")
+    if params.chunk is not None:
+        ctx.note("--chunk: a tile is gridded whole")
+    made = tile_grid(tile, x, y, z, params, params.method, interpolation_options(params), ctx) if len(x) else None
+    if made is None:
+        if not len(x):
+            ctx.warn(f"{tile.source.name}: no points in or near its core; no grid written")
+        return
+    values, spec = made
+    out = ctx.output_path(tile.source, f"_{params.method}", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
+    write_grid(out, values, spec, params, params.crs or ctx.open_input(tile.source).crs, ctx, len(parts[0].x))
 
 
 def chunk_buffer_for(params: GridParams) -> float:
@@ -241,9 +303,7 @@ def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -
     failed = [r for r in results if not r.ok]
     if failed:
         raise DataError(f"mosaic not written: {len(failed)} of {len(results)} grids failed", path=params.mosaic)
-    out = Path(params.mosaic)
-    if ctx.output is not None and ctx.output.odir and not out.is_absolute():
-        out = Path(ctx.output.odir) / out
+    out = Path(params.mosaic)  # like every path: from where the command runs (a worksheet's folder)
     tiles = []
     crs = params.crs
     for written in (w for r in results for w in r.outputs):

@@ -181,10 +181,10 @@ def test_every_grid_method_on_one_point(corpus, tmp_path, method):
     if method in SURFACE_METHODS:
         assert done.returncode == 1
         assert sum("needs at least 3 distinct points" in ln for ln in done.stderr.splitlines()) == 1
-        assert not (tmp_path / "one.grd").exists()
+        assert not (tmp_path / f"one_{method}.grd").exists()
     else:
         assert done.returncode == 0, done.stderr
-        with rasterio.open(tmp_path / "one.grd") as ds:
+        with rasterio.open(tmp_path / f"one_{method}.grd") as ds:
             assert ds.read(1, masked=True).count() >= 1  # the node at the point has its height
 
 
@@ -257,7 +257,7 @@ main()
 @pytest.mark.parametrize("command, extra, out_name", [
     ("convert", ["--out-format", "laz"], "big.laz"),
     ("filter pm", [], "big_pm.txt"),
-    ("grid", ["--cell", "0.25"], "big.grd"),
+    ("grid", ["--cell", "0.25"], "big_linear.grd"),
 ])
 def test_a_full_disk_names_the_output_and_leaves_nothing(tmp_path, command, extra, out_name):
     rng = np.random.default_rng(0)

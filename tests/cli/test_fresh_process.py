@@ -58,7 +58,7 @@ def text_rows(path: Path) -> np.ndarray:
 
 
 def test_every_task_is_run_by_this_file():
-    covered = {"convert", "dtm", "evaluate", "grd2bin", "grid", "info", "merge-boundary", "ortho-height",
+    covered = {"convert", "dtm", "evaluate", "grd2bin", "grid", "info", "merge", "merge-boundary", "ortho-height",
                "polygon-extract", "preview", "separate-returns", "shapefile", "split-tape", "strip-boundary", "thin", "tile"}
     covered |= {f"filter {name}" for name in FILTERS}
     assert set(TASKS) <= covered, sorted(set(TASKS) - covered)
@@ -134,7 +134,8 @@ def test_every_grid_method_and_format_opens_in_gdal(work, tmp_path, method, grid
     src = work / "samp.txt"
     aldpat("grid", src, "--cell", "4", "--method", method, "--grid-format", grid_format, "--odir", tmp_path).ok()
     rows = text_rows(src)
-    with rasterio.open(tmp_path / ("samp.tif" if grid_format in GEOTIFF_FORMATS else "samp.grd")) as ds:
+    name = f"samp_{method}" + (".tif" if grid_format in GEOTIFF_FORMATS else ".grd")
+    with rasterio.open(tmp_path / name) as ds:
         assert ds.driver == GDAL_DRIVERS[grid_format]
         band = ds.read(1, masked=True)
         assert band.count() > 0.5 * band.size
@@ -149,9 +150,9 @@ def test_every_grid_method_and_format_opens_in_gdal(work, tmp_path, method, grid
 @pytest.mark.parametrize("to", ["flt", "asc", "tif", "cog"])
 def test_grd2bin_opens_in_gdal_at_the_same_place(work, tmp_path, to):
     aldpat("grid", work / "samp.txt", "--cell", "4", "--odir", tmp_path).ok()
-    aldpat("grd2bin", tmp_path / "samp.grd", "--to", to, "--crs", "EPSG:32632").ok()
-    name = "samp.tif" if to in ("tif", "cog") else f"samp.{to}"
-    with rasterio.open(tmp_path / "samp.grd") as surfer, rasterio.open(tmp_path / name) as esri:
+    aldpat("grd2bin", tmp_path / "samp_linear.grd", "--to", to, "--crs", "EPSG:32632").ok()
+    name = "samp_linear.tif" if to in ("tif", "cog") else f"samp_linear.{to}"
+    with rasterio.open(tmp_path / "samp_linear.grd") as surfer, rasterio.open(tmp_path / name) as esri:
         assert esri.crs.to_epsg() == 32632
         assert (esri.width, esri.height) == (surfer.width, surfer.height)
         assert esri.xy(0, 0) == pytest.approx(surfer.xy(0, 0))
@@ -167,7 +168,7 @@ def test_dtm_of_laz_tiles_is_a_cog_in_the_las_crs(work, tmp_path):
         part.points = strip.points[np.asarray(keep)]
         part.write(tmp_path / f"{name}.laz")
     aldpat("dtm", tmp_path / "west.laz", tmp_path / "east.laz", "--cell", "2", "--algorithm", "gapm",
-           "--odir", tmp_path / "dtm", "--mosaic", "strip.vrt").ok()
+           "--odir", tmp_path / "dtm", "--mosaic", tmp_path / "dtm" / "strip.vrt").ok()
     with rasterio.open(tmp_path / "dtm" / "strip.vrt") as ds:
         assert ds.crs.to_epsg() == 32632 and ds.res == (2.0, 2.0)
         band = ds.read(1, masked=True)
@@ -182,8 +183,9 @@ def test_preview_pictures_of_a_grid_and_of_points(work, tmp_path):
     from PIL import Image
 
     aldpat("grid", work / "samp.txt", "--cell", "2", "--grid-format", "cog", "--odir", tmp_path).ok()
-    aldpat("preview", tmp_path / "samp.tif", work / "samp.txt", "--odir", tmp_path, "--size", "300").ok()
-    with Image.open(tmp_path / "samp_hillshade.png") as shade, rasterio.open(tmp_path / "samp.tif") as grid:
+    aldpat("preview", tmp_path / "samp_linear.tif", work / "samp.txt", "--odir", tmp_path, "--size", "300").ok()
+    with Image.open(tmp_path / "samp_linear_hillshade.png") as shade, \
+            rasterio.open(tmp_path / "samp_linear.tif") as grid:
         assert shade.mode == "RGBA" and shade.size == (grid.width, grid.height)
     with Image.open(tmp_path / "samp_plan.png") as plan:
         assert plan.mode == "RGBA" and max(plan.size) <= 300

@@ -58,8 +58,8 @@ def made(tiles, tmp_path_factory) -> dict[str, Path]:
     out = tmp_path_factory.mktemp("dtm_out")
     run_dtm([tiles / "whole.txt"], out / "whole")
     tiles_in = sorted(tiles.glob("tile_*.txt"))
-    run_dtm(tiles_in, out / "buffered", mosaic="dtm.vrt")
-    run_dtm(tiles_in, out / "unbuffered", mosaic="dtm.vrt", buffer=0.0)
+    run_dtm(tiles_in, out / "buffered", mosaic=str(out / "buffered" / "dtm.vrt"))
+    run_dtm(tiles_in, out / "unbuffered", mosaic=str(out / "unbuffered" / "dtm.vrt"), buffer=0.0)
     return {"whole": out / "whole" / "whole_dtm.tif", "buffered": out / "buffered" / "dtm.vrt",
             "unbuffered": out / "unbuffered" / "dtm.vrt"}
 
@@ -126,3 +126,61 @@ def test_neighbours_are_the_inputs_within_the_buffer(tmp_path):
                                                               ["t2.txt", "t1.txt"]]
     assert plan_neighbours(sources, DtmParams(buffer=90.0), input_params) == [[str(s)] for s in sources]
     assert point_bounds(sources[1]) == Bounds(200.0, 0.0, 300.0, 100.0)
+
+
+def shared_nodes_differing(folder: Path) -> tuple[int, int]:
+    """(nodes held by two DTMs or more, of them those whose values differ in any bit)."""
+    seen: dict[tuple[int, int], list[bytes]] = {}
+    for path in sorted(folder.glob("*_dtm.tif")):
+        with rasterio.open(path) as ds:
+            band = ds.read(1)
+            for r in range(ds.height):
+                for c in range(ds.width):
+                    x, y = ds.xy(r, c)
+                    seen.setdefault((round(x), round(y)), []).append(band[r, c].tobytes())
+    shared = [v for v in seen.values() if len(v) > 1]
+    return len(shared), sum(len(set(v)) > 1 for v in shared)
+
+
+@pytest.fixture(scope="module")
+def project(tmp_path_factory) -> Path:
+    """Sample 24 cut by 'aldpat tile' into 60 m tiles with a 10 m buffer: 3 x 2 tiles."""
+    root = tmp_path_factory.mktemp("project")
+    assert get_task("tile")([SAMPLE], width=60.0, height=60.0, buffer=10.0, fields="xyz",
+                            odir=str(root / "tiles")).exit_code == 0
+    return root
+
+
+def test_tile_dtms_cover_their_cores_and_share_edge_nodes_bit_for_bit(project, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # --mosaic is a path like any other: from where the command runs
+    run_dtm([project / "tiles"], tmp_path / "dtm", mosaic="all.vrt", jobs=2)
+    tifs = sorted((tmp_path / "dtm").glob("*_dtm.tif"))
+    assert len(tifs) == 6 and (tmp_path / "all.vrt").exists() and not (tmp_path / "dtm" / "all.vrt").exists()
+    for path in tifs:
+        x0, y0 = (float(v) for v in path.name.split("_")[1:3])
+        with rasterio.open(path) as ds:
+            assert ds.bounds == (x0 - 0.5, y0 - 0.5, x0 + 60.5, y0 + 60.5)  # the core's nodes, no buffer
+    shared, differ = shared_nodes_differing(tmp_path / "dtm")
+    assert (shared, differ) == (2 * 121 + 181 - 2, 0)  # the edges x 513780, x 513840, y 5403180
+    rmse, covered = ground_error(tmp_path / "all.vrt")
+    assert covered > 0.98 and rmse < 0.5  # 0.49 m measured (the whole file's DTM: 0.44 m)
+    log = (tmp_path / "dtm" / "tile_513780_5403120_dtm.log").read_text()
+    assert "neighbouring tiles within 30 m" in log and "ground points within 30 m of the core" in log
+    assert not list(tmp_path.rglob(".aldpat-scratch-*"))
+    # a tile's DTM does not depend on which other tiles were asked for in the same run
+    run_dtm([project / "tiles" / "tile_513780_5403120.txt"], tmp_path / "one")
+    with rasterio.open(tmp_path / "one" / "tile_513780_5403120_dtm.tif") as a, \
+            rasterio.open(tmp_path / "dtm" / "tile_513780_5403120_dtm.tif") as b:
+        assert a.read(1).tobytes() == b.read(1).tobytes()
+
+
+def test_a_tile_without_a_node_is_a_warning_and_the_mosaic_has_the_others(project, tmp_path):
+    # 60 m tiles and 90 m cells: one node in each core (x 513720, 513810 or 513900, y 5403150 or
+    # 5403240), and only 513810 5403150 lies among the sample's points (x 513750..513870, y
+    # 5403124..5403197)
+    report = run_dtm([project / "tiles"], tmp_path / "dtm", cell=90.0, mosaic=str(tmp_path / "all.vrt"))
+    warned = [w for r in report.results for w in r.warnings if "no grid written" in w]
+    assert len(warned) == 5 and all("every node of its core is blank" in w for w in warned)
+    assert [p.name for p in (tmp_path / "dtm").glob("*_dtm.tif")] == ["tile_513780_5403120_dtm.tif"]
+    with rasterio.open(tmp_path / "all.vrt") as ds:
+        assert len(ds.files) == 2 and ds.read(1, masked=True).count() == 1

@@ -53,9 +53,9 @@ def test_points_to_arcgis_end_to_end(tmp_path):
     z = 7.0 + 0.1 * (x - 300000) + 0.3 * (y - 5000000)
     np.savetxt(tmp_path / "p.txt", np.column_stack([x.ravel(), y.ravel(), z.ravel()]), fmt="%.4f")
     assert get_task("grid")([tmp_path / "p.txt"], cell=1.0, method="linear", odir=str(tmp_path)).exit_code == 0
-    assert get_task("grd2bin")([tmp_path / "p.grd"], crs="EPSG:32633", odir=str(tmp_path)).exit_code == 0
-    _grid, _spec = read_surfer(tmp_path / "p.grd")
-    with rasterio.open(tmp_path / "p.flt") as ds:
+    assert get_task("grd2bin")([tmp_path / "p_linear.grd"], crs="EPSG:32633", odir=str(tmp_path)).exit_code == 0
+    _grid, _spec = read_surfer(tmp_path / "p_linear.grd")
+    with rasterio.open(tmp_path / "p_linear.flt") as ds:
         for px, py in [(300000.0, 5000000.0), (300004.0, 5000003.0), (300010.0, 5000008.0)]:
             row, col = ds.index(px, py)
             assert ds.read(1)[row, col] == pytest.approx(7.0 + 0.1 * (px - 300000) + 0.3 * (py - 5000000), abs=1e-4)

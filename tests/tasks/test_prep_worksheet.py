@@ -34,7 +34,7 @@ def test_demo_chain_from_another_folder(tmp_path, runner, cli, monkeypatch):
     assert len(list((demo / "poly").glob("*_poly.txt"))) == 3
     assert "total       6.15 %" in out.output  # GAPM set 01 on samp24, scored by evaluate
     assert len(list((demo / "ground").glob("tile_*_gapm.txt"))) == 6
-    assert len(list((demo / "grids").glob("tile_*_gapm.grd"))) == 6
+    assert len(list((demo / "grids").glob("tile_*_gapm_linear.grd"))) == 6
     assert len(list((demo / "grids").glob("tile_*_gapm.flt"))) == 6
     assert list(elsewhere.iterdir()) == []  # nothing written to the current folder
     again = runner.invoke(cli, ["run", str(work / "demo.toml")])  # overwrite = true in [settings]

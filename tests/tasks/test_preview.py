@@ -62,11 +62,11 @@ def test_every_grid_format_gives_the_same_picture_and_blanks_are_transparent(tmp
 
 def test_demo_grid_preview_in_a_fresh_process_shows_the_terrain(tmp_path, samp24):
     aldpat("grid", samp24, "--cell", "1", "--odir", tmp_path).ok()
-    aldpat("preview", tmp_path / "samp24.grd").ok()
+    aldpat("preview", tmp_path / "samp24_linear.grd").ok()
     from aldpat.io.surfer import read_surfer
 
-    z, spec = read_surfer(tmp_path / "samp24.grd")
-    img = np.asarray(Image.open(tmp_path / "samp24_hillshade.png"))
+    z, spec = read_surfer(tmp_path / "samp24_linear.grd")
+    img = np.asarray(Image.open(tmp_path / "samp24_linear_hillshade.png"))
     assert img.shape[:2] == (spec.ny, spec.nx)
     # independently: the Lambert shade of each node's normal from central differences
     north = z[::-1]
