@@ -211,7 +211,8 @@ class LasWriter:
         if n == 0:
             return
         same: frozenset[str] = frozenset()
-        if table.record is not None and self.template is not None and not self._extra:
+        if table.record is not None and self.template is not None and not self._extra \
+                and self._stored_alike(table.record):
             # the source's own records: write them as they are, then only what changed (on a copy,
             # so the caller's table is never modified)
             same = table.meta.get("in_record", frozenset())
@@ -223,9 +224,10 @@ class LasWriter:
             points = laspy.ScaleAwarePointRecord.zeros(n, header=self._header)
             if table.record is not None:
                 source = table.record.array
-                if set(source.dtype.names) <= set(points.array.dtype.names):
+                if table.record.point_format.id == points.point_format.id:
                     for field in source.dtype.names:  # the stored fields as they are, bit fields packed
-                        points.array[field] = source[field]
+                        if field in points.array.dtype.names:
+                            points.array[field] = source[field]
                 else:
                     for dim in table.record.point_format.dimension_names:
                         if dim in points.point_format.dimension_names:
@@ -242,6 +244,17 @@ class LasWriter:
         assert self._fh is not None  # opened above
         self._fh.write_points(points)
         self.count += n
+
+    def _stored_alike(self, record) -> bool:
+        """Whether ``record`` stores points as this file does (layout, scales, offsets), so that its
+        bytes can be written as they are (another file's may not: a merge of tiles)."""
+        if record.array.dtype != self._header.point_format.dtype():
+            return False
+        scales = getattr(record, "scales", None)
+        if scales is None:  # records put together from one file's chunks
+            return True
+        return bool(np.array_equal(scales, self._header.scales)
+                    and np.array_equal(record.offsets, self._header.offsets))
 
     def close(self) -> None:
         if self._fh is None:

@@ -97,18 +97,19 @@ def output_extension(reader, out_format: str | None) -> str:
 @contextlib.contextmanager
 def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = False,
                  like: PointSource | None = None,
-                 delimiter: str = "space", decimals: dict | None = None, crs=None) -> Iterator:
+                 delimiter: str = "space", decimals: dict | None = None, crs=None, template=None) -> Iterator:
     """Open an atomic point writer; the file appears under ``path`` only when the block succeeds.
 
     ``like`` is the source reader: a LAS output keeps its header (format, scale, offset, VLRs),
-    a text output its decimals.
+    or ``template``'s when given, a text output its decimals.
     """
     path = Path(path)
     fmt = detect_format(path)
     writer: LasWriter | TextWriter
     with atomic_output(path, overwrite=overwrite) as tmp:
         if fmt == "las":
-            template = getattr(like, "header", None) if getattr(like, "format", None) == "las" else None
+            if template is None and getattr(like, "format", None) == "las":
+                template = getattr(like, "header", None)
             writer = LasWriter(tmp, names, template=template, crs=crs if crs is not None else getattr(like, "crs", None),
                                compress=path.suffix.lower() == ".laz")
         else:

@@ -60,6 +60,7 @@ ARGS: dict[str, tuple[str, list[str]]] = {
     "grd2bin": ("grids", ["--crs", "EPSG:32632"]),
     "grid": ("points", ["--cell", "3"]),
     "info": ("points", ["--json"]),
+    "merge": ("points", ["--output", "{odir}/merged.txt"]),
     "merge-boundary": ("bounds", ["--output", "{odir}/merged.txt"]),
     "ortho-height": ("heights", ["--crs", "15N", "--geoid", "{geoid}"]),
     "polygon-extract": ("points", ["--polygon", "{polygon}"]),

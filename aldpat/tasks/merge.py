@@ -1,0 +1,123 @@
+"""``aldpat merge``: point files into one, every point once -- the tiles of a project back into a
+site, their buffer points left out.
+
+As lasmerge and PDAL's merge do, the inputs are appended in the order given, each point with
+every attribute; the output's format is its extension's. Tiles from ``aldpat tile`` (and the files
+made from them: classified tiles of ``aldpat filter``) hold copies of their neighbours' points in
+their buffers (ALDPAT 1.0 user manual (2007), task 7, Fig. 5); each copy is left out, so that the
+merged file holds every point of the site exactly once, with the class its own tile gave it. A
+point is a copy when the LAS extra-byte dimension ``tile_buffer`` says so, or -- in a file without
+the mark (text) -- when it lies outside its tile's core in ``tile_parameter.txt`` (``--tile-params``,
+or the one beside the input listing it). A file that is neither is taken whole.
+
+Streamed chunk by chunk: memory does not depend on the inputs' size. A LAS/LAZ output takes the
+first LAS input's header (point format, scales, offsets, VLRs); inputs stored at other scales or
+offsets are stored again at its (with a warning when that may round a coordinate), and the merged
+file has no ``tile_buffer`` dimension: it holds no buffer point. Inputs must share one CRS.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aldpat.errors import DataError, UsageError
+from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
+from aldpat.io.registry import detect_format
+from aldpat.io.tile_project import find_tile_job, in_core
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import Task, register_task
+from aldpat.options import CrsOption, FieldsOption, point_names
+from aldpat.params import param
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MergeParams(FieldsOption, CrsOption):
+    output: str | None = param(None, "the merged point file (.las .laz .txt .csv ...)", path=True, metavar="FILE",
+                               required=True)
+    tile_params: str | None = param(None, "tile_parameter.txt of the tiles (default: the one beside each input, when "
+                                    "it lists it): points outside a tile's core are buffer copies, left out",
+                                    path=True, metavar="FILE")
+
+
+def _las_template(readers):
+    """The output's LAS header: the first LAS input's, without the buffer mark; None for text inputs."""
+    first = next((r for r in readers if r.format == "las"), None)
+    if first is None:
+        return None
+    header = copy.deepcopy(first.header)
+    if BUFFER_DIMENSION in header.point_format.extra_dimension_names:
+        header.point_format.remove_extra_dimension(BUFFER_DIMENSION)
+    return header
+
+
+def _exact_at(header, template) -> bool:
+    """Whether the coordinates stored under ``header`` keep every digit stored under ``template``'s
+    scales and offsets (scales a whole multiple of the template's, offsets apart by whole steps)."""
+    for scale, offset, to_scale, to_offset in zip(header.scales, header.offsets, template.scales, template.offsets):
+        ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
+        if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 or abs(shift - round(shift)) > 1e-6:
+            return False
+    return True
+
+
+def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:
+    assert params.output is not None  # required
+    out = Path(params.output)  # like every path: from where the command runs (a worksheet's folder)
+    if any(out.resolve() == s.resolve() for s in sources):
+        raise UsageError(f"--output {out} is one of the inputs")
+    readers = [ctx.open_input(s) for s in sources]
+    template = _las_template(readers) if detect_format(out) == "las" else None
+    if template is not None:
+        kinds = {r.header.point_format.id for r in readers if r.format == "las"}
+        if len(kinds) > 1:
+            raise DataError(f"LAS inputs of point formats {sorted(kinds)}: a LAS file holds one", path=sources[0])
+    all_las = all(r.format == "las" for r in readers)
+    names = readers[0].names if template is not None and all_las else point_names(readers[0], params.fields)
+    known = [r for r in readers if r.crs is not None]
+    for reader in readers:
+        if not set(names) <= set(reader.names):
+            raise DataError(f"has no {', '.join(sorted(set(names) - set(reader.names)))} column like "
+                            f"{readers[0].path.name}; use --fields xyz", path=reader.path)
+        if reader.crs is not None and reader.crs != known[0].crs:
+            raise DataError(f"its CRS differs from {known[0].path.name}'s: merge inputs of one CRS", path=reader.path)
+    kept = copies = 0
+    rescaled = []
+    with ctx.write_points(out, names, like=readers[0], crs=params.crs or (known[0].crs if known else None),
+                          template=template) as writer:
+        for reader in readers:
+            marked = reader.format == "las" and BUFFER_DIMENSION in reader.header.point_format.dimension_names
+            tile = None if marked else find_tile_job(reader.path, params.tile_params)
+            if template is not None and reader.format == "las" and not _exact_at(reader.header, template):
+                rescaled.append(reader.path.name)
+            for chunk in reader.chunks():
+                marks = buffer_marks(chunk)
+                if marks is None and tile is not None:
+                    marks = ~in_core(tile.row, np.asarray(chunk.x), np.asarray(chunk.y))
+                if marks is not None and marks.any():
+                    copies += int(marks.sum())
+                    chunk = chunk.take(~marks)
+                writer.write(chunk.select(names))
+                kept += len(chunk)
+    if rescaled:
+        ctx.warn(f"{', '.join(rescaled)}: stored at finer scales or other offsets than {out.name} takes from "
+                 "the first LAS input; their coordinates are rounded to its scales")
+    ctx.wrote(out, kept)
+    if copies:
+        ctx.note(f"{copies} buffer points of tiles left out (copies of points their own tiles hold)")
+    log.info("%s: %d points of %d inputs, %d buffer copies left out", out, kept, len(sources), copies)
+
+
+register_task(Task(
+    name="merge",
+    summary="Merge point files into one, every point once: the buffer points of tiles left out (lasmerge, "
+            "PDAL's merge).",
+    params=MergeParams,
+    run_all=merge_all,
+))

@@ -1,0 +1,83 @@
+"""``aldpat merge``: tiles back into one file, every point once (buffer copies left out)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+
+from aldpat.tasks import get_task
+
+STRIP = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"  # EPSG:32632
+
+
+def points_of(las) -> np.ndarray:
+    """Every point as one sortable record of its stored values."""
+    return np.sort(np.rec.fromarrays([las.X, las.Y, las.Z, las.intensity, las.return_number, las.gps_time]
+                                     if "gps_time" in las.point_format.dimension_names else
+                                     [las.X, las.Y, las.Z, las.intensity, las.return_number]))
+
+
+@pytest.fixture(scope="module")
+def las_tiles(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("merge")
+    assert get_task("tile")([STRIP], width=150.0, height=150.0, buffer=20.0, odir=str(root / "tiles")).exit_code == 0
+    return root
+
+
+def test_classified_las_tiles_merge_to_every_point_once(las_tiles, tmp_path):
+    tiles = las_tiles / "tiles"
+    assert get_task("filter pm")([tiles], result="classified", odir=str(tmp_path / "ground")).exit_code == 0
+    report = get_task("merge")([tmp_path / "ground"], output=str(tmp_path / "site.laz"))
+    assert report.exit_code == 0, report.results[0].error
+    original, merged = laspy.read(STRIP), laspy.read(tmp_path / "site.laz")
+    held = sum(laspy.open(p).header.point_count for p in tiles.glob("tile_*.laz"))
+    assert held > len(original.points)  # the tiles hold buffer copies ...
+    assert np.array_equal(points_of(original), points_of(merged))  # ... the merged file each point once
+    assert set(np.unique(merged.classification)) == {1, 2}  # with the class its own tile gave it
+    assert "tile_buffer" not in list(merged.point_format.extra_dimension_names)
+    assert merged.header.parse_crs().to_epsg() == 32632 and merged.header.point_count == len(original.points)
+    assert "buffer points of tiles left out" in (tmp_path / "site.log").read_text()
+
+
+def test_text_tiles_merge_by_their_cores(tmp_path, samp24):
+    tiles = tmp_path / "tiles"
+    assert get_task("tile")([samp24], width=50.0, height=50.0, buffer=8.0, odir=str(tiles)).exit_code == 0
+    # beside tile_parameter.txt: the cores say which points are buffer copies
+    assert get_task("merge")([tiles], output=str(tmp_path / "site.txt")).exit_code == 0
+    original, merged = np.loadtxt(samp24), np.loadtxt(tmp_path / "site.txt")
+    assert np.array_equal(np.sort(original.view("f8,f8,f8,f8"), axis=0), np.sort(merged.view("f8,f8,f8,f8"), axis=0))
+    # files made from the tiles elsewhere: --tile-params
+    assert get_task("filter pm")([tiles], odir=str(tmp_path / "ground")).exit_code == 0
+    assert get_task("merge")([tmp_path / "ground"], output=str(tmp_path / "ground.txt"),
+                             tile_params=str(tiles / "tile_parameter.txt")).exit_code == 0
+    ground = np.loadtxt(tmp_path / "ground.txt")
+    held, got = (Counter(map(tuple, rows[:, :3].round(2))) for rows in (original, ground))
+    assert len(ground) > 0.5 * len(original) and not got - held  # no point twice (genuine duplicates kept)
+
+
+def test_plain_files_merge_whole_and_mixed_scales_are_stored_at_the_first(tmp_path):
+    original = laspy.read(STRIP)
+    half = len(original.points) // 2
+    first = laspy.LasData(original.header)
+    first.points = original.points[:half]
+    first.write(tmp_path / "a.laz")
+    header = laspy.LasHeader(point_format=original.header.point_format.id, version="1.2")
+    header.scales, header.offsets = np.array([0.001, 0.001, 0.001]), np.array([494000.0, 5420000.0, 0.0])
+    second = laspy.LasData(header)
+    second.points = laspy.ScaleAwarePointRecord.zeros(len(original.points) - half, header=header)
+    for dim in ("intensity", "return_number", "number_of_returns", "gps_time"):
+        if dim in header.point_format.dimension_names:
+            second[dim] = original[dim][half:]
+    second.x, second.y, second.z = original.x[half:], original.y[half:], original.z[half:]
+    second.write(tmp_path / "b.laz")
+    report = get_task("merge")([tmp_path / "a.laz", tmp_path / "b.laz"], output=str(tmp_path / "ab.laz"))
+    assert report.exit_code == 0
+    assert any("finer scales" in w for w in report.results[0].warnings)
+    merged = laspy.read(tmp_path / "ab.laz")
+    assert np.array_equal(points_of(original), points_of(merged))  # 1 cm coordinates survive 1 mm storage
+    refused = get_task("merge")([tmp_path / "a.laz"], output=str(tmp_path / "a.laz"), overwrite=True)
+    assert refused.exit_code == 2 and "one of the inputs" in refused.results[0].error
