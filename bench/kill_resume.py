@@ -8,7 +8,8 @@ Then, for each instant, a fresh copy is started, killed with SIGKILL after a ran
 the clean run's wall time, and resumed with ``aldpat run --resume`` until it finishes. Each
 resumed project must end with every output byte-identical to the clean run's (logs and the
 resume state excepted: they hold times), no temporary file left, and every job that the state
-file recorded as finished before the kill skipped, not redone.
+file recorded as finished before the kill skipped, not redone; and no process of the killed run
+may be alive 10 s after the kill (a worker outliving its parent: ``psutil``, the ``bench`` extra).
 
 Prints one line per instant and a summary; exits 1 if any instant disagrees. Needs no data
 outside the repository. The test suite runs a small version of it (``tests/cli/test_interrupt.py``).
@@ -17,6 +18,7 @@ outside the repository. The test suite runs a small version of it (``tests/cli/t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import filecmp
 import json
 import os
@@ -26,10 +28,11 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import psutil
 
 WORKSHEET = """\
 [settings]
@@ -120,11 +123,12 @@ class Instant:
     identical: bool
     leftovers: list[str]
     problem: str = ""
+    orphans: list[int] = field(default_factory=list)  # processes of the killed run alive 10 s after it
 
     @property
     def ok(self) -> bool:
         return self.identical and not self.leftovers and set(self.done_before_kill) <= set(self.skipped_on_resume) \
-            and not self.problem
+            and not self.problem and not self.orphans
 
 
 def same_bytes(a: Path, a_root: Path, b: Path, b_root: Path) -> bool:
@@ -148,9 +152,18 @@ def kill_and_resume(template: Path, reference: dict[str, Path], workdir: Path, d
                             stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
     time.sleep(delay)
     mid_run = proc.poll() is None
+    try:
+        family = psutil.Process(proc.pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        family = []
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    time.sleep(0.2)  # workers notice their parent's death (SIGTERM from the kernel) and clean up
+    # workers notice their parent's death (SIGTERM from the kernel, or their watchdog) and clean up
+    _, alive = psutil.wait_procs(family, timeout=10)
+    orphans = [p.pid for p in alive if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+    for p in alive:
+        with contextlib.suppress(psutil.Error):
+            p.kill()
     state_file = workdir / "project.state.json"
     state = json.loads(state_file.read_text()) if state_file.exists() else {}
     done = sorted(int(k) for k, v in state.items() if v.get("status") == "Done")
@@ -163,7 +176,7 @@ def kill_and_resume(template: Path, reference: dict[str, Path], workdir: Path, d
     identical = set(got) == set(reference) and all(
         same_bytes(got[name], workdir, reference[name], template) for name in reference)
     left = sorted(str(p) for p in workdir.rglob("*.aldpat-tmp*"))
-    return Instant(delay, mid_run, running, done, skipped, identical, left, problem)
+    return Instant(delay, mid_run, running, done, skipped, identical, left, problem, orphans)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -196,7 +209,8 @@ def main(argv: list[str] | None = None) -> int:
         results.append(r)
         print(f"instant {k + 1:2d}: killed at {delay:6.2f} s{'' if r.mid_run else ' (after the run ended)'}, "
               f"job running {r.running_at_kill}, finished before the kill {r.done_before_kill}, "
-              f"skipped on resume {r.skipped_on_resume}, identical {r.identical}, leftovers {len(r.leftovers)}"
+              f"skipped on resume {r.skipped_on_resume}, identical {r.identical}, leftovers {len(r.leftovers)}, "
+              f"orphaned workers {len(r.orphans)}"
               + (f", {r.problem}" if r.problem else ""))
     good = sum(r.ok for r in results)
     landed = sum(r.mid_run for r in results)

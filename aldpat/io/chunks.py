@@ -20,14 +20,13 @@ import math
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.threads import set_budget, share_for
+from aldpat.core.workers import WorkerPool
 
 #: one spilled point: its row in the input, and its coordinates
 RECORD = np.dtype([("row", "<i8"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8")])
@@ -177,15 +176,11 @@ def _map(fn: Callable, jobs: list[tuple], workers: int) -> Iterator:
         for job in jobs:
             yield fn(*job)
         return
-    import multiprocessing
-
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
-                             initializer=set_budget, initargs=(share_for(workers),)) as pool:
-        futures = [pool.submit(fn, *job) for job in jobs]
-        try:
-            for fut in futures:
-                yield fut.result()
-        except BaseException:
-            for fut in futures:
-                fut.cancel()
-            raise
+    pool = WorkerPool(workers)
+    try:
+        for fut in pool.submit_all(fn, jobs):
+            yield fut.result()
+    except BaseException:  # an interruption, or a chunk that failed: the others are of no use
+        pool.stop()
+        raise
+    pool.close()

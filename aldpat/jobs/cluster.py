@@ -108,9 +108,11 @@ def client_for(scheduler: str) -> Any:
             before = os.environ.get(THREADS_ENV)
             os.environ[THREADS_ENV] = str(share_for(workers))
             try:
-                # loopback only: the workers of a local cluster take jobs from this process alone
-                cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                   host="127.0.0.1", dashboard_address="127.0.0.1:0")
+                # loopback only: the workers of a local cluster take jobs from this process alone;
+                # Ctrl-C reaches every process of the command: the workers leave it to this one
+                with interrupt.ignored_by_new_processes():
+                    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                       host="127.0.0.1", dashboard_address="127.0.0.1:0")
             finally:
                 if before is None:
                     os.environ.pop(THREADS_ENV, None)
@@ -163,6 +165,10 @@ def _close_clients() -> None:
             if cluster is not None:
                 cluster.close()
     _clients.clear()
+    # the local workers are gone now, with them any writer an interruption left mid-write
+    for folder in _output_folders:
+        with contextlib.suppress(OSError):
+            remove_stale_temporaries_in(folder)
 
 
 def _execute_in_folder(folder: str, task: Task, sources: list[str], run: ResolvedRun, command: str) -> JobResult:
@@ -240,12 +246,17 @@ def _hear_units(client, keys: set[str], progress: Progress) -> _Units:
     return heard
 
 
+#: output folders of the runs on a cluster, swept again when its local workers have been closed
+_output_folders: set[Path] = set()
+
+
 def _remove_lost_writers_files(results: list[JobResult], run: ResolvedRun) -> None:
     """Temporary files of writers that are gone (a worker killed mid-write) in the output folders."""
     folders = {Path(w.path).parent for r in results for w in r.outputs}
     odir = getattr(run.output.values, "odir", None) if run.output is not None else None
     if odir:
         folders.add(Path(odir))
+    _output_folders.update(folders)
     for folder in folders:
         with contextlib.suppress(OSError):
             remove_stale_temporaries_in(folder)

@@ -7,14 +7,10 @@ arguments.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
-from concurrent.futures import ProcessPoolExecutor
 from typing import TYPE_CHECKING
 
 from aldpat import interrupt
-from aldpat.core.threads import set_budget, share_for
+from aldpat.core.workers import WorkerPool
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import execute, job_names, report_result
 
@@ -32,36 +28,17 @@ def run_in_this_process(task: Task, jobs: list[list[str]], run: ResolvedRun, com
         report_result(results[-1], progress)
 
 
-def _execute_in_worker(task: Task, sources: list[str], run: ResolvedRun, command: str) -> JobResult:
-    """:func:`execute` in a pool worker. Interrupted (SIGTERM from the parent, or from the kernel
-    when the parent died), the worker exits as soon as the job's writers have removed their
-    temporary files, without sending anything back: the queues it shares with the other workers
-    may be held by a worker that was ended the same way."""
-    try:
-        return execute(task, sources, run, command)
-    except interrupt.Interrupted as exc:
-        os._exit(128 + exc.signum)
-
-
-def _start_worker(threads: int) -> None:
-    interrupt.install_in_worker()
-    set_budget(threads)  # the workers share the cores: each takes its part of them
-
-
 def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, workers: int,
-                 results: list[JobResult], progress) -> None:
+                     results: list[JobResult], progress) -> None:
     """Run ``jobs`` in ``workers`` processes, collecting results in input order.
 
     On an interruption the queued jobs are cancelled and the running ones are ended with
-    SIGTERM, which each worker turns into a clean exit that removes its temporary files.
+    SIGTERM, which each worker turns into a clean exit that removes its temporary files
+    (:mod:`aldpat.core.workers`).
     """
-    import multiprocessing
-
-    ctx = multiprocessing.get_context("spawn" if sys.platform == "darwin" else "fork")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_start_worker,
-                               initargs=(share_for(workers),))
+    pool = WorkerPool(workers)
     try:
-        futures = [pool.submit(_execute_in_worker, task, job, run, command) for job in jobs]
+        futures = pool.submit_all(execute, [(task, job, run, command) for job in jobs])
         for job, fut in zip(jobs, futures):  # in input order, so output and logs do not depend on -j
             def state(done: int = len(results)) -> str:
                 running = [job_names(j) for j, f in zip(jobs, futures) if f.running()]
@@ -75,13 +52,6 @@ def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, comman
                                                                f"failed: {type(exc).__name__}: {exc}"))
             report_result(results[-1], progress)
     except BaseException:
-        processes = list(getattr(pool, "_processes", {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for p in processes:
-            with contextlib.suppress(Exception):
-                p.terminate()  # SIGTERM: the worker removes its temporary files and exits
-        for p in processes:
-            with contextlib.suppress(Exception):
-                p.join(timeout=30)
+        pool.stop()
         raise
-    pool.shutdown(wait=True)
+    pool.close()

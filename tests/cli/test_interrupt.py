@@ -6,6 +6,7 @@ user would.
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -123,3 +124,111 @@ def test_a_signal_mid_chunk_removes_the_chunks_files(two_big, tmp_path, jobs):
     assert "Traceback" not in err and "interrupted by SIGINT" in err
     assert list(out.glob(".aldpat-scratch-*")) == [] and leftovers(out) == []
     assert [pid for pid in family if psutil.pid_exists(pid) and psutil.Process(pid).status() != psutil.STATUS_ZOMBIE] == []
+
+
+def family_of(pid: int) -> list[psutil.Process]:
+    try:
+        return psutil.Process(pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
+
+
+def gone_within(processes: list[psutil.Process], seconds: float) -> list[int]:
+    """The pids of ``processes`` still running (not zombies) after up to ``seconds``."""
+    _, alive = psutil.wait_procs(processes, timeout=seconds)
+    return [p.pid for p in alive if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+
+
+@pytest.mark.parametrize("where", ["processes", "dask"])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_to_the_whole_command_reaches_idle_workers_without_a_traceback(two_big, tmp_path, sig, where):
+    """As a terminal's Ctrl-C (or a batch scheduler) signals every process of the command: a
+    worksheet of -j 2 (or on a local Dask cluster) whose second worker sits idle beside the
+    first's big job."""
+    tiny = tmp_path / "tiny.txt"
+    tiny.write_text("1 2 3\n2 3 4\n3 4 5\n")
+    out = tmp_path / "out"
+    ws = tmp_path / "ws.toml"
+    ws.write_text(f'[settings]\njobs = 2\n\n[[job]]\ntask = "convert"\ninputs = ["{two_big[0]}", "{tiny}"]\n'
+                  f'out_format = "laz"\nodir = "{out}"\n')
+    env = dict(os.environ, ALDPAT_SCHEDULER="local:2" if where == "dask" else "none")
+    proc = subprocess.Popen(aldpat_command() + ["run", str(ws)], stderr=subprocess.PIPE, text=True,
+                            stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not ((out / "tiny.laz").exists() and leftovers(out)):
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run ended before it could be interrupted"
+    family = family_of(proc.pid)
+    assert len(family) >= 2
+    os.killpg(proc.pid, sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + sig, err
+    assert "Traceback" not in err and "ForkProcess" not in err, err
+    assert sum("interrupted" in line for line in err.splitlines()) == 1, err
+    assert gone_within(family, 10) == [] and leftovers(out) == []
+
+
+@pytest.mark.parametrize("pool", ["jobs", "chunks"])
+def test_sigkill_of_the_parent_leaves_no_worker_busy_or_idle(two_big, tmp_path, pool):
+    tiny = tmp_path / "tiny.txt"
+    tiny.write_text("1 2 3\n2 3 4\n3 4 5\n")
+    out = tmp_path / "out"
+    if pool == "jobs":  # one worker converting a big file, the other idle once the tiny one is done
+        args = ["convert", two_big[0], tiny, "--out-format", "laz"]
+
+        def started() -> bool:
+            return (out / "tiny.laz").exists() and bool(leftovers(out))
+    else:  # the chunks of one file in two worker processes
+        args = ["filter", "pm", big_text(tmp_path / "c.txt", 200_000, 3), "--chunk", "100"]
+
+        def started() -> bool:
+            return len(family_of(proc.pid)) >= 2
+    proc = subprocess.Popen(aldpat_command() + [str(a) for a in args] + ["--odir", str(out), "-j", "2"],
+                            stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None and not started():
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run ended before it could be killed"
+    family = family_of(proc.pid)
+    proc.kill()
+    proc.wait()
+    assert gone_within(family, 10) == []
+    assert leftovers(out) == []  # the busy worker removed the output it was writing
+
+
+BLOCKED_SENDER = """
+import os, signal, sys, time
+from aldpat import interrupt
+from aldpat.core.workers import WorkerPool
+
+def big(n):
+    time.sleep(0.5)
+    return b"x" * n
+
+if sys.argv[1] == "no-pdeathsig":
+    interrupt._die_with_parent = lambda: None  # as where the kernel has no such signal
+with interrupt.doing("a worksheet job"):  # what the parent was doing when its workers forked
+    pool = WorkerPool(2)
+    futures = pool.submit_all(big, [(64 << 20,), (1,)])
+    print(" ".join(str(p.pid) for p in pool._pool._processes.values()), flush=True)
+    os.kill(os.getpid(), signal.SIGSTOP)  # the parent stops reading: the first worker blocks on the pipe
+"""
+
+
+@pytest.mark.parametrize("how", ["pdeathsig", "no-pdeathsig"])
+def test_a_worker_blocked_sending_its_result_ends_with_its_killed_parent(tmp_path, how):
+    """The orphan once seen: a worker sending a large result down a pipe nobody reads any more."""
+    script = tmp_path / "blocked.py"
+    script.write_text(BLOCKED_SENDER)
+    proc = subprocess.Popen([sys.executable, str(script), how], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=REPO)
+    workers = [psutil.Process(int(pid)) for pid in proc.stdout.readline().split()]
+    assert len(workers) == 2
+    deadline = time.monotonic() + 30
+    while psutil.Process(proc.pid).status() != psutil.STATUS_STOPPED and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(1.5)  # the result is being sent: 64 MiB into a pipe of 64 KiB
+    proc.kill()
+    proc.wait()
+    assert gone_within(workers, 10) == []
+    assert "Traceback" not in proc.stderr.read()
