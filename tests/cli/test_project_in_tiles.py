@@ -1,0 +1,117 @@
+"""A project in tiles, as a user runs it in fresh processes: tile -> filter (the folder) -> dtm
+--mosaic -> merge, on slices of two real ISPRS sites.
+
+``tests/data/fsite5_strip.laz`` is a strip of FSite5 (steep, wooded); ``tests/data/csite1_slice.laz``
+holds the points of CSite1_red2-utm.laz (the ISPRS test site CSite1 as the PDAL data repository
+stores it, first and last returns, urban) with x in 512500..512800 and y in 5403500..5403800.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+import rasterio
+
+from tests.cli.fresh import REPO, TEST_DATA, aldpat, aldpat_command, leftovers
+
+SITES = {"fsite5": TEST_DATA / "fsite5_strip.laz", "csite1": TEST_DATA / "csite1_slice.laz"}
+
+
+def stored(las) -> np.ndarray:
+    """Every point as one sortable record of what the file stores of it."""
+    fields = [las.X, las.Y, las.Z, las.intensity, las.return_number, las.number_of_returns]
+    return np.sort(np.rec.fromarrays(fields))
+
+
+def shared_nodes(tifs: list[Path]) -> tuple[int, int]:
+    """(nodes held by two rasters or more, of them those whose values differ in any bit)."""
+    seen: dict[tuple[int, int], set[bytes]] = {}
+    held: dict[tuple[int, int], int] = {}
+    for path in tifs:
+        with rasterio.open(path) as ds:
+            band = ds.read(1)
+            cols, rows = np.meshgrid(np.arange(ds.width), np.arange(ds.height))
+            xs, ys = rasterio.transform.xy(ds.transform, rows.ravel(), cols.ravel())
+            for x, y, v in zip(np.round(xs, 3), np.round(ys, 3), band.ravel()):
+                key = (round(float(x) * 1000), round(float(y) * 1000))
+                seen.setdefault(key, set()).add(v.tobytes())
+                held[key] = held.get(key, 0) + 1
+    shared = [k for k, n in held.items() if n > 1]
+    return len(shared), sum(len(seen[k]) > 1 for k in shared)
+
+
+@pytest.mark.parametrize("site", sorted(SITES))
+def test_tile_filter_dtm_mosaic_merge(tmp_path, site):
+    source = shutil.copy(SITES[site], tmp_path / "site.laz")
+    aldpat("tile", source, "--width", "100", "--height", "100", "--buffer", "20", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    tiles = sorted((tmp_path / "tiles").glob("tile_*.laz"))
+    assert len(tiles) >= 6
+    for tile in tiles:  # corners on the 100 m lattice, named by the core's lower-left corner
+        assert all(float(v) % 100 == 0 for v in tile.stem.split("_")[1:])
+
+    # the folder as it is: tile_parameter.txt and the log beside the tiles are no inputs
+    done = aldpat("filter", "gapm", "tiles", "-j", "2", "--result", "classified", "--odir", "ground",
+                  cwd=tmp_path).ok()
+    assert "tile_parameter" not in done.stderr
+    assert len(list((tmp_path / "ground").glob("*_gapm.laz"))) == len(tiles)
+
+    done = aldpat("dtm", "tiles", "-j", "2", "--cell", "2", "--odir", "dtm", "--mosaic", "dtm.vrt",
+                  cwd=tmp_path).ok()
+    tifs = sorted((tmp_path / "dtm").glob("*_dtm.tif"))
+    without = [ln for ln in done.stderr.splitlines() if "no grid written" in ln]
+    assert tifs and len(tifs) + len(without) == len(tiles)
+    shared, differ = shared_nodes(tifs)
+    assert shared > 100 and differ == 0
+    with rasterio.open(tmp_path / "dtm.vrt") as vrt:  # from where the command ran, not in dtm/
+        assert sorted(Path(f).name for f in vrt.files[1:]) == [t.name for t in tifs]
+        mosaic = vrt.read(1, masked=True)
+        for tif in tifs:
+            with rasterio.open(tif) as ds:
+                row, col = vrt.index(*ds.xy(0, 0))
+                part = ds.read(1, masked=True)
+                window = mosaic[row:row + ds.height, col:col + ds.width]
+                assert np.array_equal(window.mask, part.mask)
+                assert window.filled(0).tobytes() == part.filled(0).tobytes()
+
+    aldpat("merge", "ground", "-o", "site_gapm.laz", cwd=tmp_path).ok()
+    original, merged = laspy.read(source), laspy.read(tmp_path / "site_gapm.laz")
+    assert merged.header.point_count == original.header.point_count
+    assert np.array_equal(stored(original), stored(merged))  # each input point exactly once
+    own = np.concatenate([laspy.read(p).points.array[np.asarray(laspy.read(p).tile_buffer) == 0]
+                          for p in sorted((tmp_path / "ground").glob("*_gapm.laz"))])
+    assert np.array_equal(np.sort(own["raw_classification"]), np.sort(merged.points.array["raw_classification"]))
+    assert (merged.classification == 2).mean() > 0.2
+    assert leftovers(tmp_path) == [] and not list(tmp_path.rglob(".aldpat-scratch-*"))
+
+
+def readme_block(title: str) -> list[str]:
+    """The commands of the README's first ``sh`` block after the heading ``title``."""
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    section = text[text.index(title):]
+    block = re.search(r"```sh\n(.*?)```", section, re.DOTALL)
+    assert block is not None
+    return [line.split("  #")[0].strip() for line in block.group(1).splitlines() if line.strip()]
+
+
+def test_the_readme_workflow_runs_as_written(tmp_path):
+    """The README's project in tiles, line by line, on FSite5's strip as ``site.laz``."""
+    import os
+    import subprocess
+
+    shutil.copy(SITES["fsite5"], tmp_path / "site.laz")
+    bindir = str(Path(aldpat_command()[0]).parent)
+    env = dict(os.environ, PATH=bindir + os.pathsep + os.environ.get("PATH", ""))
+    lines = readme_block("### A project in tiles")
+    assert [line.split()[1] for line in lines] == ["tile", "filter", "dtm", "grid", "merge"]
+    for line in lines:
+        proc = subprocess.run(line, shell=True, cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=300, check=False)
+        assert proc.returncode == 0 and "Traceback" not in proc.stderr, f"{line}\n{proc.stderr}"
+    assert (tmp_path / "dtm" / "dtm.vrt").exists() and (tmp_path / "site_gapm.laz").exists()
+    assert list((tmp_path / "grids").glob("tile_*_gapm_idw.grd"))
