@@ -35,7 +35,7 @@ def test_demo_chain_from_another_folder(tmp_path, runner, cli, monkeypatch):
     assert "total       6.15 %" in out.output  # GAPM set 01 on samp24, scored by evaluate
     assert len(list((demo / "ground").glob("tile_*_gapm.txt"))) == 6
     assert len(list((demo / "grids").glob("tile_*_gapm_linear.grd"))) == 6
-    assert len(list((demo / "grids").glob("tile_*_gapm.flt"))) == 6
+    assert len(list((demo / "grids").glob("tile_*_gapm_linear.flt"))) == 6
     assert list(elsewhere.iterdir()) == []  # nothing written to the current folder
     again = runner.invoke(cli, ["run", str(work / "demo.toml")])  # overwrite = true in [settings]
     assert again.exit_code == 0, again.output
