@@ -17,6 +17,7 @@ holds in its core (its buffer points), with a warning.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -60,6 +61,26 @@ class TileJob:
         return self.source.parent / f"{row.path.stem}{suffix}{self.source.suffix}"
 
 
+@functools.lru_cache(maxsize=4)
+def _project(path: str, stamp: tuple[int, int]) -> tuple[tuple[TileRow, ...], dict[Path, TileRow]]:
+    """The rows of a tile parameter file (as of ``stamp``: its size and time), and each by its
+    tile's resolved path: a project of thousands of tiles plans each job without reading the file
+    and resolving every path again."""
+    rows = tuple(read_tile_parameters(path))
+    return rows, {row.path.resolve(): row for row in rows}
+
+
+def _tile_row(params_path: Path, source: Path) -> tuple[tuple[TileRow, ...], TileRow]:
+    try:
+        info = params_path.stat()
+    except OSError:
+        read_tile_parameters(params_path)  # says why it cannot be read
+        raise
+    rows, by_path = _project(str(params_path.resolve()), (info.st_size, info.st_mtime_ns))
+    row = by_path.get(source.resolve())
+    return rows, row if row is not None else row_for(list(rows), source, params_path)
+
+
 def find_tile_job(source: Path, params_path: str | Path | None) -> TileJob | None:
     """The tile of ``source`` from ``params_path``, or from the ``tile_parameter.txt`` beside it
     when it lists it; None when the input is not a tile."""
@@ -68,14 +89,12 @@ def find_tile_job(source: Path, params_path: str | Path | None) -> TileJob | Non
         beside = source.parent / PARAMETER_FILE
         if not beside.is_file():
             return None
-        rows = read_tile_parameters(beside)
         try:
-            row = row_for(rows, source, beside)
+            rows, row = _tile_row(beside, source)
         except DataError:
             return None
     else:
-        rows = read_tile_parameters(params_path)
-        row = row_for(rows, source, Path(params_path))
+        rows, row = _tile_row(Path(params_path), source)
     for other in rows:
         if other is not row and other.minx < row.maxx and row.minx < other.maxx and other.miny < row.maxy \
                 and row.miny < other.maxy:
