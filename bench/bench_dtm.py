@@ -12,6 +12,14 @@ difference of each tiled DTM (its VRT mosaic) from the whole file's.
 wall time, points per second and peak memory of the process (with ``-j 2`` the workers' own
 memory is not in the parent's figure: see the ``-j 1`` row for one job's).
 
+``python bench/bench_dtm.py project [--width 500] [--buffer 30] [--cell 1] [--jobs 2]`` -- the
+README's project in tiles on FSite5 (``bench/data_paths.py``): ``aldpat tile`` at ``--width``
+with ``--buffer``, ``aldpat dtm`` and ``aldpat grid`` over the tile folder, ``aldpat filter gapm
+--result classified`` of the folder and ``aldpat merge`` of the classified tiles. Reported: the
+tiles, the nodes two or more tile grids hold and how many of them differ in any bit (values or
+blank), the tiles warned to have no node, the wall times, and the merged file's points against the
+site's (every point once: the stored records, classes aside, compared as a multiset).
+
 ``python bench/bench_dtm.py levels [--auto] [--filter-params FILE] [--keep DIR]`` -- reads the raw
 ISPRS sites CSite1, FSite5 and FSite8 (``bench/data_paths.py``) and makes each into a 1 m DTM with
 ``aldpat dtm`` (gapm's defaults unless told otherwise). It counts the DTM's nodes that stand more
@@ -29,8 +37,10 @@ CSite1 it also prints the DTM's height at (512959, 5403189), where a stepped bui
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -90,8 +100,8 @@ def run_tiles() -> None:
                     np.savetxt(folder / f"tile_{i}{j}.txt", rows[keep, :3], fmt="%.2f")
             tiles = sorted(folder.glob("tile_*.txt"))
             _dtm([folder / "whole.txt"], folder / "whole")
-            _dtm(tiles, folder / "buffered", mosaic="m.vrt")
-            _dtm(tiles, folder / "unbuffered", mosaic="m.vrt", buffer=0.0)
+            _dtm(tiles, folder / "buffered", mosaic=str(folder / "buffered" / "m.vrt"))
+            _dtm(tiles, folder / "unbuffered", mosaic=str(folder / "unbuffered" / "m.vrt"), buffer=0.0)
             whole = folder / "whole" / "whole_dtm.tif"
             figures = [_at_ground(whole, ground), _at_ground(folder / "buffered" / "m.vrt", ground),
                        _at_ground(folder / "unbuffered" / "m.vrt", ground)]
@@ -249,6 +259,76 @@ def run_levels(auto: bool, filter_params: str | None, keep: str | None) -> None:
                   f"{c['pit']:,} ({c['pit_patches']}, {c['pit_worst']:.1f}) | {at} |")
 
 
+def shared_nodes(tifs: list[Path]) -> tuple[int, int]:
+    """(nodes held by two rasters or more, of them those whose values differ in any bit)."""
+    import rasterio
+
+    keys, bits = [], []
+    for path in tifs:
+        with rasterio.open(path) as ds:
+            band = ds.read(1)
+            t = ds.transform  # node (row, col) at x = c + a (col + 1/2), y = f + e (row + 1/2)
+            cols = np.round((t.c + t.a * (np.arange(ds.width) + 0.5)) * 1000).astype(np.int64)
+            rows = np.round((t.f + t.e * (np.arange(ds.height) + 0.5)) * 1000).astype(np.int64)
+            keys.append(np.stack(np.meshgrid(cols, rows), axis=-1).reshape(-1, 2))
+            bits.append(band.astype(np.float32).view(np.uint32).ravel())
+    key, value = np.concatenate(keys), np.concatenate(bits)
+    order = np.lexsort((value, key[:, 1], key[:, 0]))
+    key, value = key[order], value[order]
+    start = np.r_[True, np.any(key[1:] != key[:-1], axis=1)]
+    group = np.cumsum(start) - 1
+    size = np.bincount(group)
+    differs = np.zeros(len(size), bool)
+    np.logical_or.at(differs, group[1:][~start[1:]], value[1:][~start[1:]] != value[:-1][~start[1:]])
+    return int((size > 1).sum()), int(differs.sum())
+
+
+def run_project(width: float, buffer: float, cell: float, jobs: int) -> None:
+    import laspy
+
+    from aldpat.tasks import get_task
+
+    def timed(name: str, inputs, **options) -> tuple[float, list[str]]:
+        start = time.perf_counter()
+        report = get_task(*name.split())(inputs, **options)
+        if report.exit_code != 0:
+            raise RuntimeError([r.error for r in report.results])
+        return time.perf_counter() - start, [w for r in report.results for w in r.warnings]
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        t_tile, _ = timed("tile", [FSITE5], width=width, height=width, buffer=buffer, odir=str(root / "tiles"))
+        tiles = sorted((root / "tiles").glob("tile_*.laz"))
+        t_dtm, warned = timed("dtm", [root / "tiles"], cell=cell, jobs=jobs, odir=str(root / "dtm"),
+                              mosaic=str(root / "dtm.vrt"))
+        dtm_shared = shared_nodes(sorted((root / "dtm").glob("*_dtm.tif")))
+        no_node = sum("no grid written" in w for w in warned)
+        t_grid, _ = timed("grid", [root / "tiles"], cell=cell, jobs=jobs, grid_format="geotiff",
+                          odir=str(root / "grid"))
+        grid_shared = shared_nodes(sorted((root / "grid").glob("*_linear.tif")))
+        t_filter, _ = timed("filter gapm", [root / "tiles"], result="classified", jobs=jobs, odir=str(root / "ground"))
+        t_merge, _ = timed("merge", [root / "ground"], output=str(root / "site.laz"))
+        site, merged = laspy.read(FSITE5), laspy.read(root / "site.laz")
+        held = sum(laspy.open(p).header.point_count for p in tiles)
+
+        def records(las) -> np.ndarray:
+            return np.sort(np.rec.fromarrays([las.X, las.Y, las.Z, las.intensity, las.return_number]))
+
+        same = np.array_equal(records(site), records(merged))
+    print(f"FSite5 ({len(site.points):,} points) in {len(tiles)} tiles of {width:g} m with a {buffer:g} m buffer "
+          f"({held:,} points held), cell {cell:g} m, -j {jobs}, load {os.getloadavg()[0]:.1f}")
+    print("| step | wall s | result |")
+    print("|---|---|---|")
+    print(f"| tile | {t_tile:.1f} | {len(tiles)} tiles |")
+    print(f"| dtm over the tiles | {t_dtm:.1f} | {dtm_shared[0]:,} shared nodes, {dtm_shared[1]} differ; "
+          f"{no_node} tiles without a node |")
+    print(f"| grid over the tiles (linear, all points) | {t_grid:.1f} | {grid_shared[0]:,} shared nodes, "
+          f"{grid_shared[1]} differ |")
+    print(f"| filter gapm of the folder | {t_filter:.1f} | classified tiles |")
+    print(f"| merge of the classified tiles | {t_merge:.1f} | {len(merged.points):,} points, "
+          f"{'every point of the site once' if same else 'NOT the points of the site'} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="command", required=True)
@@ -256,6 +336,11 @@ def main() -> None:
     sp = sub.add_parser("speed", help="aldpat dtm over FSite5 in LAZ tiles")
     sp.add_argument("--tiles", type=int, default=3, help="N: N x N tiles")
     sp.add_argument("--cell", type=float, default=1.0)
+    pj = sub.add_parser("project", help="FSite5 as a project in tiles: tile, dtm, grid, filter, merge")
+    pj.add_argument("--width", type=float, default=500.0)
+    pj.add_argument("--buffer", type=float, default=30.0)
+    pj.add_argument("--cell", type=float, default=1.0)
+    pj.add_argument("--jobs", type=int, default=2)
     lv = sub.add_parser("levels", help="remnants and pits in the DTMs of the raw sites CSite1, FSite5, FSite8")
     lv.add_argument("--auto", action="store_true", help="aldpat dtm --auto")
     lv.add_argument("--filter-params", help="aldpat dtm --filter-params FILE")
@@ -265,6 +350,8 @@ def main() -> None:
         run_tiles()
     elif args.command == "levels":
         run_levels(args.auto, args.filter_params, args.keep)
+    elif args.command == "project":
+        run_project(args.width, args.buffer, args.cell, args.jobs)
     else:
         run_speed(args.tiles, args.cell)
 
