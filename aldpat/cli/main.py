@@ -113,7 +113,7 @@ WORKFLOW: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("Prepare strips and tiles (manual tasks 1-7)",
      ("split-tape", "separate-returns", "ortho-height", "strip-boundary", "merge-boundary", "shapefile", "tile")),
     ("Ground and terrain (tasks 8-10)", ("filter", "grid", "grd2bin", "dtm", "preview")),
-    ("Points and checks", ("thin", "polygon-extract", "info", "evaluate", "convert")),
+    ("Points and checks", ("thin", "polygon-extract", "merge", "info", "evaluate", "convert")),
     ("Projects", ("run",)),
 )
 

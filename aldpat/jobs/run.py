@@ -77,7 +77,8 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
             raise UsageError("no inputs given")
         return RunReport(task.key, [], input_errors)
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
-    first = task.first(sources, run.params.values, run.input.values) if task.first is not None and sources else []
+    first = task.first(sources, run.params.values, run.input.values if run.input else None) \
+        if task.first is not None and sources else []
     wanted = run.run.values.jobs or (os.cpu_count() or 1)
     if len(jobs) == 1 and wanted > 1:
         run = dataclasses.replace(run, chunk_workers=wanted)  # one big input: its chunks use the cores

@@ -59,7 +59,7 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
                                     "lattice, and adjacent tile grids share their edge nodes", path=True,
                                     metavar="FILE")
     buffer: float = param(30.0, "over tiles: the points of neighbouring tiles within this distance of a tile's "
-                          "core are gridded with it", unit="m", ge=0)
+                          "core are gridded with it", unit="m", ge=0, level="advanced")
     bounds: tuple[float, float, float, float] | None = param(
         None, "grid range MINX MINY MAXX MAXY: the outer nodes lie on it", unit="m", metavar="MINX MINY MAXX MAXY",
         level="advanced")

@@ -43,7 +43,7 @@ class MergeParams(FieldsOption, CrsOption):
                                required=True)
     tile_params: str | None = param(None, "tile_parameter.txt of the tiles (default: the one beside each input, when "
                                     "it lists it): points outside a tile's core are buffer copies, left out",
-                                    path=True, metavar="FILE")
+                                    path=True, metavar="FILE", level="advanced")
 
 
 def _las_template(readers):
@@ -120,4 +120,11 @@ register_task(Task(
             "PDAL's merge).",
     params=MergeParams,
     run_all=merge_all,
+    examples=(
+        ("aldpat merge ground/ -o site_gapm.laz",
+         "a project's classified tiles back into one file: every point once, with its own tile's class"),
+        ("aldpat merge a.laz b.laz -o ab.laz", "two files into one, every point with every attribute"),
+        ("aldpat merge ground/ -o site.txt --tile-params tiles/tile_parameter.txt",
+         "text tiles, whose buffer copies lie outside their tile's core"),
+    ),
 ))
