@@ -249,19 +249,24 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
         ctx.note(line)  # what the first pass found (--auto's parameters)
     ground = np.concatenate([_ground_of(p, ctx.scratch) for p in parts])
     x, y, z = (np.concatenate([getattr(p, a) for p in parts])[ground] for a in "xyz")
+    own, own_ground = len(parts[0].x), int(ground[:len(parts[0].x)].sum())
     ctx.note(f"{int(ground.sum())} ground points within {params.buffer:g} m of the core of {tile.source.name}, "
-             f"{int(ground[:len(parts[0].x)].sum())} of them its own")
+             f"{own_ground} of them its own")
+    units.stage("triangulate")
     made = tile_grid(tile, x, y, z, params, "linear", {"max_distance": params.max_distance}, ctx) \
         if len(x) else None
     if made is None:
         if not len(x):
             ctx.warn(f"{tile.source.name}: no ground point in or near its core; no DTM written")
+        ctx.tally(points=own, ground=own_ground)
         return
     values, spec = made
     out = ctx.output_path(tile.source, "_dtm", ".tif")
+    units.stage("write")
     write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
                   crs=params.crs or ctx.open_input(tile.source).crs, overwrite=ctx.overwrite)
     ctx.wrote(out)
+    ctx.tally(points=own, ground=own_ground, nodes=values.size, blank=int(np.isnan(values).sum()))
 
 
 register_task(Task(
