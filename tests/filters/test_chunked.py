@@ -164,10 +164,10 @@ class Recorder:
     def job_done(self, result) -> None:
         self.done += 1
 
-    def units(self, kind: str, n: int) -> None:
+    def units(self, kind: str, n: int, name: str = "") -> None:
         if kind == "planned":
             self.planned += n
-        else:
+        elif kind == "finished":
             self.finished += n
 
 
@@ -197,7 +197,7 @@ def test_the_progress_bar_grows_with_the_units_and_counts_them():
 
     with Progress(console=Console(file=io.StringIO(), force_terminal=True)) as rich_bar:
         task_id = rich_bar.add_task("filter pm", total=None)
-        bar = _Bar(rich_bar, task_id)
+        bar = _Bar(rich_bar, task_id, "filter pm")
         bar.started(2)
         bar.units("planned", 5)
         bar.units("finished", 5)
