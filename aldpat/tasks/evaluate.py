@@ -30,7 +30,7 @@ from aldpat.jobs.context import JobContext, Record
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import JsonOption, OverwriteOption
 from aldpat.params import param
-from aldpat.tasks.preview import calls_rgba, save_png
+from aldpat.tasks.preview import calls_place, calls_rgba, save_png
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,9 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
         ref_x, ref_y = ref_keys[:, 0] * tol, ref_keys[:, 1] * tol  # the reference's points, snapped
         out = map_path(params.map, source)
         out.parent.mkdir(parents=True, exist_ok=True)
-        ctx.wrote(save_png(calls_rgba(ref_x, ref_y, ref_ground, calls, MAP_SIZE), out, params.overwrite))
+        for path in save_png(calls_rgba(ref_x, ref_y, ref_ground, calls, MAP_SIZE), out, params.overwrite,
+                             calls_place(ref_x, ref_y, MAP_SIZE)):
+            ctx.wrote(path)
         record["map"] = str(out)
     ctx.emit(record)
 

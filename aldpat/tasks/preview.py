@@ -4,13 +4,13 @@ anything in a GIS -- what ALDPAT's GUI views gave.
 * a grid (Surfer ``.grd``, ArcGIS ``.flt`` / ``.asc``, GeoTIFF ``.tif``, the ``.vrt`` mosaic of
   ``aldpat grid --mosaic``) -> ``<stem>_hillshade.png``:
   its hillshade (:mod:`aldpat.core.hillshade`), one pixel per node, north up, blank nodes
-  transparent;
+  transparent, with its world file ``<stem>_hillshade.pgw`` (:mod:`aldpat.io.worldfile`);
 * a point file -> ``<stem>_plan.png``: a plan view, north up, at most ``size`` pixels on its
   longer side and pixels no finer than twice the mean point spacing, each pixel coloured by the highest point in it (``--color-by elevation``, low blue to high
   brown) or by its class (``--color-by class``: green where a ground point falls -- LAS class 2,
   or 2 in the class column ``aldpat filter --result classified`` writes
   (:mod:`aldpat.io.classified`) -- grey where only other points do); pixels without points are
-  transparent.
+  transparent; with its world file ``<stem>_plan.pgw``.
 
 PNGs are written with Pillow, an optional extra (``pip install 'aldpat[preview]'``).
 """
@@ -28,11 +28,12 @@ from aldpat.core.grid_extent import GridSpec
 from aldpat.core.hillshade import hillshade
 from aldpat.core.lowest_grid import fill_nearest
 from aldpat.errors import DataError, UsageError
-from aldpat.io.atomic import atomic_output
+from aldpat.io.atomic import atomic_outputs
 from aldpat.io.classified import ground_of
 from aldpat.io.esri_grid import read_ascii_grid, read_float_grid
 from aldpat.io.geotiff import read_geotiff
 from aldpat.io.surfer import read_surfer
+from aldpat.io.worldfile import NorthUp, world_path
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 from aldpat.params import param
@@ -77,11 +78,21 @@ def read_grid(path: Path) -> tuple[np.ndarray, GridSpec]:
     return read_geotiff(path)
 
 
-def save_png(rgba: np.ndarray, out: Path, overwrite: bool) -> Path:
+def save_png(rgba: np.ndarray, out: Path, overwrite: bool, place: NorthUp | None = None) -> list[Path]:
+    """Write the picture, and with ``place`` its world file beside it (GIS programs place the
+    picture from it; the run report draws a scale bar and coordinates): both, or neither."""
     image = _pillow()
-    with atomic_output(out, overwrite=overwrite) as tmp:
-        image.fromarray(np.ascontiguousarray(rgba)).save(tmp, format="PNG")  # (h, w, 4) uint8: RGBA
-    return out
+    paths = [out] if place is None else [out, world_path(out)]
+    with atomic_outputs(paths, overwrite=overwrite) as tmps:
+        image.fromarray(np.ascontiguousarray(rgba)).save(tmps[0], format="PNG")  # (h, w, 4) uint8: RGBA
+        if place is not None:
+            tmps[1].write_text(place.world_lines(), encoding="ascii")
+    return paths
+
+
+def grid_place(spec: GridSpec) -> NorthUp:
+    """Where a grid's picture lies: one pixel per node, centred on it."""
+    return NorthUp(spec.xmin - spec.dx / 2, spec.ymax + spec.dy / 2, spec.dx, spec.dy)
 
 
 def hillshade_rgba(values: np.ndarray, spec: GridSpec, params: PreviewParams) -> np.ndarray:
@@ -95,16 +106,22 @@ def hillshade_rgba(values: np.ndarray, spec: GridSpec, params: PreviewParams) ->
     return np.dstack([gray, gray, gray, np.where(blank, 0, 255).astype(np.uint8)])
 
 
-def plan_pixels(x: np.ndarray, y: np.ndarray, size: int, spacings: float = 2.0) -> tuple[np.ndarray, int, int]:
-    """Each point's pixel (flat index, row 0 the north) in a plan view at most ``size`` pixels on
-    its longer side with pixels no finer than ``spacings`` mean point spacings; and the rows and
-    columns."""
+def plan_place(x: np.ndarray, y: np.ndarray, size: int, spacings: float = 2.0) -> tuple[NorthUp, int, int]:
+    """Where a plan view of the points lies, and its rows and columns: at most ``size`` pixels on
+    its longer side, pixels no finer than ``spacings`` mean point spacings."""
     x0, x1, y0, y1 = float(x.min()), float(x.max()), float(y.min()), float(y.max())
     spacing = np.sqrt(max((x1 - x0) * (y1 - y0), 1e-12) / len(x))
     pixel = max(max(x1 - x0, y1 - y0) / (size - 1), spacings * spacing) or 1.0
     cols, rows = int((x1 - x0) / pixel) + 1, int((y1 - y0) / pixel) + 1
-    c = np.minimum(((x - x0) / pixel).astype(np.int64), cols - 1)
-    r = np.minimum(((y1 - y) / pixel).astype(np.int64), rows - 1)
+    return NorthUp(x0, y1, pixel, pixel), rows, cols
+
+
+def plan_pixels(x: np.ndarray, y: np.ndarray, size: int, spacings: float = 2.0) -> tuple[np.ndarray, int, int]:
+    """Each point's pixel (flat index, row 0 the north) in the plan view of :func:`plan_place`;
+    and the rows and columns."""
+    place, rows, cols = plan_place(x, y, size, spacings)
+    c = np.minimum(((x - place.west) / place.dx).astype(np.int64), cols - 1)
+    r = np.minimum(((place.north - y) / place.dy).astype(np.int64), rows - 1)
     return r * cols + c, rows, cols
 
 
@@ -164,12 +181,23 @@ def calls_rgba(x: np.ndarray, y: np.ndarray, reference_ground: np.ndarray, calle
     has = worst >= 0
     rgba[has, :3] = CALL_RGB[worst[has]]
     rgba[has, 3] = 255
-    zoom = max(1, -(-MAP_MIN // max(rows, cols)))
+    zoom = map_zoom(rows, cols)
     return np.repeat(np.repeat(rgba, zoom, axis=0), zoom, axis=1)
+
+
+def calls_place(x: np.ndarray, y: np.ndarray, size: int) -> NorthUp:
+    """Where the map of :func:`calls_rgba` of the same points lies."""
+    place, rows, cols = plan_place(x, y, size, spacings=1.0)
+    return place.scaled(map_zoom(rows, cols))
 
 
 #: a map of calls is enlarged (each pixel repeated) to at least this many pixels on its longer side
 MAP_MIN = 600
+
+
+def map_zoom(rows: int, cols: int) -> int:
+    """How many times a map of calls repeats each pixel each way (:data:`MAP_MIN`)."""
+    return max(1, -(-MAP_MIN // max(rows, cols)))
 
 
 def _ground_of(reader, table, source: Path) -> np.ndarray:
@@ -186,6 +214,7 @@ def preview_one(source: Path, params: PreviewParams, ctx: JobContext) -> None:
         if not np.isfinite(values).any():
             raise DataError("every node is blank: nothing to shade", path=source)
         rgba = hillshade_rgba(values, spec, params)
+        place = grid_place(spec)
         out = ctx.output_path(source, "_hillshade", ".png")
     else:
         reader = ctx.open_input(source)
@@ -193,9 +222,12 @@ def preview_one(source: Path, params: PreviewParams, ctx: JobContext) -> None:
         if len(table) == 0:
             raise DataError("no points to draw", path=source)
         ground = _ground_of(reader, table, source) if params.color_by == "class" else None
-        rgba = plan_rgba(np.asarray(table.x), np.asarray(table.y), np.asarray(table.z), ground, params.size)
+        x, y = np.asarray(table.x), np.asarray(table.y)
+        rgba = plan_rgba(x, y, np.asarray(table.z), ground, params.size)
+        place = plan_place(x, y, params.size)[0]
         out = ctx.output_path(source, "_plan", ".png")
-    ctx.wrote(save_png(rgba, out, ctx.overwrite))
+    for path in save_png(rgba, out, ctx.overwrite, place):
+        ctx.wrote(path)
 
 
 register_task(Task(

@@ -252,7 +252,8 @@ def test_demo_worksheet(tmp_path):
     assert (work / "demo-out" / "dtm_hillshade.png").exists() and (work / "demo-out" / "samp24_calls.png").exists()
     page = (work / "demo.html").read_text(encoding="utf-8")
     assert page.count('<section class="job"') == (work / "demo.toml").read_text().count("[[job]]")
-    assert page.count("data:image/png;base64,") == 2 and page.count("state Done") == page.count("<section")
+    jobs = page.count('<section class="job"')
+    assert page.count("data:image/png;base64,") == 2 and page.count("state Done") == 2 * jobs  # summary + section
     assert leftovers(work) == []
 
 
