@@ -213,11 +213,29 @@ def _rasterise(tri_xy: np.ndarray, tri_z: np.ndarray, spec: GridSpec, cols: tupl
         start = stop
 
 
+def merge_duplicates(pts: np.ndarray, pz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct positions of ``pts`` (n, 2), each with the mean height of the points there.
+
+    A pulse recorded as both first and last return, or an overlap of flight lines, puts two
+    heights at one x, y; a TIN can carry one vertex there, and which of them qhull kept depended
+    on its processing order (and could differ between two blocks holding the same points)."""
+    key = np.lexsort((pts[:, 1], pts[:, 0]))
+    s = pts[key]
+    new = np.empty(len(s), bool)
+    new[:1] = True
+    np.any(s[1:] != s[:-1], axis=1, out=new[1:])
+    if new.all():
+        return pts, pz
+    group = np.cumsum(new) - 1
+    sums = np.bincount(group, weights=pz[key])
+    return s[new], sums / np.bincount(group)
+
+
 def _tin_block(px, py, pz, spec, cols, rows, max_distance, out) -> None:
     if len(px) < 3:
         return
     origin = (float(px.mean()), float(py.mean()))
-    pts = np.column_stack([px - origin[0], py - origin[1]])
+    pts, pz = merge_duplicates(np.column_stack([px - origin[0], py - origin[1]]), pz)
     try:
         tri = spatial.Delaunay(pts).simplices
     except spatial.QhullError:  # fewer than 3 distinct or all collinear points: nothing to interpolate
@@ -240,7 +258,8 @@ def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, worker
     of 8 mean point spacings around it, far enough for the triangles over the block to be
     those of the whole tile (they coincide wherever the data are not sparser than the buffer;
     across wider gaps, which ``max_distance`` blanks anyway, a block may choose another valid
-    triangulation). Planes are reproduced exactly.
+    triangulation). Planes are reproduced exactly. Points sharing an x, y are one vertex at
+    their mean height (:func:`merge_duplicates`).
     """
     x, y, z = grid_points(x, y, z)
     out = np.full(spec.shape, np.nan)

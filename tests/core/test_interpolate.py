@@ -65,6 +65,16 @@ def test_linear_on_three_points_is_barycentric_and_blank_outside():
     assert np.isnan(vals[3, 3]) and np.isnan(vals[4, 4])  # outside the hull
 
 
+def test_linear_takes_the_mean_height_of_points_sharing_a_position():
+    # a first and a last return at one x, y: one vertex at their mean, whatever their order
+    spec = GridSpec(0.0, 0.0, 1.0, 1.0, 5, 5)
+    x, y, z = [0.0, 4.0, 0.0, 4.0, 4.0], [0.0, 0.0, 4.0, 4.0, 4.0], [0.0, 0.0, 0.0, 2.0, 4.0]
+    for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [3, 0, 4, 1, 2]):
+        vals = linear(np.take(x, order), np.take(y, order), np.take(z, order), spec)
+        assert vals[4, 4] == pytest.approx(3.0)
+        assert vals[2, 4] == pytest.approx(1.5)  # halfway up the east edge
+
+
 def test_nearest_hand_case():
     spec = GridSpec(0.0, 0.0, 1.0, 1.0, 4, 1)
     vals = nearest([0.2, 2.9], [0.0, 0.0], [1.0, 7.0], spec)
