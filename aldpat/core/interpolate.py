@@ -30,6 +30,7 @@ from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.grid_nodes import NODE_BLOCK, grid_points, node_coordinates, row_blocks, worker_count
 from aldpat.core.kriging import krige
+from aldpat.core.tin_raster import tin_block
 from aldpat.errors import UsageError
 
 if TYPE_CHECKING:
@@ -43,9 +44,9 @@ log = logging.getLogger(__name__)
 METHODS = ("nearest", "linear", "idw", "kriging", "min", "max", "mean")
 BINNING = ("min", "max", "mean")
 
-#: points a TIN block aims at: qhull's cost per point grows with the block (about 3 us at 10k
-#: points, 8 us at 250k, 12 us at 1M), and the buffer's share grows as blocks shrink
-_TIN_POINTS = 12_000
+#: points a TIN block aims at: the buffer's share grows as blocks shrink, while the compiled
+#: insertion's cost per point (about 1 us) hardly grows with the block
+_TIN_POINTS = 40_000
 #: (triangle, node) candidate pairs rasterised at once
 _PAIR_BATCH = 4_000_000
 
@@ -235,7 +236,16 @@ def _tin_block(px, py, pz, spec, cols, rows, max_distance, out) -> None:
     if len(px) < 3:
         return
     origin = (float(px.mean()), float(py.mean()))
-    pts, pz = merge_duplicates(np.column_stack([px - origin[0], py - origin[1]]), pz)
+    pts = np.column_stack([px - origin[0], py - origin[1]])
+    if tin_block(pts, pz, spec.xmin - origin[0], spec.ymin - origin[1], spec.dx, spec.dy, cols, rows,
+                 max_distance, out):
+        return
+    log.debug("block rows %s cols %s: hull triangles displaced, triangulated by qhull", rows, cols)
+    _qhull_block(*merge_duplicates(pts, pz), spec, cols, rows, origin, max_distance, out)
+
+
+def _qhull_block(pts, pz, spec, cols, rows, origin, max_distance, out) -> None:
+    """The block's nodes from qhull's Delaunay triangulation (the compiled TIN's fallback)."""
     try:
         tri = spatial.Delaunay(pts).simplices
     except spatial.QhullError:  # fewer than 3 distinct or all collinear points: nothing to interpolate

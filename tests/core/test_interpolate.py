@@ -56,6 +56,22 @@ def test_linear_blocks_agree_with_one_triangulation():
     np.testing.assert_allclose(blocked, whole, atol=1e-9)
 
 
+def test_compiled_tin_gives_qhulls_nodes(monkeypatch):
+    # random points (no co-circular four) with repeated positions, the grid reaching past the hull
+    from aldpat.core import interpolate as module
+
+    x, y = scattered(margin=-4.0)
+    x, y = np.r_[x, x[:300]], np.r_[y, y[:300]]
+    z = surface(x, y) + np.r_[np.zeros(len(x) - 300), np.full(300, 0.5)]
+    spec = from_bounds(SPEC.xmin - 2, SPEC.ymin - 2, SPEC.xmax + 2, SPEC.ymax + 2, 0.5)
+    compiled = linear(x, y, z, spec, block_points=2000)
+    monkeypatch.setattr(module, "tin_block", lambda *args: False)  # every block by qhull
+    by_qhull = linear(x, y, z, spec, block_points=2000)
+    np.testing.assert_array_equal(np.isnan(compiled), np.isnan(by_qhull))
+    np.testing.assert_allclose(compiled, by_qhull, atol=1e-9)
+    assert np.isnan(compiled).any() and not np.isnan(compiled).all()
+
+
 def test_linear_on_three_points_is_barycentric_and_blank_outside():
     spec = GridSpec(0.0, 0.0, 1.0, 1.0, 5, 5)
     vals = linear([0.0, 4.0, 0.0], [0.0, 0.0, 4.0], [0.0, 8.0, 4.0], spec)
