@@ -99,3 +99,46 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
               params.cell)
     units.stage("filter")
     return cell_classes(spec, cells, params, origin=params.origin)
+
+
+def stream_ground(reader, algorithm: str, params, chunk: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, Extent] | None:
+    """The ground points of a LAS/LAZ file in two passes (what ``aldpat dtm`` triangulates): x, y
+    and z of the ground points, the file's point count and its points' extent; the points
+    themselves are never held, only the grid and the ground points' coordinates.
+
+    ``None`` when the file cannot go this way (:func:`stream_classes`; the reason is logged): the
+    caller reads it whole. The classes are those of :func:`aldpat.filters.base.ground_filter`.
+    """
+    from aldpat.io.las import z_codes
+
+    heights = reader.height_codes()
+    if heights is None:
+        log.info("%s: z scale not positive; reading the file whole", reader.path)
+        return None
+
+    def coded_chunks() -> Iterator[CodedChunk]:
+        for table in units.counted(reader.chunks(chunk), "read + grid", reader.count):
+            yield table.x, table.y, z_codes(table)
+
+    try:
+        classes = stream_classes(coded_chunks, reader.bounds, heights, algorithm, params)
+    except Unstreamable as exc:
+        log.info("%s: %s; reading the file whole", reader.path, exc)
+        return None
+    xs, ys, zs = [], [], []
+    lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]
+    count = 0
+    for table in units.counted(reader.chunks(chunk), "classify", reader.count):
+        x, y, z = (np.asarray(a, np.float64) for a in (table.x, table.y, table.z))
+        ground = classes.classify(x, y, z, marks=False)[1]
+        xs.append(x[ground])
+        ys.append(y[ground])
+        zs.append(z[ground])
+        count += len(x)
+        lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
+        hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
+    del classes
+    empty = np.zeros(0)
+    return (np.concatenate(xs or [empty]), np.concatenate(ys or [empty]), np.concatenate(zs or [empty]), count,
+            (lo[0], lo[1], hi[0], hi[1]))

@@ -39,9 +39,11 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
+from aldpat.filters.streamed import stream_ground, streamable
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.geotiff import write_geotiff
@@ -51,7 +53,7 @@ from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
-from aldpat.tasks.filter import apply_auto
+from aldpat.tasks.filter import STREAM_CHUNK, apply_auto
 from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for, tile_grid
 
 log = logging.getLogger(__name__)
@@ -145,6 +147,52 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
         dtm_over_tiles(tile, params, ctx)
         return
     reader = ctx.open_input(source)
+    made = _streamed_ground(reader, params, ctx)
+    if made is None:
+        made = _ground_in_memory(source, reader, params, ctx)
+    x, y, z, spec, count, own_ground = made
+    ctx.note(f"{own_ground} ground ({params.algorithm})")
+    if len(x) == 0:
+        raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=source)
+    check_spread(x, y, "linear", source)
+    units.stage("triangulate")
+    values = interpolate(x, y, z, spec, method="linear", max_distance=params.max_distance)
+    del x, y, z
+    blank = int(np.isnan(values).sum())
+    if blank == values.size:
+        raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=source)
+    out = ctx.output_path(source, "_dtm", ".tif")
+    units.stage("write")
+    write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
+                  crs=params.crs or reader.crs, overwrite=ctx.overwrite)
+    log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
+    ctx.wrote(out)
+    ctx.tally(points=count, ground=own_ground, nodes=values.size, blank=blank)
+
+
+#: A DTM's ground points: x, y, z (the buffer's included), the nodes, the input's point count and
+#: its own ground points' count.
+GroundPoints = tuple[np.ndarray, np.ndarray, np.ndarray, GridSpec, int, int]
+
+
+def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints | None:
+    """A LAS/LAZ without neighbours filtered in two passes (:func:`stream_ground`): the points
+    are never held, only the grid and the ground points. ``None`` when it cannot go this way."""
+    fparams = params.ground_params()
+    if ctx.neighbours or reader.format != "las" or reader.count == 0 or not streamable(params.algorithm, fparams):
+        return None
+    made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK)
+    if made is None:
+        return None
+    x, y, z, count, (xmin, ymin, xmax, ymax) = made
+    spec = grid_spec_for(params, xy=(np.array([xmin, xmax]), np.array([ymin, ymax])))
+    assert spec is not None  # from the points
+    ctx.note(f"{count} points of {reader.path.name}, filtered in two passes")
+    return x, y, z, spec, count, len(x)
+
+
+def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) -> GroundPoints:
+    """The ground points of ``source`` read whole, with the neighbours' points within ``buffer``."""
     table = reader.read()
     if len(table) == 0:
         raise DataError("no points", path=source)
@@ -157,24 +205,9 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     z = np.concatenate([np.asarray(table.z, np.float64), bz])
     fparams = apply_auto(params.ground_params(), x, y, z, ctx)
     ground = ground_filter(x, y, z, params.algorithm, fparams).is_ground
-    n_ground = int(ground.sum())
     ctx.note(f"{len(table)} points of {source.name} and {len(bx)} of {len(ctx.neighbours)} neighbouring "
-             f"inputs within {params.buffer:g} m; {n_ground} ground ({params.algorithm})")
-    if n_ground == 0:
-        raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=source)
-    check_spread(x[ground], y[ground], "linear", source)
-    units.stage("triangulate")
-    values = interpolate(x[ground], y[ground], z[ground], spec, method="linear", max_distance=params.max_distance)
-    blank = int(np.isnan(values).sum())
-    if blank == values.size:
-        raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=source)
-    out = ctx.output_path(source, "_dtm", ".tif")
-    units.stage("write")
-    write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
-                  crs=params.crs or reader.crs, overwrite=ctx.overwrite)
-    log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
-    ctx.wrote(out)
-    ctx.tally(points=len(table), ground=int(ground[:len(table)].sum()), nodes=values.size, blank=blank)
+             f"inputs within {params.buffer:g} m")
+    return x[ground], y[ground], z[ground], spec, len(table), int(ground[:len(table)].sum())
 
 
 def _tile_or_none(source: Path, params: DtmParams) -> TileJob | None:

@@ -184,3 +184,20 @@ def test_a_tile_without_a_node_is_a_warning_and_the_mosaic_has_the_others(projec
     assert [p.name for p in (tmp_path / "dtm").glob("*_dtm.tif")] == ["tile_513780_5403120_dtm.tif"]
     with rasterio.open(tmp_path / "all.vrt") as ds:
         assert len(ds.files) == 2 and ds.read(1, masked=True).count() == 1
+
+
+def test_a_las_is_filtered_in_two_passes_with_the_in_memory_dtm(tmp_path, monkeypatch):
+    # the FSite5 strip (LAZ, first and last returns, some at one position): the ground points of
+    # the two streaming passes give the DTM of the points read whole, node for node
+    from aldpat.tasks import dtm
+
+    strip = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
+    run_dtm([strip], tmp_path / "streamed", cell=1.0)
+    assert "filtered in two passes" in (tmp_path / "streamed" / "fsite5_strip_dtm.log").read_text()
+    monkeypatch.setattr(dtm, "streamable", lambda *args: False)
+    run_dtm([strip], tmp_path / "whole", cell=1.0)
+    assert "filtered in two passes" not in (tmp_path / "whole" / "fsite5_strip_dtm.log").read_text()
+    with rasterio.open(tmp_path / "streamed" / "fsite5_strip_dtm.tif") as a, \
+            rasterio.open(tmp_path / "whole" / "fsite5_strip_dtm.tif") as b:
+        assert a.transform == b.transform
+        np.testing.assert_array_equal(a.read(1), b.read(1))
