@@ -15,7 +15,9 @@ followed by the raised-segment and surface tests), every other filter its shippe
 file; all on 1 m cells.
 
 Peers in the same run, on the same file and cell size: PDAL's ``filters.smrf`` with its defaults
-when a ``pdal`` binary is on PATH; otherwise (and besides) the SMRF of ``pysmrf`` with PDAL's
+when a ``pdal`` binary is on PATH (its time only: the peak printed is this script's wrapper's;
+``bench/bench_pdal.py`` measures PDAL's own, finds it from ``$ALDPAT_PDAL`` too and sets the ratios
+users see); otherwise (and besides) the SMRF of ``pysmrf`` with PDAL's
 defaults (1 m cells, 18 m window, slope 0.15, threshold 0.5 m, scalar 1.25), whitebox-workflows'
 ``improved_ground_point_filter`` and CSF -- each if installed (``pip install ".[peers]"``),
 otherwise reported as missing.
