@@ -139,8 +139,10 @@ def timed(cmd: list[str], env: dict | None = None, stdin: str | None = None) -> 
         "print(json.dumps(dict(rc=p.returncode, seconds=dt, peak_bytes=peak, err=p.stderr[-2000:])))\n"
     )
     before = load()
+    # run from bench/_work: from the repository root, the current folder's ``aldpat`` would be
+    # imported whatever PYTHONPATH says (``--against`` would time and compare the same code)
     proc = subprocess.run([sys.executable, "-c", probe, json.dumps([cmd, stdin])], capture_output=True,
-                          text=True, env=env, check=True)
+                          text=True, env=env, check=True, cwd=WORK)
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     out["load"] = f"{before} -> {load()}"
     if out["rc"] != 0:
@@ -236,7 +238,7 @@ def row_line(row: str, points: int, m: dict, note: str, peer: dict | None, peer_
 def run(rows: list[str], against: str | None, repeat: int, file: Path | None) -> None:
     import laspy
 
-    las = file or source_file()
+    las = file.resolve() if file else source_file()
     with laspy.open(las) as reader:
         points = reader.header.point_count
     OUT.mkdir(parents=True, exist_ok=True)

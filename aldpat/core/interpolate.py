@@ -44,9 +44,10 @@ log = logging.getLogger(__name__)
 METHODS = ("nearest", "linear", "idw", "kriging", "min", "max", "mean")
 BINNING = ("min", "max", "mean")
 
-#: points a TIN block aims at: the buffer's share grows as blocks shrink, while the compiled
-#: insertion's cost per point (about 1 us) hardly grows with the block
-_TIN_POINTS = 40_000
+#: points a TIN block aims at. The blocks decide which long triangles along the data's outline
+#: exist (a block triangulates only its points and their buffer), so this size is part of the
+#: result: kept at the size the grids were made with when qhull built the blocks.
+_TIN_POINTS = 12_000
 #: (triangle, node) candidate pairs rasterised at once
 _PAIR_BATCH = 4_000_000
 
