@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -48,24 +49,81 @@ def _rasterio() -> Any:
                          "pip install 'aldpat[geotiff]'") from None
 
 
+@dataclass(frozen=True, eq=False)
+class Raster:
+    """A grid of heights placed on the ground: what :func:`aldpat.dtm` returns and what a
+    GeoTIFF aldpat writes holds.
+
+    ``array`` is float32 with the first row north, ``nodata`` at blank nodes; ``transform`` the
+    affine of its pixels in rasterio's order ``(a, b, c, d, e, f)`` (``x = a * col + b * row +
+    c``, ``y = d * col + e * row + f``, at a pixel's corner; ``rasterio.Affine(*transform)``);
+    ``crs`` a ``pyproj.CRS`` or None. Pixels are centred on the nodes, as in every grid aldpat
+    writes (:meth:`aldpat.core.grid_extent.GridSpec.corner_transform`).
+    """
+
+    array: np.ndarray
+    transform: tuple[float, float, float, float, float, float]
+    crs: Any = None
+    nodata: float = DEFAULT_NODATA
+
+    @classmethod
+    def from_nodes(cls, values: np.ndarray, spec: GridSpec, *, crs: Any = None, nodata: float | None = None,
+                   path: str | Path | None = None) -> Raster:
+        """The raster of node ``values`` (rows from the south, NaN blank) on ``spec``; ``crs`` is
+        anything :func:`aldpat.core.crs.parse_crs` accepts. A node holding ``nodata`` itself is an
+        error naming ``path`` (it would read back as blank)."""
+        from aldpat.core.crs import parse_crs
+
+        nodata = DEFAULT_NODATA if nodata is None else float(nodata)
+        band = filled_with_nodata(values, spec, nodata, Path(path or "grid")).astype(np.float32)[::-1]
+        gt = spec.corner_transform()
+        return cls(np.ascontiguousarray(band), (gt[1], gt[2], gt[0], gt[4], gt[5], gt[3]),
+                   parse_crs(crs) if crs is not None else None, nodata)
+
+    @property
+    def geotransform(self) -> tuple[float, float, float, float, float, float]:
+        """The transform in GDAL's order ``(c, a, b, f, d, e)``."""
+        a, b, c, d, e, f = self.transform
+        return (c, a, b, f, d, e)
+
+    def write(self, path: str | Path, *, format: str | None = None, overwrite: bool = False) -> Path:
+        """Write the raster as a GeoTIFF (``.tif``, ``.tiff``) or a Cloud Optimized GeoTIFF
+        (``.cog.tif``), as ``format`` (``geotiff`` or ``cog``) says or else by the extension:
+        float32, deflate with the floating-point predictor, 256 x 256 tiles (a COG with its
+        overviews), the CRS and nodata set; atomically, an existing file replaced only with
+        ``overwrite``."""
+        path = Path(path)
+        name = path.name.lower()
+        if format is None:
+            if not name.endswith((".tif", ".tiff")):
+                raise UsageError(f"a raster is written as .tif (GeoTIFF) or .cog.tif (COG), not {path.suffix!r}",
+                                 path=path)
+            format = "cog" if name.endswith((".cog.tif", ".cog.tiff")) else "geotiff"
+        if format not in FORMATS:
+            raise UsageError(f"format: expected one of {', '.join(FORMATS)}, got {format!r}")
+        _write_band(path, self, cog=format == "cog", overwrite=overwrite)
+        return path
+
+
 def write_geotiff(path: str | Path, values: np.ndarray, spec: GridSpec, *, cog: bool = False,
                   nodata: float | None = None, crs: Any = None, overwrite: bool = False) -> Path:
     """Write ``values`` (rows from the south, NaN for blank nodes) as a GeoTIFF, or a COG,
     atomically; ``crs`` is anything :func:`aldpat.core.crs.parse_crs` accepts, or None."""
-    rasterio = _rasterio()
-    from aldpat.core.crs import parse_crs
+    raster = Raster.from_nodes(values, spec, crs=crs, nodata=nodata, path=path)
+    _write_band(Path(path), raster, cog=cog, overwrite=overwrite)
+    return Path(path)
 
-    path = Path(path)
-    nodata = DEFAULT_NODATA if nodata is None else float(nodata)
-    # GeoTIFF rows run from the north
-    band = filled_with_nodata(values, spec, nodata, path).astype(np.float32)[::-1]
-    gt = spec.corner_transform()
+
+def _write_band(path: Path, raster: Raster, *, cog: bool, overwrite: bool) -> None:
+    rasterio = _rasterio()
+    height, width = raster.array.shape
     profile = {
-        "width": spec.nx, "height": spec.ny, "count": 1, "dtype": "float32", "nodata": nodata,
-        "transform": rasterio.transform.Affine(gt[1], gt[2], gt[0], gt[4], gt[5], gt[3]),
-        "crs": parse_crs(crs).to_wkt() if crs is not None else None,
+        "width": width, "height": height, "count": 1, "dtype": "float32", "nodata": raster.nodata,
+        "transform": rasterio.transform.Affine(*raster.transform),
+        "crs": raster.crs.to_wkt() if raster.crs is not None else None,
         "compress": "deflate", "predictor": 3,
     }
+    band = raster.array.astype(np.float32, copy=False)
     if cog:
         profile.update(driver="COG", blocksize=256, overview_resampling="average")
     else:
@@ -83,7 +141,6 @@ def write_geotiff(path: str | Path, values: np.ndarray, spec: GridSpec, *, cog: 
         else:
             with rasterio.open(str(tmp), "w", **profile) as ds:
                 ds.write(band, 1)
-    return path
 
 
 #: GDAL's settings while aldpat reads a raster, behind :func:`open_raster`'s own checks: no

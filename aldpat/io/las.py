@@ -61,9 +61,7 @@ class LasReader:
             self.crs = self.header.parse_crs()
         except Exception:  # noqa: BLE001  (a CRS record PROJ cannot read: the points are still usable)
             self.crs = None
-        dims = set(self.header.point_format.dimension_names)
-        self.names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
-        self.decimals = {n: max(0, round(-np.log10(s))) for n, s in zip("xyz", self.scales)}
+        self.names, self.decimals = _columns(self.header)
 
     def _check_record_count(self) -> None:
         """An uncompressed LAS whose header counts fewer records than it holds would lose the
@@ -99,14 +97,8 @@ class LasReader:
         try:
             with laspy.open(self.path) as fh:
                 for chunk in fh.chunk_iterator(size):
-                    cols = {"x": np.asarray(chunk.x, dtype=np.float64),
-                            "y": np.asarray(chunk.y, dtype=np.float64),
-                            "z": np.asarray(chunk.z, dtype=np.float64)}
-                    for d in self.names[3:]:
-                        cols[d] = np.asarray(chunk[d])
                     done += len(chunk)
-                    yield PointTable(cols, record=chunk,
-                                     meta={"decimals": self.decimals, "in_record": frozenset(cols)})
+                    yield _table(chunk, self.names, self.decimals)
         except InputFormatError:
             raise
         except Exception as exc:  # noqa: BLE001  (laspy/lazrs raise several types for damaged data)
@@ -122,6 +114,30 @@ class LasReader:
         table = next(iter(self.chunks(size=max(self.count, 1))))
         units.advance(len(table))
         return table
+
+
+def _table(record, names: tuple[str, ...], decimals: dict[str, int]) -> PointTable:
+    """The table of a laspy point record: ``names`` (x, y, z as float64, then the attributes
+    read), the record kept for the writers."""
+    cols = {"x": np.asarray(record.x, dtype=np.float64),
+            "y": np.asarray(record.y, dtype=np.float64),
+            "z": np.asarray(record.z, dtype=np.float64)}
+    for d in names[3:]:
+        cols[d] = np.asarray(record[d])
+    return PointTable(cols, record=record, meta={"decimals": decimals, "in_record": frozenset(cols)})
+
+
+def las_table(las: laspy.LasData) -> PointTable:
+    """The points of a laspy ``LasData`` in memory as :meth:`LasReader.read` reads a file's."""
+    return _table(las.points, *_columns(las.header))
+
+
+def _columns(header: laspy.LasHeader) -> tuple[tuple[str, ...], dict[str, int]]:
+    """The columns read from a LAS file (x, y, z and the attributes tasks use), and the decimals
+    its scales give x, y, z."""
+    dims = set(header.point_format.dimension_names)
+    names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
+    return names, {n: max(0, round(-np.log10(float(s)))) for n, s in zip("xyz", header.scales)}
 
 
 def buffer_marks(table: PointTable) -> np.ndarray | None:

@@ -32,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,7 +47,7 @@ from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.streamed import stream_ground, streamable
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
-from aldpat.io.geotiff import write_geotiff
+from aldpat.io.geotiff import Raster, write_geotiff
 from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
 from aldpat.jobs.context import JobContext
@@ -152,22 +153,14 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
         made = _ground_in_memory(source, reader, params, ctx)
     x, y, z, spec, count, own_ground = made
     ctx.note(f"{own_ground} ground ({params.algorithm})")
-    if len(x) == 0:
-        raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=source)
-    check_spread(x, y, "linear", source)
-    units.stage("triangulate")
-    values = interpolate(x, y, z, spec, method="linear", max_distance=params.max_distance)
+    raster, blank = terrain_raster(x, y, z, spec, params, crs=params.crs or reader.crs, where=source)
     del x, y, z
-    blank = int(np.isnan(values).sum())
-    if blank == values.size:
-        raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=source)
     out = ctx.output_path(source, "_dtm", ".tif")
     units.stage("write")
-    write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
-                  crs=params.crs or reader.crs, overwrite=ctx.overwrite)
+    raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
     log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
     ctx.wrote(out)
-    ctx.tally(points=count, ground=own_ground, nodes=values.size, blank=blank)
+    ctx.tally(points=count, ground=own_ground, nodes=spec.nx * spec.ny, blank=blank)
 
 
 #: A DTM's ground points: x, y, z (the buffer's included), the nodes, the input's point count and
@@ -203,11 +196,34 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
     x = np.concatenate([np.asarray(table.x, np.float64), bx])
     y = np.concatenate([np.asarray(table.y, np.float64), by])
     z = np.concatenate([np.asarray(table.z, np.float64), bz])
-    fparams = apply_auto(params.ground_params(), x, y, z, ctx)
-    ground = ground_filter(x, y, z, params.algorithm, fparams).is_ground
+    ground = filtered_ground(x, y, z, params, params.ground_params(), ctx.note)
     ctx.note(f"{len(table)} points of {source.name} and {len(bx)} of {len(ctx.neighbours)} neighbouring "
              f"inputs within {params.buffer:g} m")
     return x[ground], y[ground], z[ground], spec, len(table), int(ground[:len(table)].sum())
+
+
+def filtered_ground(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: DtmParams, ground_params,
+                    note: Callable[[str], None] | None = None) -> np.ndarray:
+    """The ground flags of points held in memory: ``params.algorithm`` with ``ground_params``
+    (``--auto`` applied). What ``aldpat dtm`` finds for an input read whole, and :func:`aldpat.dtm`."""
+    fparams = apply_auto(ground_params, x, y, z, note)
+    return ground_filter(x, y, z, params.algorithm, fparams).is_ground
+
+
+def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, params: DtmParams, *, crs=None,
+                   where: Path | None = None) -> tuple[Raster, int]:
+    """The DTM of ground points on the nodes of ``spec``, triangulated, linear inside each
+    triangle (manual task 9's TIN), and its count of blank nodes. What ``aldpat dtm`` writes and
+    :func:`aldpat.dtm` returns; errors name ``where``."""
+    if len(x) == 0:
+        raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=where)
+    check_spread(x, y, "linear", where)
+    units.stage("triangulate")
+    values = interpolate(x, y, z, spec, method="linear", max_distance=params.max_distance)
+    blank = int(np.isnan(values).sum())
+    if blank == values.size:
+        raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=where)
+    return Raster.from_nodes(values, spec, crs=crs, nodata=params.nodata, path=where), blank
 
 
 def _tile_or_none(source: Path, params: DtmParams) -> TileJob | None:
@@ -252,7 +268,7 @@ def classify_tile(source: Path, params: DtmParams, ctx: JobContext) -> None:
     flags = np.zeros(own.count, np.uint8)
     if len(own.x):
         x, y, z = (np.concatenate([getattr(p, a) for p in parts]) for a in "xyz")
-        fparams = apply_auto(params.ground_params(), x, y, z, ctx)
+        fparams = apply_auto(params.ground_params(), x, y, z, ctx.note)
         ground = ground_filter(x, y, z, params.algorithm, fparams).is_ground
         flags[own.index] = ground[:len(own.x)]
         ctx.note(f"{len(own.x)} points of {source.name} and {len(x) - len(own.x)} of {len(parts) - 1} "

@@ -18,13 +18,14 @@ from __future__ import annotations
 import contextlib
 import functools
 import logging
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from aldpat.core import units
 from aldpat.errors import UsageError
-from aldpat.filters import FILTERS, ground_filter
+from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.streamed import streamable
 from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, for_point_format
@@ -59,18 +60,28 @@ def point_classes(res, z: np.ndarray, params, algorithm: str) -> np.ndarray:
     return cls
 
 
-def apply_auto(params, x: np.ndarray, y: np.ndarray, z: np.ndarray, ctx: JobContext):
-    """``params`` with ``--auto``'s cell and windows derived from the points (gapm), recorded in
-    the job's log; unchanged without ``auto``."""
+def apply_auto(params, x: np.ndarray, y: np.ndarray, z: np.ndarray, note: Callable[[str], None] | None = None):
+    """``params`` with ``--auto``'s cell and windows derived from the points (gapm), told to
+    ``note`` (a job's log: ``ctx.note``; else this module's logger); unchanged without ``auto``."""
     if not getattr(params, "auto", False):
         return params
     from aldpat.filters.gapm import with_auto
 
     params = with_auto(params, x, y, z)
-    ctx.note(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
-             f"row_windows = {list(params.row_windows or ())}, column_windows = "
-             f"{list(params.column_windows or ())}")
+    (note or log.info)(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
+                       f"row_windows = {list(params.row_windows or ())}, column_windows = "
+                       f"{list(params.column_windows or ())}")
     return params
+
+
+def classify_points(table: PointTable, algorithm: str, params, note: Callable[[str], None] | None = None
+                    ) -> tuple[FilterResult, np.ndarray]:
+    """The filter's result on the points of ``table`` held in memory, and every point's ASPRS
+    class (:func:`point_classes`): what ``aldpat filter`` writes for a file read whole, and what
+    :func:`aldpat.ground` returns."""
+    params = apply_auto(params, table.x, table.y, table.z, note)
+    res = ground_filter(table.x, table.y, table.z, algorithm, params)
+    return res, point_classes(res, table.z, params, algorithm)
 
 
 def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarray | slice, np.ndarray, np.ndarray]:
@@ -139,13 +150,11 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
             and filter_streamed(source, reader, params, ctx, algorithm=algorithm)):
         return
     table = reader.read()
-    params = apply_auto(params, table.x, table.y, table.z, ctx)
-    res = ground_filter(table.x, table.y, table.z, algorithm, params)
+    res, classes = classify_points(table, algorithm, params, ctx.note)
     rows, origin_rows, ground, marks = _output_table(table, res, params)
     cls = None
     if params.result == "classified":
-        cls = for_point_format(point_classes(res, table.z, params, algorithm)[origin_rows],
-                               _output_point_format(reader, ctx, source))
+        cls = for_point_format(classes[origin_rows], _output_point_format(reader, ctx, source))
     rows = _with_classes(rows, reader, params, marks, cls)
     names = _output_names(reader, params)
     n_ground = int(ground.sum())

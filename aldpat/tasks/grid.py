@@ -113,7 +113,7 @@ def grid_spec_for(params, xy: tuple[np.ndarray, np.ndarray] | None = None) -> Gr
 SURFACE_METHODS = ("linear", "kriging")
 
 
-def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path) -> None:
+def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path | None) -> None:
     """Refuse, with a message saying why, points a TIN or a variogram cannot be built on."""
     if np.ptp(x) == 0 and np.ptp(y) == 0:
         distinct = x[:1]

@@ -1,0 +1,154 @@
+"""aldpat from Python: ground points and terrain models as values, not files.
+
+The functions a notebook or a script calls (re-exported by :mod:`aldpat`; ``docs/api.md`` shows
+them at work). They take points as a user has them -- a path, a laspy ``LasData``, an (N, 3)
+array or an ``(x, y, z)`` tuple -- and return numpy values, with the parameters of the commands
+checked when the call is made. They run the code the commands run (``aldpat filter`` and
+``aldpat dtm`` call :func:`aldpat.tasks.filter.classify_points` and
+:func:`aldpat.tasks.dtm.terrain_raster` too), so that a result here is the command's for the same
+points and parameters; only reading and writing files is left to the commands.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aldpat.errors import ParamError
+from aldpat.filters.base import FILTERS, FilterOutputOption
+from aldpat.io.geotiff import Raster
+from aldpat.io.las import las_table
+from aldpat.io.registry import open_points
+from aldpat.io.table import PointTable
+from aldpat.io.toml import load_toml
+from aldpat.options import ChunkOption
+from aldpat.params import resolve, spec_map, unknown_key_error
+from aldpat.tasks.dtm import DtmParams, filtered_ground, terrain_raster
+from aldpat.tasks.filter import classify_points
+from aldpat.tasks.grid import grid_spec_for
+
+__all__ = ["Raster", "dtm", "ground"]
+
+#: Parameters of a filter that say what ``aldpat filter`` writes or how it splits a file (its
+#: output options, ``--chunk``...), not how ground is found: a function returning every point's
+#: class has no use for them.
+COMMAND_ONLY = frozenset(
+    {f.name for f in dataclasses.fields(FilterOutputOption)} | {f.name for f in dataclasses.fields(ChunkOption)}
+    | {"data_mode"}
+)
+
+#: ``aldpat dtm``'s own parameters a call takes (beside ``cell`` and ``algorithm``): the others
+#: name files (tiles, a mosaic) or say how the command writes (``grid_format``: see
+#: :meth:`Raster.write`), and ``buffer`` reaches into other inputs, of which a call has none.
+DTM_KEYS = ("origin", "crs", "nodata", "max_distance", "auto", "filter_params")
+
+Points = Any  # a path, a laspy.LasData, an (N, 3) array or an (x, y, z) tuple
+
+
+def ground(points: Points, algorithm: str = "gapm", **params: Any) -> np.ndarray:
+    """Which points are ground: a numpy bool array, one per point in the input's order.
+
+    ``points`` is a path (LAS, LAZ or ASCII, as ``aldpat filter`` reads it), a laspy ``LasData``,
+    an (N, 3) array of x, y, z or an ``(x, y, z)`` tuple of arrays. ``algorithm`` is a filter of
+    ``aldpat filter`` (``gapm`` by default: start with it) and ``params`` its parameters, named
+    as its ``--params`` file names them (``cell=1.5``, ``auto=True``). True is what ``aldpat
+    filter ALGO --result classified`` writes as class 2 for the same points and parameters.
+
+    Raises :class:`aldpat.ParamError` (a ``ValueError``) naming the parameter when one is
+    unknown or out of range, before any point is read.
+    """
+    spec_params = filter_params(algorithm, params, where="ground: ")
+    table, _ = _table(points)
+    _, classes = classify_points(table, algorithm, spec_params)
+    return np.asarray(classes == 2)
+
+
+def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: Any) -> Raster:
+    """A bare-earth terrain model: the ground points of ``algorithm`` triangulated onto nodes
+    ``cell`` metres apart, as ``aldpat dtm --cell CELL`` makes it from the same points.
+
+    ``points`` as for :func:`ground`. ``params`` are ``aldpat dtm``'s ``origin``, ``crs``
+    (default: a LAS input's own), ``nodata`` (-9999), ``max_distance`` and ``auto``, and the
+    filter's own parameters, either as keywords (``slope_threshold=0.4``) or, for the filter's
+    ``cell`` too, as ``filter_params`` -- a mapping or the TOML file ``aldpat dtm
+    --filter-params`` takes.
+
+    Returns a :class:`Raster`: ``.array`` (float32, first row north, ``.nodata`` at blank
+    nodes), ``.transform``, ``.crs``, ``.nodata`` and ``.write(path)``.
+    """
+    own: dict[str, Any] = {}
+    rest: dict[str, Any] = {}
+    for key, value in params.items():
+        name = key.replace("-", "_")
+        if name in spec_map(DtmParams) and name not in DTM_KEYS:
+            raise ParamError(f"dtm: {key}: an option of the command 'aldpat dtm' (tiles, its files); a call "
+                             "returns one Raster")
+        (own if name in DTM_KEYS else rest)[key] = value
+    layers: dict[str, Any] = {"cell": cell, "algorithm": algorithm, **own}
+    given = layers.pop("filter_params", None)
+    dtm_params = resolve(DtmParams, [("call", layers)], where="dtm: ").values
+    filter_layer: dict[str, Any] = {}
+    if isinstance(given, Mapping):
+        filter_layer.update(given)
+    elif given is not None:
+        filter_layer.update(load_toml(os.fspath(given)))
+    filter_layer.update(rest)
+    if dtm_params.auto:
+        filter_layer["auto"] = True
+    ground_params = filter_params(dtm_params.algorithm, filter_layer, where="dtm: ")
+    table, crs = _table(points)
+    spec = grid_spec_for(dtm_params, xy=(table.x, table.y))
+    assert spec is not None  # from the points
+    ground = filtered_ground(table.x, table.y, table.z, dtm_params, ground_params)
+    raster, _ = terrain_raster(table.x[ground], table.y[ground], table.z[ground], spec, dtm_params,
+                               crs=dtm_params.crs or crs)
+    return raster
+
+
+def filter_params(algorithm: str, values: Mapping[str, Any], where: str = "") -> Any:
+    """The parameters of filter ``algorithm``: its defaults with ``values`` (the method's own
+    parameters, not the command's output options), checked."""
+    if algorithm not in FILTERS:
+        raise ParamError(f"{where}algorithm: no filter {algorithm!r}; the filters are {', '.join(sorted(FILTERS))}")
+    cls = FILTERS[algorithm].params
+    known = [name for name in spec_map(cls) if name not in COMMAND_ONLY]
+    for key in values:
+        if key.replace("-", "_") not in known:
+            if key.replace("-", "_") in COMMAND_ONLY:
+                raise ParamError(f"{where}{key}: an option of the command 'aldpat filter' (what it writes, how it "
+                                 "splits a file); a call returns every point's class")
+            raise unknown_key_error(key, known, where)
+    return resolve(cls, [("call", values)], where=where).values
+
+
+def _table(points: Points) -> tuple[PointTable, Any]:
+    """``points`` as a table of x, y, z (and, from LAS, every attribute), with its CRS if it has one."""
+    if isinstance(points, (str, os.PathLike)):
+        reader = open_points(Path(points))
+        return reader.read(), getattr(reader, "crs", None)
+    if hasattr(points, "header") and hasattr(points, "points"):  # a laspy.LasData
+        return las_table(points), _las_crs(points)
+    if isinstance(points, tuple) and len(points) == 3:
+        x, y, z = (np.asarray(v, dtype=np.float64) for v in points)
+    else:
+        xyz = np.asarray(points, dtype=np.float64)
+        if xyz.ndim != 2 or xyz.shape[1] != 3:
+            raise ParamError(f"points: expected a path, a laspy LasData, an (N, 3) array or an (x, y, z) tuple; "
+                             f"got {type(points).__name__} of shape {xyz.shape}")
+        x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    if not (x.ndim == y.ndim == z.ndim == 1 and len(x) == len(y) == len(z)):
+        raise ParamError(f"points: x, y and z must be 1-D and of one length; got shapes {x.shape}, {y.shape}, "
+                         f"{z.shape}")
+    return PointTable({"x": x, "y": y, "z": z}), None
+
+
+def _las_crs(las: Any) -> Any:
+    try:
+        return las.header.parse_crs()
+    except Exception:  # noqa: BLE001  (as LasReader: a CRS record PROJ cannot read leaves the points usable)
+        return None

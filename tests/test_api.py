@@ -1,0 +1,149 @@
+"""``import aldpat`` as a notebook uses it: ``aldpat.ground`` and ``aldpat.dtm`` on the repository's
+real sample files, equal to what the commands write for the same points and parameters, bad
+parameters refused at the call, and ``docs/api.md``'s examples run as written."""
+
+from __future__ import annotations
+
+import doctest
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+
+import aldpat
+from tests.cli.fresh import aldpat as run_aldpat
+
+REPO = Path(__file__).resolve().parents[1]
+STRIP = REPO / "tests" / "data" / "fsite5_strip.laz"  # real points of an ISPRS site, LAS 1.2 with a CRS
+SAMPLE = REPO / "jobs" / "data" / "samp24.txt"  # an ISPRS reference sample as ASCII
+
+
+def test_the_package_shows_its_api():
+    names = dir(aldpat)
+    for name in ("ground", "dtm", "Raster", "ParamError", "AldpatError", "__version__"):
+        assert name in names
+    assert issubclass(aldpat.ParamError, ValueError) and issubclass(aldpat.ParamError, aldpat.AldpatError)
+    # the API is loaded when first used: importing the package (as every command does) stays light
+    probe = "import sys, aldpat; print('aldpat.api' in sys.modules, 'aldpat.tasks' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["False", "False"]
+
+
+def _classes(path: Path) -> np.ndarray:
+    if path.suffix == ".laz":
+        return np.asarray(laspy.read(path).classification)
+    return np.loadtxt(path)[:, -1].astype(int)
+
+
+@pytest.mark.parametrize("source, algorithm, options", [
+    (STRIP, "gapm", {"cell": 1.5}),
+    (SAMPLE, "gapm", {}),
+    (STRIP, "slope", {"max_slope": 0.5}),
+], ids=["laz-gapm", "text-gapm", "laz-slope"])
+def test_ground_is_the_commands_class_2(source, algorithm, options, tmp_path):
+    args = [a for k, v in options.items() for a in (f"--{k.replace('_', '-')}", str(v))]
+    run_aldpat("filter", algorithm, source, "--result", "classified", "--odir", tmp_path, *args).ok()
+    written = _classes(tmp_path / f"{source.stem}_{algorithm}{source.suffix}")
+    flags = aldpat.ground(source, algorithm, **options)
+    assert flags.dtype == bool and flags.shape == written.shape
+    assert 0 < flags.sum() < len(flags)
+    np.testing.assert_array_equal(flags, written == 2)
+
+
+def test_every_form_of_points_gives_the_same_flags():
+    las = laspy.read(STRIP)
+    flags = aldpat.ground(str(STRIP))
+    x, y, z = np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)
+    for points in (las, STRIP, np.column_stack([x, y, z]), (x, y, z), (list(x), list(y), list(z))):
+        np.testing.assert_array_equal(aldpat.ground(points), flags)
+
+
+def test_dtm_is_the_commands_dtm(tmp_path):
+    import rasterio
+
+    run_aldpat("dtm", STRIP, "--cell", "2", "--odir", tmp_path).ok()
+    dem = aldpat.dtm(STRIP, cell=2.0)
+    with rasterio.open(tmp_path / "fsite5_strip_dtm.tif") as ds:
+        band, transform, crs, nodata = ds.read(1), ds.transform, ds.crs, ds.nodata
+    assert dem.array.dtype == np.float32 and dem.array.shape == band.shape
+    np.testing.assert_array_equal(dem.array, band)
+    assert rasterio.Affine(*dem.transform) == transform and dem.nodata == nodata
+    assert dem.crs is not None and dem.crs.to_epsg() == crs.to_epsg()
+    assert dem.geotransform == transform.to_gdal()
+    # first row north: the transform's y step is negative, and the top row lies at the north edge
+    assert dem.transform[4] < 0 and dem.transform[5] > float(laspy.read(STRIP).header.maxs[1])
+
+    for name, layout in (("api.tif", None), ("api.cog.tif", "COG")):
+        assert dem.write(tmp_path / name) == tmp_path / name
+        with rasterio.open(tmp_path / name) as ds:
+            np.testing.assert_array_equal(ds.read(1), band)
+            assert ds.transform == transform and ds.crs == crs and ds.nodata == nodata
+            assert ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == layout
+    with pytest.raises(FileExistsError):
+        dem.write(tmp_path / "api.tif")
+    dem.write(tmp_path / "api.tif", overwrite=True)
+    with pytest.raises(ValueError, match="tif"):
+        dem.write(tmp_path / "api.png")
+
+
+def test_dtm_takes_the_filters_parameters_and_its_own(tmp_path):
+    params = tmp_path / "gapm.toml"
+    params.write_text("cell = 0.8\n")
+    run_aldpat("dtm", STRIP, "--cell", "2", "--filter-params", params, "--nodata", "-1", "--odir", tmp_path).ok()
+    import rasterio
+
+    with rasterio.open(tmp_path / "fsite5_strip_dtm.tif") as ds:
+        band = ds.read(1)
+    for given in ({"filter_params": params}, {"filter_params": {"cell": 0.8}}):
+        dem = aldpat.dtm(STRIP, cell=2.0, nodata=-1, **given)
+        assert dem.nodata == -1
+        np.testing.assert_array_equal(dem.array, band)
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: aldpat.ground(STRIP, cell=-1), "ground: cell: -1 is out of range (must be > 0)"),
+    (lambda: aldpat.ground("no/such/file.laz", cell=0), "ground: cell: 0 is out of range"),  # before reading
+    (lambda: aldpat.ground(STRIP, cel=2), "did you mean 'cell'"),
+    (lambda: aldpat.ground(STRIP, result="classified"), "result: an option of the command"),
+    (lambda: aldpat.ground(STRIP, chunk=100), "chunk: an option of the command"),
+    (lambda: aldpat.ground(STRIP, "gapx"), "algorithm: no filter 'gapx'"),
+    (lambda: aldpat.ground(STRIP, window_series=[4, 2]), "window_series"),
+    (lambda: aldpat.ground(np.zeros((5, 2))), "points: expected"),
+    (lambda: aldpat.dtm(STRIP, cell=0), "dtm: cell: 0 is out of range"),
+    (lambda: aldpat.dtm(STRIP, crs="EPSG:0"), "dtm: crs:"),
+    (lambda: aldpat.dtm(STRIP, mosaic="x.vrt"), "mosaic: an option of the command 'aldpat dtm'"),
+    (lambda: aldpat.dtm(STRIP, filter_params={"cell": -2}), "dtm: cell: -2 is out of range"),
+    (lambda: aldpat.dtm(STRIP, algorithm="outlier"), "dtm: algorithm"),
+], ids=lambda v: v if isinstance(v, str) else "")
+def test_a_bad_parameter_is_refused_at_the_call_by_name(call, words):
+    with pytest.raises(aldpat.ParamError) as caught:
+        call()
+    assert isinstance(caught.value, ValueError)
+    assert words in str(caught.value)
+
+
+def test_a_missing_file_is_an_aldpat_error_naming_it():
+    with pytest.raises(FileNotFoundError) as caught:
+        aldpat.ground("no/such/file.laz")
+    assert isinstance(caught.value, aldpat.AldpatError) and "no/such/file.laz" in str(caught.value)
+
+
+def test_the_documented_examples_run(tmp_path, monkeypatch):
+    """docs/api.md's examples and the README's, run from a folder holding the repository's sample files as the
+    documentation names them (tests/data, jobs/data), writing its outputs there."""
+    for folder in ("tests/data", "jobs/data"):
+        (tmp_path / folder).parent.mkdir(parents=True, exist_ok=True)
+        os.symlink(REPO / folder, tmp_path / folder)
+    monkeypatch.chdir(tmp_path)
+    flags = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+    result = doctest.testfile(str(REPO / "docs" / "api.md"), module_relative=False, optionflags=flags)
+    assert result.attempted >= 20
+    assert result.failed == 0
+    assert (tmp_path / "strip_dtm.tif").is_file() and (tmp_path / "strip_dtm.cog.tif").is_file()
+    (tmp_path / "strip_dtm.tif").unlink()
+    readme = doctest.testfile(str(REPO / "README.md"), module_relative=False, optionflags=flags)  # "From Python"
+    assert readme.attempted >= 5 and readme.failed == 0
