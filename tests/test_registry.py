@@ -78,3 +78,13 @@ def test_help_lists_every_parameter_with_its_default(key, runner):
         if spec.default is None and "default:" in spec.help:
             continue  # the help text says what an unset value means
         assert f"default: {format_value(spec.default)}" in flat
+
+
+@pytest.mark.parametrize("key", TASK_KEYS)
+def test_every_task_that_writes_files_plans_them(key):
+    """Outputs replacing inputs or each other are refused before a run only if every task says its
+    outputs first (its ``outputs`` hook); a written output the plan lacks is a fault the run
+    reports (JobContext.wrote)."""
+    task = TASKS[key]
+    writes = task.writes_outputs or any(s.name == "map" for s in task.all_specs())
+    assert not writes or task.outputs is not None, f"{key} writes files but plans none"

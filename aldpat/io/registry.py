@@ -87,11 +87,12 @@ def open_points(path: str | Path, *, format: str | None = None, layout: str = "p
     return FORMATS[fmt](path, layout=layout, order=order)
 
 
-def output_extension(reader, out_format: str | None) -> str:
-    """The extension an output gets: the input's unless ``--out-format`` says otherwise."""
+def output_extension(source: Path | None, out_format: str | None) -> str:
+    """The extension an output of the input ``source`` gets: the input's unless ``--out-format``
+    says otherwise."""
     if out_format and out_format != "same":
         return OUT_EXTENSIONS[out_format]
-    return reader.path.suffix.lower() if reader is not None else ".txt"
+    return Path(source).suffix.lower() if source is not None else ".txt"
 
 
 @contextlib.contextmanager

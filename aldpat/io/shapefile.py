@@ -60,13 +60,17 @@ def shapefile_rings(rings: list[np.ndarray]) -> list[list[list[float]]]:
     return out
 
 
+#: the files of a polygon shapefile (a ``.prj`` beside them when the CRS is known)
+PARTS = (".shp", ".shx", ".dbf", ".cpg")
+
+
 def write_polygons(path: str | Path, polygons: list[Polygon], fields: list[Field], *, crs=None,
                    overwrite: bool = False) -> list[Path]:
     """Write a polygon shapefile (.shp .shx .dbf .cpg and .prj when ``crs``); return the files."""
     path = Path(path)
     if path.suffix.lower() != ".shp":
         path = path.with_suffix(".shp")
-    files = [path.with_suffix(s) for s in (".shp", ".shx", ".dbf", ".cpg")]
+    files = [path.with_suffix(s) for s in PARTS]
     if crs is not None:
         files.append(path.with_suffix(".prj"))
     with atomic_outputs(files, overwrite=overwrite) as tmps:

@@ -1,9 +1,18 @@
 """What a task's run function gets (:class:`JobContext`: output names, atomic writers, and
-where to record outputs, warnings and results) and what one job gives back (:class:`JobResult`)."""
+where to record outputs, warnings and results) and what one job gives back (:class:`JobResult`).
+
+Every output a job writes is :class:`Planned` before anything runs, by the task's one
+``outputs`` hook (:attr:`aldpat.jobs.registry.Task.outputs`): the run refuses outputs that would
+replace an input or each other before any job starts (:mod:`aldpat.jobs.outputs`), and a task
+takes the names it writes from the same hook (:meth:`JobContext.outputs_for`), so what was
+checked is what is written; :meth:`JobContext.wrote` holds every output to the plan.
+"""
 
 from __future__ import annotations
 
+import fnmatch
 import logging
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,6 +41,30 @@ def _text(v: Any) -> str:
     if isinstance(v, list):
         return "  ".join(_text(x) for x in v)
     return "-" if v is None else str(v)
+
+
+@dataclass(frozen=True)
+class Planned:
+    """An output a job will write, known before it runs: a file, or (``family``) the files of a
+    folder whose names match a pattern (``*``, ``?``, ``[...]`` in the name only), as many as
+    the data make (split-tape's strips, tile's tiles)."""
+
+    path: Path
+    source: Path | None = None  # the input it is made from; None: made from every input (a mosaic)
+    role: str = ""  # what the task calls it (filter: "ground", "object", "all")
+    family: bool = False
+    #: how a user gives it another name, said when it clashes
+    rename: str = "give --odir or another --suffix"
+    #: the path parameter that names it (``mosaic``, ``map``, ``output``): that one is not an input
+    named_by: str | None = None
+
+    def matches(self, path: str | Path) -> bool:
+        """Whether ``path`` is this output (or one of this family)."""
+        path = Path(path)
+        if self.family:
+            return (os.path.abspath(path.parent) == os.path.abspath(self.path.parent)
+                    and fnmatch.fnmatchcase(path.name, self.path.name))
+        return os.path.abspath(path) == os.path.abspath(self.path)
 
 
 @dataclass
@@ -98,31 +131,47 @@ class JobResult:
 class JobContext:
     """Output naming, atomic writing and bookkeeping for one job."""
 
-    def __init__(self, task: Task, output: Any, input_opts: Any, result: JobResult):
+    def __init__(self, task: Task, output: Any, input_opts: Any, result: JobResult, params: Any = None):
         self.task = task
         self.output = output  # an OutputParams (PointOutputParams for point outputs), or None
         self.input = input_opts
         self.result = result
+        self.params = params  # the task's own parameters
         #: inputs a planned job reads besides its own (:attr:`Task.plan`): neighbouring tiles
         self.neighbours: list[Path] = []
         #: processes the job may use for its chunks (``--chunk``)
         self.workers = 1
         #: the run's scratch folder, where a first pass leaves what the task's jobs read
         self.scratch: Path | None = None
+        self._planned: list[Planned] | None = None
 
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,
                     reader=None, use_suffix_option: bool = True) -> Path:
-        """``<odir or source folder>/<stem><suffix><ext>`` (the output place and name of every task)."""
+        """``<odir or source folder>/<stem><suffix><ext>`` (the output place and name of every
+        task); without ``ext``, the input's extension unless ``--out-format`` says otherwise
+        (``reader`` is the input's reader, or None: the name alone decides)."""
         source = Path(source)
         suffix = default_suffix
         if use_suffix_option and self.output is not None and self.output.suffix is not None:
             suffix = self.output.suffix
         if ext is None:
-            ext = output_extension(reader, getattr(self.output, "out_format", None)) \
-                if reader is not None else source.suffix
+            ext = output_extension(reader.path if reader is not None else source,
+                                   getattr(self.output, "out_format", None))
         folder = self.output_dir(source)
         return folder / f"{source.stem}{suffix}{ext}"
+
+    def outputs_for(self, source: Path) -> list[Planned]:
+        """The outputs of ``source`` as the task's ``outputs`` hook plans them (the names the
+        run was checked with before it started)."""
+        assert self.task.outputs is not None, f"task {self.task.key} plans no outputs"
+        return list(self.task.outputs(Path(source), self.params, self))
+
+    def planned(self, sources: list[Path]) -> list[Planned]:
+        """Every output of a job of ``sources`` (computed once)."""
+        if self._planned is None:
+            self._planned = self.task.planned_outputs([Path(s) for s in sources], self.params, self)
+        return self._planned
 
     def output_dir(self, source: Path | None = None) -> Path:
         if self.output is not None and self.output.odir:
@@ -149,6 +198,11 @@ class JobContext:
 
     # bookkeeping
     def wrote(self, path: Path, count: int | None = None) -> None:
+        """Record an output; it must be one the job planned (an output the plan missed is one the
+        run's checks for outputs replacing inputs did not see: a fault of the task)."""
+        planned = self._planned
+        if planned is not None and not any(p.matches(path) for p in planned):
+            raise AssertionError(f"{path}: written but not among the outputs {self.task.key} planned")
         self.result.outputs.append(Written(str(path), count))
 
     def warn(self, message: str) -> None:

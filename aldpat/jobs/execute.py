@@ -26,6 +26,7 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
     """Run one job (in this process or a worker) and write its log; never raises. ``task``
     reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
     def body(ctx: JobContext) -> None:
+        ctx.planned([Path(s) for s in sources])  # what the job may write (JobContext.wrote holds to it)
         run_one = task.first_pass if run.stage == "first" else task.run_one
         if run_one is not None:
             ctx.neighbours = [Path(s) for s in sources[1:]]  # a planned job's other inputs
@@ -50,7 +51,7 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
              body: Callable[[JobContext], None]) -> JobResult:
     result = JobResult(inputs=list(sources))
     ctx = JobContext(task, run.output.values if run.output else None, run.input.values if run.input else None,
-                     result)
+                     result, run.params.values)
     ctx.workers = run.chunk_workers
     ctx.scratch = Path(run.scratch) if run.scratch is not None else None
     start = time.perf_counter()

@@ -4,7 +4,11 @@ A task is one module in ``aldpat/tasks/`` that declares its parameters once (a f
 of :func:`aldpat.params.param` fields) and registers a :class:`Task` with either
 
 * ``run_one(source, params, ctx)`` -- one job per input file, run in parallel with ``-j``; or
-* ``run_all(sources, params, ctx)`` -- one job for all inputs (merge, tile, shapefile...).
+* ``run_all(sources, params, ctx)`` -- one job for all inputs (merge, tile, shapefile...);
+
+and says, with ``outputs``, every file it will write before it runs (one hook for every task:
+:meth:`Task.planned_outputs`), so that an output that would replace an input, or another output,
+is refused before anything runs.
 
 The CLI command and the worksheet job for a task are derived from the same registration, so
 adding a task is one module plus its tests.
@@ -22,6 +26,7 @@ from aldpat.options import InputParams, OutputParams, PointOutputParams, RunPara
 from aldpat.params import specs
 
 if TYPE_CHECKING:
+    from aldpat.jobs.context import Planned
     from aldpat.jobs.run import RunReport
 
 
@@ -54,6 +59,11 @@ class Task:
     #: neighbours need near their shared edges). An empty list: no first pass.
     first: Callable | None = None
     first_pass: Callable | None = None
+    #: ``outputs(source, params, ctx) -> [Planned]`` (``run_one``: the outputs of one input) or
+    #: ``outputs(sources, params, ctx)`` (``run_all``): every file the task writes, named with
+    #: ``ctx.output_path`` before anything runs; the run function takes its names from it
+    #: (``ctx.outputs_for(source)``). An output made from every input (a mosaic) has no source.
+    outputs: Callable | None = None
 
     @property
     def key(self) -> str:
@@ -66,6 +76,24 @@ class Task:
         if self.writes_outputs:
             common += (PointOutputParams,) if self.writes_points else (OutputParams,)
         return (self.params,) + common + (RunParams,)
+
+    def planned_outputs(self, sources: list[Path], params, ctx) -> list[Planned]:
+        """Every output of a run (or a job) of ``sources``, in order, each once."""
+        if self.outputs is None:
+            return []
+        if self.run_one is not None:
+            planned = [p for s in sources for p in self.outputs(s, params, ctx)]
+        else:
+            planned = list(self.outputs(sources, params, ctx)) if sources or self.inputs == "none" else []
+        seen: set[tuple[Path, bool]] = set()
+        unique = []
+        for p in planned:  # an output of every input (a mosaic) is planned once
+            key = (p.path, p.family)
+            if p.source is None and key in seen:
+                continue
+            seen.add(key)
+            unique.append(p)
+        return unique
 
     def all_specs(self):
         seen = {}

@@ -20,6 +20,7 @@ from aldpat.jobs.context import JobResult, Written
 from aldpat.jobs.execute import Progress, execute_finish, report_result
 from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
+from aldpat.jobs.outputs import check_outputs, forget_folders
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
 
 if TYPE_CHECKING:
@@ -76,6 +77,8 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
         if not input_errors:
             raise UsageError("no inputs given")
         return RunReport(task.key, [], input_errors)
+    forget_folders()
+    check_outputs(task, sources, run)  # before anything runs: no output replaces an input or another
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
     first = task.first(sources, run.params.values, run.input.values if run.input else None) \
         if task.first is not None and sources else []

@@ -10,8 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.core.crs import parse_crs
-from aldpat.errors import UsageError
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, FieldsOption, point_names
 
@@ -21,11 +20,13 @@ class ConvertParams(FieldsOption, CrsOption):
     """Only the shared options: ``fields`` and ``crs``."""
 
 
+def convert_outputs(source: Path, params: ConvertParams, ctx: JobContext) -> list[Planned]:
+    return [Planned(ctx.output_path(source, ""), source)]
+
+
 def convert_one(source: Path, params: ConvertParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
-    out = ctx.output_path(source, "", reader=reader)
-    if out.resolve() == source.resolve():
-        raise UsageError("output would replace the input: give --out-format, --odir or --suffix", path=source)
+    out = ctx.outputs_for(source)[0].path
     crs = parse_crs(params.crs) if params.crs else None
     names = reader.names if reader.format == "las" and out.suffix in (".las", ".laz") else point_names(reader, params.fields)
     with ctx.write_points(out, names, like=reader, crs=crs) as writer:
@@ -45,4 +46,5 @@ register_task(Task(
         ("aldpat convert site.laz --out-format text --fields xyz",
          "a LAZ file to x y z text beside it"),
     ),
+    outputs=convert_outputs,
 ))

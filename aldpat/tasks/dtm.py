@@ -50,12 +50,12 @@ from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.geotiff import Raster, write_geotiff
 from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
 from aldpat.tasks.filter import STREAM_CHUNK, apply_auto
-from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for, tile_grid
+from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for, mosaic_outputs, tile_grid
 
 log = logging.getLogger(__name__)
 
@@ -155,7 +155,7 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     ctx.note(f"{own_ground} ground ({params.algorithm})")
     raster, blank = terrain_raster(x, y, z, spec, params, crs=params.crs or reader.crs, where=source)
     del x, y, z
-    out = ctx.output_path(source, "_dtm", ".tif")
+    out = ctx.outputs_for(source)[0].path
     units.stage("write")
     raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
     log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
@@ -310,12 +310,17 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
         ctx.tally(points=own, ground=own_ground)
         return
     values, spec = made
-    out = ctx.output_path(tile.source, "_dtm", ".tif")
+    out = ctx.outputs_for(tile.source)[0].path
     units.stage("write")
     write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
                   crs=params.crs or ctx.open_input(tile.source).crs, overwrite=ctx.overwrite)
     ctx.wrote(out)
     ctx.tally(points=own, ground=own_ground, nodes=values.size, blank=int(np.isnan(values).sum()))
+
+
+def dtm_outputs(source: Path, params: DtmParams, ctx: JobContext) -> list[Planned]:
+    """``<stem>_dtm.tif``, and the run's mosaic (``--mosaic``)."""
+    return [Planned(ctx.output_path(source, "_dtm", ".tif"), source), *mosaic_outputs(params, ctx)]
 
 
 register_task(Task(
@@ -337,4 +342,5 @@ register_task(Task(
     ),
     first=first_jobs,
     first_pass=classify_tile,
+    outputs=dtm_outputs,
 ))

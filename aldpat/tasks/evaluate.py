@@ -26,7 +26,8 @@ from aldpat.core.accuracy import coordinate_keys, match_accuracy, reference_call
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.classified import class_column_of
 from aldpat.io.registry import open_points
-from aldpat.jobs.context import JobContext, Record
+from aldpat.io.worldfile import world_path
+from aldpat.jobs.context import JobContext, Planned, Record
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import JsonOption, OverwriteOption
 from aldpat.params import param
@@ -134,7 +135,7 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     if params.map is not None:
         calls = reference_calls(ref_keys, ref_ground, res_keys, res_ground)
         ref_x, ref_y = ref_keys[:, 0] * tol, ref_keys[:, 1] * tol  # the reference's points, snapped
-        out = map_path(params.map, source)
+        out = ctx.outputs_for(source)[0].path
         out.parent.mkdir(parents=True, exist_ok=True)
         for path in save_png(calls_rgba(ref_x, ref_y, ref_ground, calls, MAP_SIZE), out, params.overwrite,
                              calls_place(ref_x, ref_y, MAP_SIZE)):
@@ -152,12 +153,13 @@ def map_path(template: str, source: Path) -> Path:
     return Path(template.replace("{stem}", Path(source).stem))
 
 
-def plan_evaluations(sources: list[Path], params: EvaluateParams, _input) -> list[list[str]]:
-    """One job per result; several results cannot share one map."""
-    if params.map is not None and len(sources) > 1 and "{stem}" not in params.map:
-        raise UsageError(f"--map {params.map}: {len(sources)} results would draw the same file; put {{stem}} in "
-                         "the name for each result's name (e.g. maps/{stem}.png)")
-    return [[str(s)] for s in sources]
+def evaluate_outputs(source: Path, params: EvaluateParams, ctx: JobContext) -> list[Planned]:
+    """The map of ``--map`` (``{stem}`` the result's name) and its world file, if asked for."""
+    if params.map is None:
+        return []
+    out = map_path(params.map, source)
+    return [Planned(path, source, rename="put {stem} in --map (maps/{stem}.png)", named_by="map")
+            for path in (out, world_path(out))]
 
 
 register_task(Task(
@@ -165,7 +167,6 @@ register_task(Task(
     summary="Type I, Type II, total error and kappa of a ground classification against reference labels.",
     params=EvaluateParams,
     run_one=evaluate_one,
-    plan=plan_evaluations,
     writes_outputs=False,
     examples=(
         ("aldpat evaluate samp24_gapm.txt --reference samp24.txt",
@@ -175,4 +176,5 @@ register_task(Task(
         ("aldpat evaluate ground/*.txt --reference samp24.txt --json",
          "one JSON object per result"),
     ),
+    outputs=evaluate_outputs,
 ))

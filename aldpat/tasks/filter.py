@@ -31,7 +31,7 @@ from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, for_point_format
 from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.params import spec_map
 
@@ -123,18 +123,23 @@ def _with_classes(rows: PointTable, reader, params, marks: np.ndarray, cls: np.n
     return rows.with_columns(**extra) if extra else rows
 
 
-def _outputs(source: Path, params, ctx: JobContext, reader, algorithm: str) -> list[tuple[Path, str]]:
-    """(path, which points) of every output: ``all``, ``ground`` or ``object``."""
-    terrain_path = ctx.output_path(source, f"_{algorithm}", reader=reader)
+def filter_outputs(source: Path, params, ctx: JobContext, *, algorithm: str) -> list[Planned]:
+    """Every output, its role the points it holds: ``all``, ``ground`` or ``object``."""
+    terrain_path = ctx.output_path(source, f"_{algorithm}")
     nonterrain_path = terrain_path.with_name(terrain_path.stem + "_nt" + terrain_path.suffix)
     if params.result == "classified":
-        return [(terrain_path, "all")]
+        return [Planned(terrain_path, source, "all")]
     outputs = []
     if params.result in ("terrain", "both"):
-        outputs.append((terrain_path, "ground"))
+        outputs.append(Planned(terrain_path, source, "ground"))
     if params.result in ("nonterrain", "both"):
-        outputs.append((nonterrain_path, "object"))
+        outputs.append(Planned(nonterrain_path, source, "object"))
     return outputs
+
+
+def _outputs(source: Path, params, ctx: JobContext, reader, algorithm: str) -> list[tuple[Path, str]]:
+    """(path, which points) of every output, as planned (:func:`filter_outputs`)."""
+    return [(p.path, p.role) for p in ctx.outputs_for(source)]
 
 
 def _part(rows: PointTable, which: str, ground: np.ndarray) -> PointTable:
@@ -300,7 +305,8 @@ def _register_all() -> None:
             filter_one(source, params, ctx, algorithm=_name)
 
         register_task(Task(name=name, group="filter", summary=spec.summary, params=spec.params,
-                           run_one=run, plan=plan_catalog, examples=filter_examples(name, spec.params)))
+                           run_one=run, plan=plan_catalog, examples=filter_examples(name, spec.params),
+                           outputs=functools.partial(filter_outputs, algorithm=name)))
 
 
 def filter_examples(name: str, params: type) -> tuple[tuple[str, str], ...]:

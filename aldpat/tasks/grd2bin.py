@@ -14,7 +14,7 @@ from pathlib import Path
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
 from aldpat.io.geotiff import write_geotiff
 from aldpat.io.surfer import read_surfer
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
 from aldpat.params import param
@@ -27,14 +27,22 @@ class Grd2BinParams(CrsOption):
     nodata: float = param(-9999.0, "value written for blank nodes")
 
 
+def grd2bin_outputs(source: Path, params: Grd2BinParams, ctx: JobContext) -> list[Planned]:
+    """The grid, with its .hdr (``flt``) and .prj (``--crs``) beside it."""
+    out = ctx.output_path(source, "", ".tif" if params.to in ("tif", "cog") else "." + params.to)
+    sides = [".hdr"] if params.to == "flt" else []
+    if params.crs is not None and params.to in ("flt", "asc"):
+        sides.append(".prj")
+    return [Planned(out, source)] + [Planned(out.with_suffix(ext), source, role="side") for ext in sides]
+
+
 def grd2bin_one(source: Path, params: Grd2BinParams, ctx: JobContext) -> None:
     values, spec = read_surfer(source)
+    out = ctx.outputs_for(source)[0].path
     if params.to in ("tif", "cog"):
-        out = ctx.output_path(source, "", ".tif")
         ctx.wrote(write_geotiff(out, values, spec, cog=params.to == "cog", nodata=params.nodata, crs=params.crs,
                                 overwrite=ctx.overwrite))
         return
-    out = ctx.output_path(source, "", "." + params.to)
     writer = write_float_grid if params.to == "flt" else write_ascii_grid
     for path in writer(out, values, spec, nodata=params.nodata, crs=params.crs, overwrite=ctx.overwrite):
         ctx.wrote(path)
@@ -54,4 +62,5 @@ register_task(Task(
         ("aldpat grd2bin dtm.grd --to cog --crs 17N",
          "a Cloud Optimized GeoTIFF"),
     ),
+    outputs=grd2bin_outputs,
 ))

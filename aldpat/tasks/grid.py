@@ -41,7 +41,7 @@ from aldpat.io.surfer import FORMATS as SURFER_FORMATS
 from aldpat.io.surfer import read_surfer, write_surfer
 from aldpat.io.tile_project import TileJob, find_tile_job, tile_points
 from aldpat.io.vrt import TileGrid, write_mosaic
-from aldpat.jobs.context import JobContext, JobResult
+from aldpat.jobs.context import JobContext, JobResult, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import ChunkOption, CrsOption, OriginOption
 from aldpat.params import param
@@ -133,7 +133,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         grid_over_tiles(tile, params, ctx)
         return
     reader = ctx.open_input(source)
-    out = ctx.output_path(source, f"_{params.method}", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
+    out = ctx.outputs_for(source)[0].path
     spec = grid_spec_for(params)
     if params.chunk is not None and params.method not in BINNING:
         if spec is None:
@@ -236,7 +236,7 @@ def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
             ctx.warn(f"{tile.source.name}: no points in or near its core; no grid written")
         return
     values, spec = made
-    out = ctx.output_path(tile.source, f"_{params.method}", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
+    out = ctx.outputs_for(tile.source)[0].path
     write_grid(out, values, spec, params, params.crs or ctx.open_input(tile.source).crs, ctx, len(parts[0].x))
 
 
@@ -296,6 +296,20 @@ def _grid_one_chunk(spilled, col: int, row: int, sub: GridSpec, options: dict) -
     return interpolate(x, y, z, sub, method=method, **opts)
 
 
+def grid_outputs(source: Path, params: GridParams, ctx: JobContext) -> list[Planned]:
+    """The grid of ``source``, and the run's mosaic (``--mosaic``)."""
+    out = ctx.output_path(source, f"_{params.method}", GEOTIFF_FORMATS.get(params.grid_format, ".grd"))
+    return [Planned(out, source), *mosaic_outputs(params, ctx)]
+
+
+def mosaic_outputs(params, ctx: JobContext) -> list[Planned]:
+    """``--mosaic FILE.vrt`` of ``grid`` and ``dtm``: made from every grid of the run."""
+    if params.mosaic is None:
+        return []
+    # like every path, from where the command runs (a worksheet's folder), not from --odir
+    return [Planned(Path(params.mosaic), named_by="mosaic")]
+
+
 def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -> None:
     """``--mosaic``: a VRT over the grids every job wrote (all of them, or none is written)."""
     if params.mosaic is None:
@@ -303,7 +317,7 @@ def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -
     failed = [r for r in results if not r.ok]
     if failed:
         raise DataError(f"mosaic not written: {len(failed)} of {len(results)} grids failed", path=params.mosaic)
-    out = Path(params.mosaic)  # like every path: from where the command runs (a worksheet's folder)
+    out = mosaic_outputs(params, ctx)[0].path
     tiles = []
     crs = params.crs
     for written in (w for r in results for w in r.outputs):
@@ -336,4 +350,5 @@ register_task(Task(
         ("aldpat grid 'ground/tile_*.txt' --tile-params tiles/tile_parameter.txt --mosaic dtm.vrt",
          "tile grids sharing their edge nodes, and one raster over them"),
     ),
+    outputs=grid_outputs,
 ))

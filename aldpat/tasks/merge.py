@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.errors import DataError, UsageError
+from aldpat.errors import DataError
 from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
 from aldpat.io.registry import detect_format
 from aldpat.io.tile_project import find_tile_job, in_core
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, FieldsOption, point_names
 from aldpat.params import param
@@ -67,11 +67,14 @@ def _exact_at(header, template) -> bool:
     return True
 
 
-def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:
+def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
+    """``-o FILE``: like every path, from where the command runs (a worksheet's folder)."""
     assert params.output is not None  # required
-    out = Path(params.output)  # like every path: from where the command runs (a worksheet's folder)
-    if any(out.resolve() == s.resolve() for s in sources):
-        raise UsageError(f"--output {out} is one of the inputs")
+    return [Planned(Path(params.output), named_by="output")]
+
+
+def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:
+    out = merge_outputs(sources, params, ctx)[0].path
     readers = [ctx.open_input(s) for s in sources]
     template = _las_template(readers) if detect_format(out) == "las" else None
     if template is not None:
@@ -120,6 +123,7 @@ register_task(Task(
             "PDAL's merge).",
     params=MergeParams,
     run_all=merge_all,
+    outputs=merge_outputs,
     examples=(
         ("aldpat merge ground/ -o site_gapm.laz",
          "a project's classified tiles back into one file: every point once, with its own tile's class"),

@@ -21,7 +21,7 @@ import numpy as np
 from aldpat.io.atomic import atomic_output
 from aldpat.io.merged_boundary import SEPARATOR
 from aldpat.io.text import format_rows
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.params import param
 
@@ -33,11 +33,17 @@ class MergeBoundaryParams:
     output: str | None = param(None, "merged boundary file to write", path=True, metavar="FILE", required=True)
 
 
-def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:
+def merge_boundary_outputs(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> list[Planned]:
+    """``-o FILE`` (in ``--odir`` when relative)."""
     assert params.output is not None  # required
     out = Path(params.output)
     if ctx.output is not None and ctx.output.odir and not out.is_absolute():
         out = Path(ctx.output.odir) / out
+    return [Planned(out, named_by="output")]
+
+
+def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:
+    out = merge_boundary_outputs(sources, params, ctx)[0].path
     delim = "," if ctx.delimiter == "comma" else " "
     count = 0
     with atomic_output(out, overwrite=ctx.overwrite) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
@@ -68,4 +74,5 @@ register_task(Task(
         ("aldpat merge-boundary @bounds.txt --output merged.txt --delimiter comma",
          "the files listed in bounds.txt, comma-delimited"),
     ),
+    outputs=merge_boundary_outputs,
 ))

@@ -19,7 +19,7 @@ import numpy as np
 from aldpat.core.crs import parse_crs
 from aldpat.core.heights import Z_UNITS, HeightConverter, geoid_transformer
 from aldpat.errors import AldpatError, ParamError, UsageError
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
 from aldpat.params import param
@@ -46,6 +46,10 @@ class OrthoHeightParams(CrsOption):
             parse_crs(self.to_crs, key="to_crs")
 
 
+def ortho_height_outputs(source: Path, params: OrthoHeightParams, ctx: JobContext) -> list[Planned]:
+    return [Planned(ctx.output_path(source, "_Ortho"), source)]
+
+
 def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     crs = params.crs or reader.crs
@@ -54,7 +58,7 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
     assert params.geoid is not None  # required
     convert = HeightConverter(crs, params.geoid, to_crs=params.to_crs, reverse=params.reverse,
                               z_unit=params.z_unit)
-    out = ctx.output_path(source, "_Ortho", reader=reader)
+    out = ctx.outputs_for(source)[0].path
     like, decimals = reader, None
     if convert.to_crs is not None:
         dec = dict(getattr(reader, "decimals", None) or {})
@@ -111,4 +115,5 @@ register_task(Task(
         ("aldpat ortho-height site.laz --geoid egm96_15.gtx --to-crs EPSG:32617",
          "and x, y re-projected to UTM 17N"),
     ),
+    outputs=ortho_height_outputs,
 ))

@@ -21,7 +21,7 @@ from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import kept_names
 from aldpat.params import param
@@ -76,11 +76,15 @@ def read_polygon(path: str | Path) -> list[list[np.ndarray]]:
     return read_polygon_text(path)
 
 
+def polygon_extract_outputs(source: Path, params: PolygonExtractParams, ctx: JobContext) -> list[Planned]:
+    return [Planned(ctx.output_path(source, "_poly"), source)]
+
+
 def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobContext) -> None:
     assert params.polygon is not None  # required
     polygons = read_polygon(params.polygon)
     reader = ctx.open_input(source)
-    out = ctx.output_path(source, "_poly", reader=reader)
+    out = ctx.outputs_for(source)[0].path
     total = 0
     if passthrough_ok(reader, reader.names, ctx.delimiter, out.suffix):
         # the kept records are copied byte for byte
@@ -121,4 +125,5 @@ register_task(Task(
         ("aldpat polygon-extract strips/*.txt --polygon lakes.shp --outside",
          "the points outside a shapefile's polygons"),
     ),
+    outputs=polygon_extract_outputs,
 ))

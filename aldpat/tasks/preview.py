@@ -34,7 +34,7 @@ from aldpat.io.esri_grid import read_ascii_grid, read_float_grid
 from aldpat.io.geotiff import read_geotiff
 from aldpat.io.surfer import read_surfer
 from aldpat.io.worldfile import NorthUp, world_path
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.params import param
 
@@ -208,14 +208,21 @@ def _ground_of(reader, table, source: Path) -> np.ndarray:
                     "(aldpat filter --result classified writes them)", path=source)
 
 
+def preview_outputs(source: Path, params: PreviewParams, ctx: JobContext) -> list[Planned]:
+    """``<stem>_hillshade.png`` of a grid, ``<stem>_plan.png`` of points, each with its world file."""
+    grid = source.suffix.lower() in GRID_EXTENSIONS
+    out = ctx.output_path(source, "_hillshade" if grid else "_plan", ".png")
+    return [Planned(out, source), Planned(world_path(out), source)]
+
+
 def preview_one(source: Path, params: PreviewParams, ctx: JobContext) -> None:
+    out = ctx.outputs_for(source)[0].path
     if source.suffix.lower() in GRID_EXTENSIONS:
         values, spec = read_grid(source)
         if not np.isfinite(values).any():
             raise DataError("every node is blank: nothing to shade", path=source)
         rgba = hillshade_rgba(values, spec, params)
         place = grid_place(spec)
-        out = ctx.output_path(source, "_hillshade", ".png")
     else:
         reader = ctx.open_input(source)
         table = reader.read()
@@ -225,7 +232,6 @@ def preview_one(source: Path, params: PreviewParams, ctx: JobContext) -> None:
         x, y = np.asarray(table.x), np.asarray(table.y)
         rgba = plan_rgba(x, y, np.asarray(table.z), ground, params.size)
         place = plan_place(x, y, params.size)[0]
-        out = ctx.output_path(source, "_plan", ".png")
     for path in save_png(rgba, out, ctx.overwrite, place):
         ctx.wrote(path)
 
@@ -244,4 +250,5 @@ register_task(Task(
         ("aldpat preview ground/site_gapm.laz --color-by class",
          "a plan view of points by class"),
     ),
+    outputs=preview_outputs,
 ))

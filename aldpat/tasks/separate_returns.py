@@ -19,7 +19,7 @@ import numpy as np
 from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 from aldpat.errors import DataError, ParamError
 from aldpat.io.table import PointTable
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import FieldsOption, OrderOption
 from aldpat.params import Checked, param
@@ -88,13 +88,19 @@ class ZoneStripper:
         raise DataError(message, path=self.source, line=self.first_line + row)
 
 
-def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobContext) -> None:
-    reader = ctx.open_input(source, layout="altm9", order=params.order)
+def separate_returns_outputs(source: Path, params: SeparateReturnsParams, ctx: JobContext) -> list[Planned]:
+    """``<stem>_1`` (first returns) and ``<stem>_2`` (last returns, in ``--last-odir`` if given)."""
     suffix = ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_"
-    first_out = ctx.output_path(source, f"{suffix}1", reader=reader, use_suffix_option=False)
-    last_out = ctx.output_path(source, f"{suffix}2", reader=reader, use_suffix_option=False)
+    first_out = ctx.output_path(source, f"{suffix}1", use_suffix_option=False)
+    last_out = ctx.output_path(source, f"{suffix}2", use_suffix_option=False)
     if params.last_odir:
         last_out = Path(params.last_odir) / last_out.name
+    return [Planned(first_out, source, "first"), Planned(last_out, source, "last")]
+
+
+def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobContext) -> None:
+    reader = ctx.open_input(source, layout="altm9", order=params.order)
+    first_out, last_out = (p.path for p in ctx.outputs_for(source))
     names = ("x", "y", "z") + (("intensity",) if params.fields == "xyzi" else ())
     dec = reader.decimals
     decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": dec.get("z1"), "intensity": 0}
@@ -136,4 +142,5 @@ register_task(Task(
         ("aldpat separate-returns strip01.txt --stop-gap 5 --utm-zone auto",
          "last returns within 5 m of the first replaced, UTM zone prefix found"),
     ),
+    outputs=separate_returns_outputs,
 ))

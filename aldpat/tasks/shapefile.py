@@ -15,8 +15,9 @@ from pathlib import Path
 
 from aldpat.errors import UsageError
 from aldpat.io.merged_boundary import read_merged
+from aldpat.io.shapefile import PARTS as SHAPEFILE_PARTS
 from aldpat.io.shapefile import Polygon, write_polygons
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
 from aldpat.params import param
@@ -33,7 +34,8 @@ class ShapefileParams(CrsOption):
 FIELDS = [("strip", "N", 10, 0), ("file", "C", 254, 0)]
 
 
-def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext) -> None:
+def shapefile_outputs(sources: list[Path], params: ShapefileParams, ctx: JobContext) -> list[Planned]:
+    """The shapefile's .shp, .shx, .dbf and .cpg (and .prj with ``--crs``)."""
     if params.output:
         out = Path(params.output)
         if ctx.output is not None and ctx.output.odir and not out.is_absolute():
@@ -42,6 +44,13 @@ def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext)
         out = ctx.output_path(sources[0], "", ".shp")
     else:
         raise UsageError("several merged files go into one shapefile: name it with -o FILE.shp")
+    out = out if out.suffix.lower() == ".shp" else out.with_suffix(".shp")
+    named_by = "output" if params.output else None
+    return [Planned(out.with_suffix(ext), named_by=named_by) for ext in SHAPEFILE_PARTS + ((".prj",) if params.crs else ())]
+
+
+def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext) -> None:
+    out = shapefile_outputs(sources, params, ctx)[0].path
     polygons = []
     for source in sources:
         for strip in read_merged(source):
@@ -71,4 +80,5 @@ register_task(Task(
         ("aldpat shapefile merged_bound.txt --crs 17N --odir gis/",
          "gis/merged_bound.shp, named after its input"),
     ),
+    outputs=shapefile_outputs,
 ))

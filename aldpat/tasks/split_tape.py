@@ -26,9 +26,9 @@ import numpy as np
 
 from aldpat.core.precision import above
 from aldpat.errors import UsageError
-from aldpat.io.atomic import atomic_output
+from aldpat.io.atomic import atomic_output, glob_escape
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import OrderOption
 from aldpat.params import param
@@ -69,9 +69,20 @@ class _RawStrip:
         self.count += rows.stop - rows.start
 
 
+def _strip_suffix(ctx: JobContext) -> str:
+    return ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_strip"
+
+
+def split_tape_outputs(source: Path, params: SplitTapeParams, ctx: JobContext) -> list[Planned]:
+    """The strips ``<stem>_strip01``, ``_strip02``...: as many as the tape holds."""
+    name = ctx.output_path(source, _strip_suffix(ctx), use_suffix_option=False)
+    pattern = glob_escape(name.stem) + "[0-9][0-9]*" + glob_escape(name.suffix)
+    return [Planned(name.with_name(pattern), source, family=True)]
+
+
 def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source, layout="altm9", order=params.order)
-    suffix = ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_strip"
+    suffix = _strip_suffix(ctx)
     probe = ctx.output_path(source, "", reader=reader, use_suffix_option=False)
     if probe.suffix in (".las", ".laz"):
         raise UsageError("strips keep the tape's 9-column text layout; --out-format las/laz does not apply",
@@ -138,4 +149,5 @@ register_task(Task(
         ("aldpat split-tape tapes/*.txt --order first-last --odir strips/",
          "tapes whose 9 columns hold the first return before the last"),
     ),
+    outputs=split_tape_outputs,
 ))

@@ -17,7 +17,7 @@ import numpy as np
 from aldpat.core.boundary import BoundaryScan
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CellHeightOption, OriginOption
 from aldpat.params import param
@@ -43,6 +43,10 @@ def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
     return scan.ring(params.scan), scan.direction(params.scan)
 
 
+def strip_boundary_outputs(source: Path, params: StripBoundaryParams, ctx: JobContext) -> list[Planned]:
+    return [Planned(ctx.output_path(source, "_Bound"), source)]
+
+
 def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     ring, direction = boundary_of(reader, params)
@@ -51,7 +55,7 @@ def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContex
                         "use smaller cells", path=source)
     names = ("x", "y", "z", "intensity")
     ring["intensity"] = np.rint(ring["intensity"]).astype(np.int64)
-    out = ctx.output_path(source, "_Bound", reader=reader)
+    out = ctx.outputs_for(source)[0].path
     with ctx.write_points(out, names, like=reader) as writer:
         writer.write(PointTable(ring, meta={"decimals": reader.decimals}))
     ctx.wrote(out, writer.count)
@@ -69,4 +73,5 @@ register_task(Task(
         ("aldpat strip-boundary strip01_1.txt --cell 5 --scan y",
          "a north-south strip: scan the columns for their lowest and highest y"),
     ),
+    outputs=strip_boundary_outputs,
 ))

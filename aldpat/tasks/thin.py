@@ -23,7 +23,7 @@ import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CellHeightOption, OriginOption, kept_names
 from aldpat.params import param
@@ -56,9 +56,13 @@ def thin_table(table, params: ThinParams):
     return out
 
 
+def thin_outputs(source: Path, params: ThinParams, ctx: JobContext) -> list[Planned]:
+    return [Planned(ctx.output_path(source, "_thin"), source)]
+
+
 def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
-    out = ctx.output_path(source, "_thin", reader=reader)
+    out = ctx.outputs_for(source)[0].path
     decimals = dict(reader.decimals)
     if params.xy == "integer":
         decimals.update(x=0, y=0)
@@ -98,4 +102,5 @@ register_task(Task(
         ("aldpat thin tiles/ --cell 2 --method median --odir thin/",
          "the median point of each 2 m cell, every tile"),
     ),
+    outputs=thin_outputs,
 ))

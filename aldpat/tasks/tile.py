@@ -41,6 +41,7 @@ from aldpat.core.tiles import DIRECTIONS, TileLayout
 from aldpat.errors import DataError, ParamError, UsageError
 from aldpat.io.atomic import (
     check_writable,
+    glob_escape,
     publish,
     remove_stale_temporaries,
     temp_name,
@@ -50,7 +51,7 @@ from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
-from aldpat.jobs.context import JobContext
+from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import FieldsOption, OriginOption, point_names
 from aldpat.params import Checked, format_value, param
@@ -211,11 +212,18 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> int:
     return int((ci < 0).sum())
 
 
+def tile_outputs(sources: list[Path], params: TileParams, ctx: JobContext) -> list[Planned]:
+    """``tile_parameter.txt`` and the tiles ``tile_<minx>_<miny>``, as many as the data cover."""
+    folder = ctx.output_dir(sources[0])
+    ext = output_extension(sources[0], ctx.output.out_format if ctx.output else None)
+    return [Planned(folder / PARAMETER_FILE), Planned(folder / f"tile_*_*{glob_escape(ext)}", family=True)]
+
+
 def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     readers = [ctx.open_input(s) for s in sources]
     first = readers[0]
     folder = ctx.output_dir(sources[0])
-    ext = output_extension(first, ctx.output.out_format if ctx.output else None)
+    ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)
     if ext in (".las", ".laz") and params.append:
         raise UsageError("--append works on text tiles only (LAS/LAZ files cannot be appended to)")
     if ext in (".las", ".laz"):
@@ -299,4 +307,5 @@ register_task(Task(
         ("aldpat tile strips/*.txt --width 1000 --height 1000 --buffer 50 --odir tiles/",
          "every strip cut into the same 1 km tiles"),
     ),
+    outputs=tile_outputs,
 ))

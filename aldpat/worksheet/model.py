@@ -7,8 +7,11 @@ worksheet are relative to the worksheet's folder.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import difflib
+import fnmatch
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +20,9 @@ from typing import Any
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
+from aldpat.jobs.context import Planned
 from aldpat.jobs.inputs import expand_inputs
+from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, real
 from aldpat.jobs.registry import Task, get_task
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
 
@@ -35,6 +40,7 @@ class Job:
     inputs: list[str]  # as written, made absolute against the worksheet folder
     run: ResolvedRun
     depends_on: set[int] = field(default_factory=set)
+    planned: list[Planned] = field(default_factory=list)  # its outputs, as far as known before it runs
 
     @property
     def label(self) -> str:
@@ -218,18 +224,104 @@ def _check_settings(settings: dict, jobs: list[Job], wpath: Path) -> None:
                              path=wpath)
 
 
-def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
-    """Each job depends on the earlier jobs whose output places its inputs read from; an input
-    that matches nothing and is not produced by an earlier job is an error now, not later."""
-    for job in jobs:
-        for pattern in job.inputs:
-            target = Path(pattern.lstrip("@")).resolve()
-            producers = {earlier.number for earlier in jobs[: job.number - 1]
-                         if any(target == place or target.parent == place or place in target.parents
-                                for place in earlier.output_places())}
-            job.depends_on |= producers
-            if producers:
+class _Planned:
+    """The outputs planned by the jobs so far, found by file, by folder, and by the start of a name
+    (a pattern's literal beginning): each lookup costs the same however many jobs there are, so
+    checking a worksheet takes time in proportion to its jobs."""
+
+    def __init__(self) -> None:
+        self.exact: dict[str, tuple[int, Planned]] = {}  # realpath -> (job, output)
+        self.names: dict[str, list[str]] = {}  # folder -> sorted names of exact outputs
+        self.families: dict[str, list[tuple[int, Planned]]] = {}  # folder -> (job, family)
+        self.by_folder: dict[str, set[int]] = {}  # folder -> jobs writing there
+
+    def add(self, number: int, planned: list[Planned], places: list[Path]) -> None:
+        """Job ``number``'s outputs, and the folders it writes in (its outputs of inputs that are
+        themselves a family's -- an earlier job's strips -- are known only by their folder)."""
+        for place in places:
+            self.by_folder.setdefault(real(place), set()).add(number)
+        for out in planned:
+            folder = real(out.path.parent)
+            self.by_folder.setdefault(folder, set()).add(number)
+            if out.family:
+                self.families.setdefault(folder, []).append((number, out))
                 continue
-            _, errors = expand_inputs([pattern])
-            if errors:
-                raise UsageError(f"job {job.number}: inputs: {errors[0]}", path=wpath)
+            key = real(out.path)
+            if key not in self.exact:
+                bisect.insort(self.names.setdefault(folder, []), os.path.basename(key))
+            self.exact[key] = (number, out)
+
+    def writers_of(self, item: str) -> tuple[set[int], list[Path]]:
+        """The jobs that write what the input ``item`` (a file, a folder or a pattern) names, and
+        the files of it they write (known by name; a family's are not)."""
+        target = Path(item)
+        if target.is_dir() or real(target) in self.by_folder:  # a folder, or one a job writes in
+            folder = real(target)
+            files = [Path(folder, n) for n in self.names.get(folder, [])]
+            return set(self.by_folder.get(folder, ())), files
+        folder, name = real(target.parent), target.name
+        jobs: set[int] = set()
+        files = []
+        if any(ch in name for ch in "*?["):
+            names = self.names.get(folder, [])
+            prefix = literal_prefix(name)
+            for candidate in names[bisect.bisect_left(names, prefix):]:
+                if not candidate.startswith(prefix):
+                    break
+                if fnmatch.fnmatchcase(candidate, name):
+                    files.append(Path(folder, candidate))
+            # a pattern reads what the jobs writing in its folder write, whichever names they take
+            jobs |= self.by_folder.get(folder, set())
+        else:
+            hit = self.exact.get(os.path.join(folder, name))
+            if hit is not None:
+                jobs.add(hit[0])
+                files.append(Path(folder, name))
+            jobs |= {n for n, fam in self.families.get(folder, ()) if fam.matches(Path(folder, name))}
+            if not jobs:  # a job whose own inputs were a family's wrote there under names not known yet
+                jobs = set(self.by_folder.get(folder, set()))
+        return jobs, files
+
+
+def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
+    """Each job depends on the earlier jobs that write what its inputs name; an input that matches
+    nothing and is not written by an earlier job is an error now, not later. And no job may write
+    an output that replaces an input it or an earlier job reads as an original (not an earlier
+    job's output), or an output of another job (:mod:`aldpat.jobs.outputs`)."""
+    forget_folders()
+    planned = _Planned()
+    originals = Reads()
+    readers: dict[str, int] = {}  # realpath of an original input -> the first job reading it
+    for job in jobs:
+        where = f"job {job.number}: "
+        sources: list[Path] = []
+        for pattern in job.inputs:
+            producers, made = planned.writers_of(pattern.lstrip("@")) if not pattern.startswith("@") else (set(), [])
+            job.depends_on |= producers
+            found, errors = expand_inputs([pattern])
+            if errors and not producers:
+                raise UsageError(f"{where}inputs: {errors[0]}", path=wpath)
+            for f in found:
+                if not planned.exact.get(real(f)) and not any(
+                        fam.matches(f) for _, fam in planned.families.get(real(f.parent), ())):
+                    originals.add(f)
+                    readers.setdefault(real(f), job.number)
+            sources += found + made
+        unique = {real(f): f for f in reversed(sources)}  # each file once, the first spelling
+        sources = [unique[k] for k in dict.fromkeys(real(f) for f in sources)]
+        try:
+            job.planned = check_outputs(job.task, sources, job.run)
+        except UsageError as exc:
+            raise UsageError(f"{where}{exc.message}", path=wpath) from None
+        for out in job.planned:
+            victim = originals.replaced_by(out)
+            if victim is not None:
+                reader = readers.get(real(victim), job.number)
+                raise UsageError(f"{where}output {out.path} would replace {victim}, which job {reader} reads; give "
+                                 "the job another --odir or --suffix", path=wpath)
+            if not out.family and not getattr(job.run.params.values, "append", False):
+                other = planned.exact.get(real(out.path))
+                if other is not None and other[0] != job.number:
+                    raise UsageError(f"{where}output {out.path} is also written by job {other[0]}; give the jobs "
+                                     "their own --odir or --suffix", path=wpath)
+        planned.add(job.number, job.planned, job.output_places())

@@ -1,0 +1,181 @@
+"""Outputs that would destroy data, refused before anything runs.
+
+Each task plans its outputs before it runs (:attr:`aldpat.jobs.registry.Task.outputs`). From the
+plan a run refuses, naming both files:
+
+* an output that is one of the run's inputs -- the same path, or the same file reached through
+  a symbolic or hard link (``filter pm a.txt --suffix "" --overwrite`` would replace ``a.txt``
+  with its ground points), or a file a path parameter reads (a polygon, a reference);
+* two outputs of one run with one name (``filter pm d1/x.txt d2/x.txt --odir o``: the second
+  would replace the first).
+
+A worksheet adds (:func:`aldpat.worksheet.model.load_worksheet`): no job may replace a file an
+earlier job (or itself) read as an original input, nor an output of another job; a job reading
+an earlier job's outputs is the usual chaining.
+"""
+
+from __future__ import annotations
+
+import bisect
+import fnmatch
+import functools
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from aldpat.errors import UsageError
+from aldpat.jobs.context import JobContext, JobResult, Planned
+
+if TYPE_CHECKING:
+    from aldpat.jobs.registry import Task
+    from aldpat.jobs.resolve import ResolvedRun
+
+
+def plan_outputs(task: Task, sources: list[Path], run: ResolvedRun) -> list[Planned]:
+    """The outputs a run of ``task`` over ``sources`` will write (nothing is read or written)."""
+    ctx = JobContext(task, run.output.values if run.output else None, run.input.values if run.input else None,
+                     JobResult([]), run.params.values)
+    return task.planned_outputs(sources, run.params.values, ctx)
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _real_folder(folder: str) -> str:
+    return os.path.realpath(folder)
+
+
+def real(path: str | Path) -> str:
+    """``os.path.realpath`` of ``path``, its folder's resolved once for all the files in it (a
+    worksheet of 10,000 jobs names few folders)."""
+    path = os.path.abspath(path)
+    if os.path.islink(path):
+        return os.path.realpath(path)
+    return os.path.join(_real_folder(os.path.dirname(path)), os.path.basename(path))
+
+
+def forget_folders() -> None:
+    """Resolve folders afresh (links may have changed since the last check)."""
+    _real_folder.cache_clear()
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    """The file ``path`` is (device and inode, through links), or None where there is none."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+@dataclass
+class Reads:
+    """Files read, found by path (links resolved), by identity (hard links too) and, for a family
+    of outputs, by folder and name."""
+
+    paths: dict[str, Path] = field(default_factory=dict)
+    identities: dict[tuple[int, int], Path] = field(default_factory=dict)
+    _names: dict[str, list[str]] | None = None  # folder -> sorted names, made when a family asks
+
+    def add(self, path: Path) -> None:
+        self.paths.setdefault(real(path), path)
+        identity = _identity(path)
+        if identity is not None:
+            self.identities.setdefault(identity, path)
+        self._names = None
+
+    def replaced_by(self, output: Planned) -> Path | None:
+        """The file read that ``output`` would replace, if any."""
+        if output.family:
+            return self._in_family(output)
+        hit = self.paths.get(real(output.path))
+        if hit is None:
+            identity = _identity(output.path)
+            hit = self.identities.get(identity) if identity is not None else None
+        return hit
+
+    def _in_family(self, output: Planned) -> Path | None:
+        if self._names is None:
+            self._names = {}
+            for resolved in self.paths:
+                self._names.setdefault(os.path.dirname(resolved), []).append(os.path.basename(resolved))
+            for names in self._names.values():
+                names.sort()
+        folder = real(output.path.parent)
+        names = self._names.get(folder, [])
+        prefix = literal_prefix(output.path.name)
+        for name in names[bisect.bisect_left(names, prefix):]:  # only the names the pattern can begin
+            if not name.startswith(prefix):
+                break
+            if fnmatch.fnmatchcase(name, output.path.name):
+                return self.paths[os.path.join(folder, name)]
+        return None
+
+
+def literal_prefix(pattern: str) -> str:
+    """What every name a glob pattern matches begins with (``[*]`` stands for ``*``)."""
+    out = []
+    k = 0
+    while k < len(pattern):
+        c = pattern[k]
+        if c in "*?":
+            break
+        if c == "[":
+            end = pattern.find("]", k + 2)
+            if end == k + 2:  # one character in brackets: that character
+                out.append(pattern[k + 1])
+                k = end + 1
+                continue
+            break
+        out.append(c)
+        k += 1
+    return "".join(out)
+
+
+def path_parameter_files(run: ResolvedRun, planned: Iterable[Planned]) -> list[Path]:
+    """Files the run's path parameters name that exist (a polygon, a reference, tile parameters,
+    a geoid grid): they are read too -- all but the parameters that name outputs (``mosaic``)."""
+    outputs = {p.named_by for p in planned}
+    paths = {s.name for s in run.task.all_specs() if s.path} - outputs
+    out = []
+    for part in (run.params, run.input):
+        if part is None:
+            continue
+        for name in part.sources:
+            value = getattr(part.values, name)
+            if name in paths and isinstance(value, str) and value and os.path.isfile(value):
+                out.append(Path(value))
+    return out
+
+
+def check_outputs(task: Task, sources: list[Path], run: ResolvedRun) -> list[Planned]:
+    """Refuse (:class:`UsageError`, naming both files) an output that would replace an input or
+    another output of the same run; return the plan."""
+    planned = plan_outputs(task, sources, run)
+    reads = Reads()
+    for s in [*sources, *path_parameter_files(run, planned)]:
+        reads.add(s)
+    check_planned(planned, reads)
+    return planned
+
+
+def check_planned(planned: list[Planned], reads: Reads, *, where: str = "") -> None:
+    """The checks of :func:`check_outputs` on a plan, against the files ``reads``."""
+    mine: dict[str, Planned] = {}
+    for out in planned:
+        victim = reads.replaced_by(out)
+        if victim is not None:
+            made = f" (made from {out.source})" if out.source is not None and Path(out.source) != victim else ""
+            raise UsageError(f"{where}output {out.path}{made} would replace the input {victim}; {out.rename}")
+        if out.family:
+            continue
+        key = real(out.path)
+        other = mine.get(key)
+        if other is not None and not (other.source is None and out.source is None):
+            raise UsageError(f"{where}{_from(other)} and {_from(out)} would both write {out.path}; {out.rename} "
+                             "so that each has its own name")
+        mine[key] = out
+
+
+def _from(out: Planned) -> str:
+    return str(out.source) if out.source is not None else "the run"
