@@ -73,7 +73,10 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
     result.seconds = time.perf_counter() - start
     if result.ok and result.outputs and task.writes_outputs:
         try:
-            result.log_path = str(write_job_log(run, result, command))
+            where, warning = write_job_log(run, result, command)
+            result.log_path = str(where)
+            if warning:
+                result.warnings.append(warning)
         except OSError as exc:
             result.warnings.append(f"could not write the log: {exc}")
     return result

@@ -26,6 +26,7 @@ import html
 import io
 import math
 import os
+import re
 import urllib.parse
 from collections.abc import Iterable
 from pathlib import Path
@@ -33,6 +34,7 @@ from pathlib import Path
 import aldpat
 from aldpat.errors import AldpatError, one_line
 from aldpat.io.atomic import atomic_output
+from aldpat.io.sidefiles import own_place
 from aldpat.io.worldfile import NorthUp, read_world_file, world_path
 from aldpat.jobs.context import Record, Written
 from aldpat.jobs.inputs import expand_inputs
@@ -81,12 +83,19 @@ MAP_LEGEND = (('rgb(225,40,40)', "bare earth rejected (Type I)"), ('rgb(40,90,23
               ('rgb(120,185,110)', "ground, right"), ('rgb(175,175,175)', "object, right"))
 
 
+#: what a run report aldpat wrote holds in its first lines
+MARK = re.compile(rb"<title>aldpat run: ")
+
+
 def report_path(ws: Worksheet) -> Path:
-    return ws.path.with_name(ws.path.stem + ".html")
+    """``<worksheet-stem>.html``, or aldpat's other name for it when that is the user's page
+    (:mod:`aldpat.io.sidefiles`)."""
+    return own_place(ws.path.with_name(ws.path.stem + ".html"), MARK)[0]
 
 
 def write_report(ws: Worksheet, statuses: list[JobStatus], *, command: str = "aldpat run") -> Path:
-    """Write the page for ``statuses`` atomically, replacing the last run's; return its path."""
+    """Write the page for ``statuses`` atomically, replacing the last run's (never a page aldpat
+    did not write); return its path."""
     path = report_path(ws)
     page = render_report(ws, statuses, command=command)
     with atomic_output(path, overwrite=True) as tmp:
