@@ -102,9 +102,10 @@ def make_project(folder: Path, points: int, jobs: int, seed: int = 0) -> Path:
 
 
 def outputs(folder: Path) -> dict[str, Path]:
-    """Every file the run wrote, by relative path (logs and the resume state left out)."""
+    """Every file the run wrote, by relative path (logs, the earlier runs' logs and the resume
+    state left out)."""
     return {str(p.relative_to(folder)): p for p in sorted(folder.rglob("*"))
-            if p.is_file() and p.suffix != ".log" and not p.name.endswith(".state.json")
+            if p.is_file() and p.suffix != ".log" and ".log." not in p.name and not p.name.endswith(".state.json")
             and p.relative_to(folder).parts[0] != "raw" and p.name != "project.toml"}
 
 

@@ -9,7 +9,7 @@ import click
 from aldpat.cli.help import GuidedCommand
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.render import show, summarize
-from aldpat.errors import UsageError, one_line
+from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.jobs.run import RunReport
 from aldpat.worksheet.model import load_worksheet
 from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, job_table, run_worksheet
@@ -94,8 +94,12 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, schedule
     command = "aldpat run " + " ".join(sys.argv[2:])
     from aldpat.cli.progress import job_progress
 
-    statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status, command=command,
-                             progress=lambda job: job_progress(job.task, enabled=not quiet))
+    try:
+        statuses = run_worksheet(ws, only=selected, resume=resume, jobs=jobs, on_status=on_status, command=command,
+                                 progress=lambda job: job_progress(job.task, enabled=not quiet))
+    except AldpatError as exc:  # the worksheet is being run already, or its lock cannot be made
+        click.echo(f"aldpat: error: {exc}", err=True)
+        sys.exit(2 if isinstance(exc, UsageError) else 1)
     if report:
         from aldpat.worksheet.report import write_report
 

@@ -10,24 +10,35 @@ other fails cleanly instead of silently replacing the first one's file.
 
 A write that fails for a reason of the file system (disk full, quota, read-only) is reported
 as an :class:`OutputError` naming the output and the reason, not as an internal error.
-Temporary files left by a process that was killed outright (SIGKILL, power loss) are removed
-the next time the same output is written.
+Temporary files and scratch folders (``--chunk``'s spills) carry the writing process's id and
+host, so a later run tells a killed writer's leftovers (SIGKILL, power loss) from a live one's
+-- on a shared file system too -- and removes them: the next time the same output is written,
+when scratch is made in the same folder, and when a worksheet job runs again.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import itertools
 import os
 import re
 import shutil
+import socket
+import stat
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 from aldpat.errors import AldpatError, OutputError, OutputExistsError
 
 TMP_MARK = ".aldpat-tmp"
+#: this machine, as temporary names carry it: processes of other hosts (Dask workers on a shared
+#: file system) cannot be judged from here
+HOST_TAG = hashlib.sha1(socket.gethostname().encode("utf-8", "replace")).hexdigest()[:8]
+#: prefixes of scratch folders (``--chunk``'s spills, thin's buckets): ``<prefix><pid>-h<host>-<random>``
+SCRATCH_PREFIXES = (".aldpat-scratch-", ".aldpat-spill-")
 
 #: errno values that mean "the file system would not take the output"
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EACCES, errno.EPERM}
@@ -52,39 +63,71 @@ def check_writable(path: Path, *, overwrite: bool) -> None:
 
 def temp_name(path: Path) -> Path:
     """A new temporary name for writing ``path``: same folder and suffix, the writing process's
-    id (so a killed writer's leftovers can be recognised) and a serial number (so two writers in
-    one process never share a name)."""
+    id and host (so a killed writer's leftovers can be recognised) and a serial number (so two
+    writers in one process never share a name)."""
     path = Path(path)
-    return path.with_name(f"{path.stem}{TMP_MARK}{os.getpid()}-{next(_serial)}{path.suffix}")
+    return path.with_name(f"{path.stem}{TMP_MARK}{os.getpid()}-{next(_serial)}-h{HOST_TAG}{path.suffix}")
 
 
-def _pid_alive(pid: int) -> bool:
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists on this machine."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:  # someone else's process
         return True
+    except (OverflowError, ValueError):
+        return False
     return True
 
 
-_TMP_NAME = re.compile(re.escape(TMP_MARK) + r"(\d+)(?:-\d+)?(?:\.[^.]*)?$")
+def process_started(pid: int) -> int | None:
+    """When process ``pid`` started, in the system's clock ticks since boot (Linux), to tell a
+    process from a later one that took its id; None where the system does not say."""
+    try:
+        with open(f"/proc/{int(pid)}/stat", "rb") as fh:
+            fields = fh.read().rsplit(b")", 1)[1].split()
+        return int(fields[19])  # field 22 of the line, counted after the command's closing bracket
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+_TMP_NAME = re.compile(re.escape(TMP_MARK) + r"(\d+)(?:-\d+)?(?:-h([0-9a-f]{8}))?(?:\.[^.]*)?$")
+_SCRATCH_NAME = re.compile("^(?:" + "|".join(map(re.escape, SCRATCH_PREFIXES)) + r")(\d+)-h([0-9a-f]{8})-")
+
+
+def _owner_gone(pid: int, host: str | None) -> bool:
+    """A writer of this host (or of an older name, without one) whose process no longer exists."""
+    return (host is None or host == HOST_TAG) and pid != os.getpid() and not process_alive(pid)
 
 
 def _writer_gone(temporary: Path) -> bool:
-    """A temporary output whose writing process no longer exists (it was killed)."""
-    m = _TMP_NAME.search(temporary.name)
-    if m is None:
-        return False
-    pid = int(m.group(1))
-    return pid != os.getpid() and not _pid_alive(pid)
+    """A temporary output, or a scratch folder, whose writing process no longer exists (it was
+    killed)."""
+    m = _TMP_NAME.search(temporary.name) or _SCRATCH_NAME.match(temporary.name)
+    return m is not None and _owner_gone(int(m.group(1)), m.group(2))
 
 
 def _remove_if_gone(temporaries) -> None:
     for p in temporaries:
-        if _writer_gone(p):
-            with contextlib.suppress(OSError):
+        if not _writer_gone(p):
+            continue
+        with contextlib.suppress(OSError):
+            if stat.S_ISDIR(os.lstat(p).st_mode):
+                shutil.rmtree(p)
+            else:
                 p.unlink()
+
+
+def scratch_dir(prefix: str, folder: str | Path) -> Path:
+    """A new scratch folder ``<prefix><pid>-h<host>-<random>`` in ``folder`` (created if
+    missing), after the scratch and temporaries killed writers left there are removed."""
+    assert prefix in SCRATCH_PREFIXES
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries_in(folder)
+    return Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-h{HOST_TAG}-", dir=folder))
 
 
 def remove_stale_temporaries(path: Path) -> None:
@@ -95,10 +138,13 @@ def remove_stale_temporaries(path: Path) -> None:
 
 
 def remove_stale_temporaries_in(folder: Path) -> None:
-    """Remove every temporary in ``folder`` whose writing process no longer exists; those of a
-    process still writing are left to it."""
+    """Remove every temporary and scratch folder in ``folder`` whose writing process no longer
+    exists; those of a process still writing are left to it."""
     with contextlib.suppress(OSError):
-        _remove_if_gone(list(Path(folder).glob(f"*{TMP_MARK}*")))
+        found = list(Path(folder).glob(f"*{TMP_MARK}*"))
+        for prefix in SCRATCH_PREFIXES:
+            found += Path(folder).glob(f"{prefix}*")
+        _remove_if_gone(found)
 
 
 def glob_escape(text: str) -> str:

@@ -27,6 +27,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.workers import WorkerPool
+from aldpat.io.atomic import scratch_dir
 
 #: one spilled point: its row in the input, and its coordinates
 RECORD = np.dtype([("row", "<i8"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8")])
@@ -82,10 +83,10 @@ class SpilledChunks:
 @contextlib.contextmanager
 def scratch_folder(tmpdir: str | Path | None, beside: Path) -> Iterator[Path]:
     """A hidden temporary folder for a chunked run's files, in ``tmpdir`` (default: ``beside``,
-    the output folder), removed when the block ends, however it ends."""
-    place = Path(tmpdir) if tmpdir else Path(beside)
-    place.mkdir(parents=True, exist_ok=True)
-    folder = Path(tempfile.mkdtemp(prefix=".aldpat-scratch-", dir=place))
+    the output folder), removed when the block ends, however it ends; named after this process
+    and host, so that a later run removes it should this one be killed outright
+    (:func:`aldpat.io.atomic.scratch_dir`)."""
+    folder = scratch_dir(".aldpat-scratch-", Path(tmpdir) if tmpdir else Path(beside))
     try:
         yield folder
     finally:
@@ -96,7 +97,9 @@ def scratch_folder(tmpdir: str | Path | None, beside: Path) -> Iterator[Path]:
 def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = None) -> Iterator[SpilledChunks]:
     """Spill the point tables ``tables`` (an input's chunks of rows, in order) by chunk; the
     folder is removed when the block ends, however it ends."""
-    folder = Path(tempfile.mkdtemp(prefix="aldpat-chunks-", dir=tmpdir))
+    # within a scratch folder (:func:`scratch_folder`), else one of its own in the system's
+    folder = Path(tempfile.mkdtemp(prefix="aldpat-chunks-", dir=tmpdir)) if tmpdir is not None \
+        else scratch_dir(".aldpat-scratch-", tempfile.gettempdir())
     try:
         owned: set[tuple[int, int]] = set()
         start = 0

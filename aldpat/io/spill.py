@@ -15,12 +15,12 @@ from __future__ import annotations
 import math
 import os
 import shutil
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
+from aldpat.io.atomic import scratch_dir
 from aldpat.io.table import PointTable
 
 BUCKET_POINTS = 2_000_000
@@ -54,7 +54,7 @@ class Spill:
     """K bucket files of fixed-size binary rows (table columns plus the LAS record, if any)."""
 
     def __init__(self, folder: Path, k: int):
-        self.dir = Path(tempfile.mkdtemp(prefix=".aldpat-spill-", dir=folder))
+        self.dir = scratch_dir(".aldpat-spill-", folder)  # a killed run's buckets are removed by the next
         self.k = k
         self.dtype: np.dtype | None = None
         self.point_format = None

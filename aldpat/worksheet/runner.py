@@ -8,10 +8,15 @@ parameter, each input's path, size and modification time) and of what it wrote (
 size and modification time) in ``<worksheet-stem>.state.json``, written atomically. ``--resume``
 skips a job whose fingerprint and outputs are unchanged. A job that was started but never
 recorded as finished (the run was killed) runs again and may replace the outputs it had already
-renamed into place -- they are its own; temporary files of writers no longer running are
-removed first. Because
-every output is renamed into place only when complete, a run killed at any instant and resumed
-ends with the same outputs as an uninterrupted one.
+renamed into place -- they are its own; temporary files and scratch folders of writers no
+longer running are removed before every job. Because every output is renamed into place only
+when complete, a run killed at any instant and resumed ends with the same outputs as an
+uninterrupted one.
+
+One run per worksheet at a time (:mod:`aldpat.worksheet.lock`). The state, the log and the
+report are aldpat's own files beside the worksheet: one of the user's under such a name is
+never replaced (:mod:`aldpat.io.sidefiles`), and the log of the previous run is kept as
+``<worksheet-stem>.log.1`` (up to ``.log.5``).
 """
 
 from __future__ import annotations
@@ -20,7 +25,9 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import logging
 import os
+import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -30,14 +37,22 @@ import aldpat
 from aldpat import interrupt
 from aldpat.errors import one_line
 from aldpat.io.atomic import atomic_output, remove_stale_temporaries_in
+from aldpat.io.sidefiles import own_place, rotate
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import Progress
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
 from aldpat.jobs.run import run_task
+from aldpat.worksheet.lock import WorksheetLock
 from aldpat.worksheet.model import Job, Worksheet
 
 READY, RUNNING, DONE, FAILED, SKIPPED, BLOCKED = "Ready", "Running", "Done", "Failed", "Skipped", "Blocked"
+
+log = logging.getLogger(__name__)
+
+#: what the run state (job number -> its entry) and the worksheet log aldpat wrote begin with
+STATE_MARK = re.compile(rb'\A\{\s*(\}\s*\Z|"\d+": \{\s*"status": ")')
+LOG_MARK = re.compile(rb"\A# aldpat \S+ worksheet log, written ")
 
 
 @dataclass
@@ -51,11 +66,20 @@ class JobStatus:
 
 
 def state_path(ws: Worksheet) -> Path:
-    return ws.path.with_name(ws.path.stem + ".state.json")
+    """``<worksheet-stem>.state.json``, or aldpat's other name for it when that is the user's."""
+    return own_place(ws.path.with_name(ws.path.stem + ".state.json"), STATE_MARK)[0]
 
 
 def log_path(ws: Worksheet) -> Path:
-    return ws.path.with_name(ws.path.stem + ".log")
+    """``<worksheet-stem>.log``, or aldpat's other name for it when that is the user's."""
+    return own_place(ws.path.with_name(ws.path.stem + ".log"), LOG_MARK)[0]
+
+
+def _say_where_side_files_go(ws: Worksheet) -> None:
+    for name, mark in ((".state.json", STATE_MARK), (".log", LOG_MARK)):
+        _, warning = own_place(ws.path.with_name(ws.path.stem + name), mark)
+        if warning:
+            log.warning(warning)
 
 
 def _file_sig(path: str | Path) -> list:
@@ -76,9 +100,10 @@ def fingerprint(job: Job) -> str:
 
 def _load_state(ws: Worksheet) -> dict:
     try:
-        return json.loads(state_path(ws).read_text(encoding="utf-8"))
+        state = json.loads(state_path(ws).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return {}
+    return state if isinstance(state, dict) else {}
 
 
 def _save_state(ws: Worksheet, state: dict) -> None:
@@ -99,7 +124,10 @@ def _unchanged(entry: dict | None, job: Job) -> bool:
 
 
 def _remove_stray_temporaries(job: Job) -> None:
-    for place in job.output_places():
+    """Temporaries and scratch folders of writers no longer running, where the job writes and
+    where its chunks spill (``tmpdir``)."""
+    tmpdir = getattr(job.run.params.values, "tmpdir", None)
+    for place in [*job.output_places(), *([Path(tmpdir)] if tmpdir else [])]:
         if place.is_dir():
             remove_stale_temporaries_in(place)
 
@@ -109,8 +137,20 @@ def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool =
                   command: str = "aldpat run",
                   progress: Callable[[Job], contextlib.AbstractContextManager[Progress | None]] | None = None) -> list[JobStatus]:
     """Run the jobs of ``ws`` in order; return their final statuses (and write state and log).
-    ``progress(job)`` opens what shows each job's progress while it runs (its inputs and chunks)."""
+    ``progress(job)`` opens what shows each job's progress while it runs (its inputs and chunks).
+    Holds the worksheet's lock meanwhile: a second run of it is refused
+    (:class:`~aldpat.worksheet.lock.WorksheetBusy`)."""
+    with WorksheetLock(ws.path, command):
+        return _run_jobs(ws, only=only, resume=resume, jobs=jobs, on_status=on_status, command=command,
+                         progress=progress)
+
+
+def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int | None,
+              on_status: Callable[[JobStatus], None] | None, command: str,
+              progress: Callable[[Job], contextlib.AbstractContextManager[Progress | None]] | None) -> list[JobStatus]:
     statuses = [JobStatus(job) for job in ws.jobs]
+    _say_where_side_files_go(ws)
+    rotate(log_path(ws), LOG_MARK)  # the last run's log is kept as .log.1
     state = _load_state(ws) if resume else {}
     if not resume:
         with contextlib.suppress(OSError):
@@ -137,8 +177,8 @@ def run_worksheet(ws: Worksheet, *, only: set[int] | None = None, resume: bool =
         rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
         run = job.run
         layers_override: dict[str, object] = {}
+        _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any
         if rerun_after_kill:
-            _remove_stray_temporaries(job)
             layers_override["overwrite"] = True
         if jobs is not None:
             layers_override["jobs"] = jobs
