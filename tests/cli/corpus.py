@@ -10,6 +10,7 @@ separate-returns).
 from __future__ import annotations
 
 import json
+import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -131,10 +132,10 @@ def las_cases(folder: Path) -> list[Case]:
     cases = []
     for ext in (".las", ".laz"):
         whole = _las(folder / f"whole{ext}", 3000).read_bytes()
-        (folder / f"truncated{ext}").write_bytes(whole[: len(whole) // 2])
+        name = f"truncated_{ext[1:]}{ext}"  # its own stem: the outputs of the two have their own names
+        (folder / name).write_bytes(whole[: len(whole) // 2])
         (folder / f"whole{ext}").unlink()
-        cases.append(Case(f"truncated {ext[1:].upper()}", folder / f"truncated{ext}",
-                          rf"truncated{re.escape(ext)}: truncated"))
+        cases.append(Case(f"truncated {ext[1:].upper()}", folder / name, rf"{re.escape(name)}: truncated"))
     path = _las(folder / "miscounted.las", 400)
     data = bytearray(path.read_bytes())
     data[107:111] = (300).to_bytes(4, "little")  # legacy point count: says 300 of 400
@@ -357,4 +358,192 @@ def security_cases(root: Path, port: int) -> list[Hostile]:
         return None
     cases.append(Hostile("security", "an input name that would inject a job into the worksheet log", ["run", ws],
                          root, 0, holds=log_replays))
+    return cases
+
+
+def _digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _unchanged(*paths: Path) -> Callable[[], str | None]:
+    """What must hold: the files keep their content (and links stay links to what they were)."""
+    before = {p: (_digest(p), os.readlink(p) if p.is_symlink() else None) for p in paths}
+
+    def check() -> str | None:
+        changed = [str(p) for p, (digest, link) in before.items()
+                   if not p.exists() or _digest(p) != digest or (os.readlink(p) if p.is_symlink() else None) != link]
+        return f"changed: {changed}" if changed else None
+    return check
+
+
+def _all(*checks: Callable[[], str | None]) -> Callable[[], str | None]:
+    def check() -> str | None:
+        return next((broken for broken in (c() for c in checks) if broken), None)
+    return check
+
+
+def _dead_pid() -> int:
+    """The id of a process that has ended (of this host)."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def data_loss_cases(root: Path) -> list[Hostile]:
+    """No output replaces an input (by name, link or hard link), nor another output of the run;
+    logs never follow links nor touch files aldpat did not write; one run per worksheet; a killed
+    run's scratch is swept."""
+    root.mkdir(parents=True, exist_ok=True)
+    rows = _lines(_points(300), "points")
+    src = root / "src"
+    src.mkdir()
+    a = _write(src / "a.txt", rows)
+    geoid = root / "geoid.gtx"
+    geoid.write_bytes(__import__("struct").pack(">4d2i", -90.0, -180.0, 10.0, 10.0, 19, 37)
+                      + np.full(19 * 37, -30.0, dtype=">f4").tobytes())
+    polygon = root / "polygon.txt"
+    polygon.write_text("499990,3999990\n500070,3999990\n500070,4000070\n499990,4000070\n")
+    cases = []
+    in_place = {
+        "filter pm": ["filter", "pm"], "filter outlier": ["filter", "outlier"], "thin": ["thin"],
+        "polygon-extract": ["polygon-extract", "--polygon", polygon],
+        "ortho-height": ["ortho-height", "--crs", "17N", "--geoid", geoid], "convert": ["convert"],
+        "strip-boundary": ["strip-boundary"],
+    }
+    for name, command in in_place.items():
+        cases.append(Hostile("data loss", f"{name} --suffix '' --overwrite onto its input",
+                             [*command, a, "--suffix", "", "--overwrite"], root, 2,
+                             r"output .*a\.txt would replace the input .*a\.txt", _unchanged(a)))
+    d1, d2 = root / "d1", root / "d2"
+    for d in (d1, d2):
+        d.mkdir()
+        _write(d / "x.txt", rows)
+    cases.append(Hostile("data loss", "two inputs of one name into one --odir", ["filter", "pm", d1 / "x.txt", d2 / "x.txt",
+                         "--odir", root / "o", "--overwrite"], root, 2,
+                         r"d1/x\.txt and .*d2/x\.txt would both write .*o/x_pm\.txt", _none_of(root / "o")))
+    linked = root / "linked"
+    linked.mkdir()
+    (linked / "a_thin.txt").symlink_to(a)
+    cases.append(Hostile("data loss", "the output name is a link to the input", ["thin", a, "--odir", linked,
+                         "--overwrite"], root, 2, r"would replace the input .*a\.txt", _unchanged(a)))
+    hard = root / "hard"
+    hard.mkdir()
+    os.link(a, hard / "a_thin.txt")
+    cases.append(Hostile("data loss", "the output is a hard link of the input", ["thin", a, "--odir", hard,
+                         "--overwrite"], root, 2, r"would replace the input .*a\.txt", _unchanged(a)))
+    (root / "via").symlink_to(src)
+    cases.append(Hostile("data loss", "--odir is a link to the input's folder", ["thin", a, "--odir", root / "via",
+                         "--suffix", "", "--overwrite"], root, 2, r"would replace the input", _unchanged(a)))
+    tiles = root / "tiles"
+    tiles.mkdir()
+    tile = _write(tiles / "tile_500000_4000000.txt", rows)
+    cases.append(Hostile("data loss", "tile into the folder of the tiles it reads", ["tile", tile, "--width", "100",
+                         "--height", "100", "--odir", tiles, "--overwrite"], root, 2, r"would replace the input",
+                         _unchanged(tile)))
+    cases.append(Hostile("data loss", "a polygon file that is also the output", ["polygon-extract", a, "--polygon",
+                         root / "poly" / "a_poly.txt", "--odir", root / "poly", "--overwrite"], root, 2,
+                         r"would replace the input .*a_poly\.txt"))
+    (root / "poly").mkdir()
+    (root / "poly" / "a_poly.txt").write_text(polygon.read_text())
+
+    # logs: never through a link, never into a file aldpat did not write
+    logs = root / "logs"
+    logs.mkdir()
+    survey = _write(logs / "survey.txt", rows)
+    own_log = logs / "survey.log"
+    own_log.write_text("the surveyor's own notes\n")
+    cases.append(Hostile("data loss", "convert survey.txt beside the user's survey.log", ["convert", survey,
+                         "--out-format", "laz"], root, 0, r"survey\.log is not a file aldpat wrote .*survey\.aldpat\.log",
+                         _all(_unchanged(own_log), lambda: None if (logs / "survey.aldpat.log").exists() else "no log")))
+    outside = root / "outside.txt"
+    outside.write_text("not aldpat's\n")
+    (logs / "survey_thin.log").symlink_to(outside)
+    cases.append(Hostile("data loss", "the job log's name is a link", ["thin", survey], root, 0,
+                         r"survey_thin\.log is not a file aldpat wrote \(or is a link\)",
+                         _unchanged(outside, logs / "survey_thin.log")))
+    sheet = _worksheet(logs / "survey.toml", [{"task": "thin", "inputs": ["survey.txt"], "odir": "ws", "cell": 2.0}],
+                       {"report": True})
+    own_page = logs / "survey.html"
+    own_page.write_text("<html>the surveyor's page</html>\n")
+    cases.append(Hostile("data loss", "aldpat run survey.toml beside the user's survey.log and survey.html",
+                         ["run", sheet], root, 0, r"survey\.log is not a file aldpat wrote",
+                         _unchanged(own_log, own_page)))
+
+    kept = root / "kept"
+    kept.mkdir()
+    _write(kept / "k.txt", rows)
+    sheet = _worksheet(kept / "k.toml", [{"task": "thin", "inputs": ["k.txt"], "odir": "out"}], {"overwrite": True})
+
+    def logs_kept() -> str | None:
+        import tomllib
+
+        for name in ("k.log", "k.log.1"):
+            if not (kept / name).exists() or len(tomllib.loads((kept / name).read_text())["job"]) != 1:
+                return f"{name} missing or not the run's replayable log"
+        return None
+    cases.append(Hostile("data loss", "a worksheet run twice (first run)", ["run", sheet], root, 0))
+    cases.append(Hostile("data loss", "a worksheet run twice keeps the first log", ["run", sheet], root, 0,
+                         holds=logs_kept))
+
+    # worksheets: no job replaces what another reads as an original, or another job's output
+    ws = root / "ws"
+    (ws / "raw").mkdir(parents=True)
+    first = _write(ws / "a.txt", rows)
+    _write(ws / "raw" / "a.txt", rows[:100])
+    sheet = _worksheet(ws / "replace.toml", [{"task": "info", "inputs": ["a.txt"]},
+                                             {"task": "thin", "inputs": ["raw/a.txt"], "odir": ".", "suffix": "",
+                                              "overwrite": True}])
+    cases.append(Hostile("data loss", "a worksheet job replaces what an earlier job reads", ["run", sheet], root, 2,
+                         r"job 2: output .*a\.txt would replace .*a\.txt", _unchanged(first)))
+    sheet = _worksheet(ws / "twice.toml", [{"task": "thin", "inputs": ["a.txt"], "odir": "t", "overwrite": True},
+                                           {"task": "thin", "inputs": ["a.txt"], "odir": "t", "cell": 5.0,
+                                            "overwrite": True}])
+    cases.append(Hostile("data loss", "two worksheet jobs write one output", ["run", sheet], root, 2,
+                         r"job 2: output .*t/a_thin\.txt is also written by job 1", _none_of(ws / "t")))
+    sheet = _worksheet(ws / "chain.toml", [{"task": "thin", "inputs": ["a.txt"], "odir": "c"},
+                                           {"task": "thin", "inputs": ["c/a_thin.txt"], "odir": "c", "cell": 5.0}])
+    cases.append(Hostile("data loss", "a worksheet chaining job 2 on job 1's output is normal", ["run", sheet], root, 0))
+
+    # one run per worksheet; a killed run's lock, temporaries and scratch are taken over and swept
+    import json
+    import socket
+
+    from aldpat.io.atomic import HOST_TAG, process_started
+
+    busy = root / "busy"
+    busy.mkdir()
+    _write(busy / "b.txt", rows)
+    sheet = _worksheet(busy / "b.toml", [{"task": "thin", "inputs": ["b.txt"], "odir": "out"}])
+    (busy / "b.lock").write_text(json.dumps({"aldpat": "worksheet lock", "pid": os.getpid(),
+                                             "started": process_started(os.getpid()), "host": socket.gethostname(),
+                                             "since": "now", "token": "x"}) + "\n")
+    cases.append(Hostile("data loss", "a worksheet another run holds", ["run", sheet, "--resume"], root, 1,
+                         rf"b\.toml: is being run by process {os.getpid()}", _none_of(busy / "out")))
+    dead = root / "dead"
+    dead.mkdir()
+    _write(dead / "d.txt", rows)
+    pid = _dead_pid()
+    sheet = _worksheet(dead / "d.toml", [{"task": "grid", "inputs": ["d.txt"], "odir": "out", "cell": 5.0,
+                                          "chunk": 20.0}])
+    (dead / "d.lock").write_text(json.dumps({"aldpat": "worksheet lock", "pid": pid, "started": None,
+                                             "host": socket.gethostname(), "since": "then", "token": "y"}) + "\n")
+    (dead / "out").mkdir()
+    scratch = dead / "out" / f".aldpat-scratch-{pid}-h{HOST_TAG}-abc123"
+    (scratch / "aldpat-chunks-x").mkdir(parents=True)
+    (scratch / "aldpat-chunks-x" / "chunk_0_0.bin").write_bytes(b"\0" * 4096)
+    stale = dead / "out" / f"d.aldpat-tmp{pid}-1-h{HOST_TAG}.grd"
+    stale.write_bytes(b"half")
+
+    def swept() -> str | None:
+        left = [p.name for p in (dead / "out").iterdir() if p.name.startswith(".aldpat") or "aldpat-tmp" in p.name]
+        if left or (dead / "d.lock").exists() or not (dead / "out" / "d_linear.grd").exists():
+            return f"left: {left}, lock {(dead / 'd.lock').exists()}"
+        return None
+    cases.append(Hostile("data loss", "a killed run's lock, temporaries and scratch", ["run", sheet, "--resume"], root,
+                         0, holds=swept))
     return cases

@@ -13,7 +13,7 @@ import socket
 
 import pytest
 
-from tests.cli.corpus import Hostile, security_cases
+from tests.cli.corpus import Hostile, data_loss_cases, security_cases
 from tests.cli.fresh import aldpat_batch
 
 
@@ -62,3 +62,7 @@ def listener():
 
 def test_security(tmp_path, listener):
     check(security_cases(tmp_path, listener.getsockname()[1]))
+
+
+def test_data_loss(tmp_path):
+    check(data_loss_cases(tmp_path))
