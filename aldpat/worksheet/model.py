@@ -234,12 +234,17 @@ class _Planned:
         self.names: dict[str, list[str]] = {}  # folder -> sorted names of exact outputs
         self.families: dict[str, list[tuple[int, Planned]]] = {}  # folder -> (job, family)
         self.by_folder: dict[str, set[int]] = {}  # folder -> jobs writing there
+        #: folder -> jobs writing there under names not known before they run (their inputs are
+        #: an earlier job's family: its strips, its tiles)
+        self.unnamed: dict[str, set[int]] = {}
 
-    def add(self, number: int, planned: list[Planned], places: list[Path]) -> None:
-        """Job ``number``'s outputs, and the folders it writes in (its outputs of inputs that are
-        themselves a family's -- an earlier job's strips -- are known only by their folder)."""
+    def add(self, number: int, planned: list[Planned], places: list[Path], unnamed: bool = False) -> None:
+        """Job ``number``'s outputs, and the folders it writes in; ``unnamed``: its outputs of
+        inputs that are themselves a family's are known only by their folder."""
         for place in places:
             self.by_folder.setdefault(real(place), set()).add(number)
+            if unnamed:
+                self.unnamed.setdefault(real(place), set()).add(number)
         for out in planned:
             folder = real(out.path.parent)
             self.by_folder.setdefault(folder, set()).add(number)
@@ -279,7 +284,7 @@ class _Planned:
                 files.append(Path(folder, name))
             jobs |= {n for n, fam in self.families.get(folder, ()) if fam.matches(Path(folder, name))}
             if not jobs:  # a job whose own inputs were a family's wrote there under names not known yet
-                jobs = set(self.by_folder.get(folder, set()))
+                jobs = set(self.unnamed.get(folder, set()))
         return jobs, files
 
 
@@ -295,9 +300,11 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
     for job in jobs:
         where = f"job {job.number}: "
         sources: list[Path] = []
+        unnamed = False  # reads files of earlier jobs not known by name: writes under names not known
         for pattern in job.inputs:
             producers, made = planned.writers_of(pattern.lstrip("@")) if not pattern.startswith("@") else (set(), [])
             job.depends_on |= producers
+            unnamed |= bool(producers) and not made
             found, errors = expand_inputs([pattern])
             if errors and not producers:
                 raise UsageError(f"{where}inputs: {errors[0]}", path=wpath)
@@ -324,4 +331,4 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
                 if other is not None and other[0] != job.number:
                     raise UsageError(f"{where}output {out.path} is also written by job {other[0]}; give the jobs "
                                      "their own --odir or --suffix", path=wpath)
-        planned.add(job.number, job.planned, job.output_places())
+        planned.add(job.number, job.planned, job.output_places(), unnamed)
