@@ -16,11 +16,33 @@ _ESCAPES = {c: f"\\x{c:02x}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0))}
 _ESCAPES.update({0x0A: "\\n", 0x0D: "\\r", 0x09: "\\t", 0x2028: "\\u2028", 0x2029: "\\u2029"})
 
 
+#: the longest line a message or a log record is: room for a few paths of the longest a system
+#: allows, not for a megabyte token of a broken file echoed whole
+LONGEST_LINE = 10_000
+#: the most of one value (a token of a file, a parameter's value) a message quotes
+SHOWN = 60
+
+
 def one_line(text: object) -> str:
     """``text`` on one line, every control character written as its escape (``\\n``, ``\\x1b``):
     a file name holding a newline cannot start a new line of a message, a log or a worksheet
-    log's comment, so what is written reads back as itself."""
-    return str(text).translate(_ESCAPES)
+    log's comment, so what is written reads back as itself. A line longer than
+    :data:`LONGEST_LINE` keeps its start and end, with how much was left out between."""
+    line = str(text).translate(_ESCAPES)
+    if len(line) > LONGEST_LINE:
+        keep = LONGEST_LINE // 2
+        line = f"{line[:keep]} ...[{len(line) - 2 * keep:,} characters]... {line[-keep:]}"
+    return line
+
+
+def shown(value: object, *, quoted: bool = True) -> str:
+    """A value as a message quotes it (``repr`` of text unless not ``quoted``): its first
+    :data:`SHOWN` characters and its length when it is longer, so a megabyte token of a broken
+    file is not echoed whole."""
+    text = repr(value) if isinstance(value, str) and quoted else str(value)
+    if len(text) <= SHOWN:
+        return text
+    return f"{text[:SHOWN]}... ({len(text):,} characters)"
 
 
 class AldpatError(Exception):

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from aldpat.core.paths import not_local
-from aldpat.errors import ParamError
+from aldpat.errors import ParamError, shown
 
 log = logging.getLogger(__name__)
 
@@ -249,7 +249,7 @@ def format_value(value: Any) -> str:
 def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
     """Convert one scalar (from TOML or a command-line string) to the spec's kind."""
     def bad(expected: str) -> ParamError:
-        return ParamError(f"{where}{spec.name}: expected {expected}, got {value!r}")
+        return ParamError(f"{where}{spec.name}: expected {expected}, got {shown(value)}")
 
     if kind == "bool":
         if isinstance(value, bool):
@@ -292,17 +292,27 @@ def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
     raise AssertionError(kind)
 
 
+#: The largest magnitude a number of a parameter may have on a side its declaration leaves open:
+#: no length, count, threshold or coordinate of airborne LiDAR comes near (coordinates of any
+#: CRS stay below 1e8), and past it sizes and counts that follow from the value (nodes, tiles,
+#: windows) stop being numbers a machine can hold. A parameter declares its own bound where it
+#: needs another (a nodata value: float32's range).
+LARGEST = 1e12
+#: The same for a window or a size counted in cells: 100 km at 1 m cells, wider than any tile.
+MOST_CELLS = 100_000
+
+
 def _check_bounds(spec: Spec, v: Any, where: str) -> None:
     if isinstance(v, str):
         if spec.choices and v not in spec.choices:
             hint = difflib.get_close_matches(v, [str(c) for c in spec.choices], n=1)
             did = f"; did you mean {hint[0]!r}?" if hint else ""
             raise ParamError(
-                f"{where}{spec.name}: {v!r} is not one of {', '.join(map(str, spec.choices))}{did}"
+                f"{where}{spec.name}: {shown(v)} is not one of {', '.join(map(str, spec.choices))}{did}"
             )
         return
     if spec.choices and v not in spec.choices:
-        raise ParamError(f"{where}{spec.name}: {v!r} is not one of {', '.join(map(str, spec.choices))}")
+        raise ParamError(f"{where}{spec.name}: {shown(v)} is not one of {', '.join(map(str, spec.choices))}")
     if isinstance(v, bool):
         return
     for op, limit, ok in (
@@ -313,6 +323,11 @@ def _check_bounds(spec: Spec, v: Any, where: str) -> None:
     ):
         if limit is not None and not ok(v, limit):
             raise ParamError(f"{where}{spec.name}: {format_value(v)} is out of range (must be {op} {limit:g})")
+    largest = MOST_CELLS if spec.unit == "cells" else LARGEST
+    if spec.lt is None and spec.le is None and v > largest:
+        raise ParamError(f"{where}{spec.name}: {format_value(v)} is out of range (must be <= {largest:g})")
+    if spec.gt is None and spec.ge is None and v < -LARGEST:
+        raise ParamError(f"{where}{spec.name}: {format_value(v)} is out of range (must be >= {-LARGEST:g})")
 
 
 def coerce(spec: Spec, value: Any, where: str = "") -> Any:
@@ -345,7 +360,7 @@ def coerce(spec: Spec, value: Any, where: str = "") -> Any:
     if isinstance(v, str):
         v = _renamed_value(spec, v, where)
         if spec.path and (why := not_local(v)) is not None:
-            raise ParamError(f"{where}{spec.name}: {v!r} is {why}")
+            raise ParamError(f"{where}{spec.name}: {shown(v)} is {why}")
     _check_bounds(spec, v, where)
     return v
 

@@ -88,7 +88,7 @@ def make_command(task: Task) -> click.Command:
         for result in report.results:
             for w in result.outputs:
                 log.info("wrote %s%s", w.path, f" ({w.count} points)" if w.count is not None else "")
-        if report.failed:
+        if report.failed and report.exit_code != 2:  # a usage error is the command's, not its inputs'
             log.warning("%d of %d inputs failed", report.failed, len(report.results) + len(report.input_errors))
         sys.exit(report.exit_code)
 
@@ -215,6 +215,9 @@ def main() -> None:
     except click.exceptions.Abort as exc:  # click's wrapper of a KeyboardInterrupt
         _interrupted(exc.__context__ if isinstance(exc.__context__, KeyboardInterrupt) else KeyboardInterrupt())
     except click.ClickException as exc:
+        # an option of a megabyte is not echoed whole
+        exc.message = one_line(exc.message if len(exc.message) <= 300  # type: ignore[misc]
+                               else f"{exc.message[:300]}... ({len(exc.message):,} characters)")
         exc.show()
         sys.exit(2)
     except click.exceptions.Exit as exc:

@@ -23,6 +23,7 @@ import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.lowest_grid import CellGridSpec, fill_nearest
+from aldpat.core.morphology import within
 
 ndimage = lazy_import("scipy.ndimage")
 plane_sums = lazy_import("aldpat.core.plane_sums")
@@ -44,7 +45,7 @@ def _box_sum(a: np.ndarray, k: int) -> np.ndarray:
     """Sum over the (2k+1)^2 window around every cell (zero outside the grid)."""
     if k == 0:
         return a.copy()
-    size = 2 * k + 1
+    size = 2 * within(k, a.shape) + 1
     return ndimage.uniform_filter(a, size=size, mode="constant", cval=0.0) * (size * size)
 
 
@@ -165,6 +166,7 @@ def fit_surface(sums: PointSums, k: int, *, min_points: int = 3) -> np.ndarray:
 def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -> np.ndarray:
     """Fitted value at the chosen nodes of rows r0 to r1, each from the window of ``k`` cells
     around it (row-major order, as ``nodes[r0:r1]`` lists them)."""
+    k = within(k, nodes.shape)
     if sums.degree == 1 and sums._cells is not None:
         # planes on one point per cell (ipf, poly2 as shipped): sums and solve in one compiled pass
         scale, ou, ov = sums.position_map()

@@ -56,6 +56,17 @@ def disk_footprint(k: int) -> np.ndarray:
     return i * i + j * j <= k * k
 
 
+def within(k: int, shape: tuple[int, ...], window: str = "square") -> int:
+    """The half window ``k`` no wider than what sees the whole grid from any cell: wider is the
+    same window (a running min or max repeats the edge cells beyond the grid, or ignores what
+    lies beyond it) and would cost time and memory in proportion to its width -- a half window
+    of 2**31 cells is a parameter's value, not a grid's."""
+    reach = max(shape, default=0)
+    if window == "disk":
+        reach = math.isqrt(sum(n * n for n in shape)) + 1  # the diagonal
+    return min(int(k), reach)
+
+
 def _check(z: np.ndarray, k: int, window: str, axis: int) -> np.ndarray:
     z = np.asarray(z)
     if z.dtype not in (np.float32, np.float64, np.int32):
@@ -79,6 +90,7 @@ def _running(z: np.ndarray, k: int, window: str, axis: int, maximum: bool,
     if k == 0 or z.size == 0:
         out[...] = z
         return out
+    k = within(k, z.shape, window)
     filt1 = ndimage.maximum_filter1d if maximum else ndimage.minimum_filter1d
     filt2 = ndimage.maximum_filter if maximum else ndimage.minimum_filter
     if window == "line":

@@ -19,6 +19,7 @@ import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.clusters import Clusters, next_index, prev_index, take_rows
+from aldpat.core.morphology import within
 
 ndimage = lazy_import("scipy.ndimage")
 
@@ -97,7 +98,7 @@ def threshold_array(
 
     lo_key = _keys(z, minima, _BIG)
     hi_key = _keys(z, minima, -_BIG)
-    size = 2 * k + 1
+    size = 2 * within(k, (n,)) + 1  # wider than the row is the whole row (cval outside)
     low = ndimage.minimum_filter1d(lo_key, size, axis=1, mode="constant", cval=_BIG)
     high = ndimage.maximum_filter1d(hi_key, size, axis=1, mode="constant", cval=-_BIG)
     # The range extends to the minima just outside the window (tight minima ranges of L, R).

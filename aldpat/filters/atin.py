@@ -68,7 +68,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat._lazy import lazy_import
+from aldpat.core.grid_extent import steps_between
 from aldpat.core.lowest_grid import LowestGrid, fill_nearest, lowest_grid
+from aldpat.errors import DataError
 from aldpat.filters.base import PointFilterParams, RaisedSegmentOption, register_filter
 from aldpat.params import default_of, param
 
@@ -147,6 +149,11 @@ class _Buckets:
         return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
+#: the most rectangles the data are cut into (each a triangulation of its own): a million
+#: rectangles of the default 1 km cover a continent
+MOST_RECTANGLES = 1_000_000
+
+
 def atin_buffer(params: AtinParams) -> float:
     """A chunk's buffer: the manual's own Tile Buffer, the surroundings each rectangle is filtered
     with (ground spreads from the seeds round after round, so no buffer is exact)."""
@@ -176,9 +183,13 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
     if len(cand) == 0:
         return marks
     w, h, buf = p.tile_x_width, p.tile_y_height, p.tile_buffer
-    c0, r0 = math.floor(float(x.min()) / w), math.floor(float(y.min()) / h)
-    cols = math.floor(float(x.max()) / w) - c0 + 1
-    rows = math.floor(float(y.max()) / h) - r0 + 1
+    c0 = math.floor(steps_between(0.0, float(x.min()), w, "x"))
+    r0 = math.floor(steps_between(0.0, float(y.min()), h, "y"))
+    cols = math.floor(steps_between(0.0, float(x.max()), w, "x")) - c0 + 1
+    rows = math.floor(steps_between(0.0, float(y.max()), h, "y")) - r0 + 1
+    if rows * cols > MOST_RECTANGLES:
+        raise DataError(f"rectangles of {w:g} x {h:g} m cut the data into {rows * cols:,} (at most "
+                        f"{MOST_RECTANGLES:,}); use a larger --tile-x-width and --tile-y-height")
     cand_buckets = _Buckets(cx, cy, w, h, c0, r0, cols, rows)
     other_buckets = _Buckets(x[others], y[others], w, h, c0, r0, cols, rows)
     kx, ky = math.ceil(buf / w), math.ceil(buf / h)

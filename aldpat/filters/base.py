@@ -33,6 +33,7 @@ from aldpat.core import units
 from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_nearest, flat_cell_indices, lowest_grid
 from aldpat.core.memory import one_arena, release_free_memory
+from aldpat.core.morphology import within
 from aldpat.core.surface_test import SurfaceTest
 from aldpat.errors import DataError, ParamError
 from aldpat.options import ChunkOption, OriginOption
@@ -533,11 +534,11 @@ def low_outliers(x, y, z, params, extent: Extent | None = None) -> tuple[np.ndar
     from scipy import ndimage
 
     out = np.zeros(len(z), bool)
-    size = 2 * params.low_outlier_window + 1
     for _ in range(LOW_OUTLIER_ROUNDS):
         grid = _lowest_without(x, y, z, out, params.cell, origin, extent)
         if grid.empty.all():
             return out, grid
+        size = 2 * within(params.low_outlier_window, grid.z.shape) + 1
         filled = fill_nearest(grid.z, grid.empty)
         floor = ndimage.rank_filter(filled, LOW_OUTLIER_RANK * size * size // 100, size=size, mode="nearest")
         deep = floor - filled > params.low_outliers

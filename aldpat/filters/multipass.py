@@ -54,7 +54,8 @@ class MultipassParams(GroundParams):
     second_threshold_series: tuple[float, ...] = param(
         (2.0, 2.0, 2.0, 2.0, 2.0, 2.0), "second pass threshold of each window", unit="m", gt=0, level="internal",
     )
-    passes: int = param(1, "how many times interpolation and the second pass are repeated", ge=1, level="internal")
+    passes: int = param(1, "how many times interpolation and the second pass are repeated", ge=1, le=100,
+                        level="internal")
     min_conn: int = param(
         0, "connected removed or empty sets of at most this many cells keep nearest-neighbour "
         "values instead of priority interpolation [minConn]", unit="cells", ge=0, level="internal",

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,7 +55,7 @@ class ProgressiveParams(GroundParams):
                                gt=1, manual="Window Base", level="internal")
     power_increment: float = param(0.5, "exponent step of the power series", gt=0, manual="Power Increment",
                                    level="internal")
-    window_series_length: int = param(9, "number of windows of the power series", ge=1,
+    window_series_length: int = param(9, "number of windows of the power series", ge=1, le=1000,
                                       manual="Window Series Length", level="internal")
     window_series: tuple[int, ...] | None = param(
         None, "half windows in cells, ascending, replacing the power series (full window 2k+1)",
@@ -83,6 +84,11 @@ class PMParams(ProgressiveParams):
     )
 
 
+#: The largest half window of a series (cells): 100 km at 1 m cells, wider than any tile; a
+#: series growing past it asks for windows no grid has.
+MOST_HALF_WINDOW = 100_000
+
+
 def window_series(p: ProgressiveParams) -> tuple[int, ...]:
     """Half windows in cells: the given series, or ``round(base ** (i * increment))``,
     ``i = 0 .. length-1`` (manual task 8 "Wind Series"), without repeats and below
@@ -92,6 +98,13 @@ def window_series(p: ProgressiveParams) -> tuple[int, ...]:
         if any(b <= a for a, b in itertools.pairwise(ks)):
             raise ParamError(f"window_series: half windows must be strictly ascending, got {ks}")
     else:
+        # the exponent of the last window, in logarithms: 2 ** (3000 * 0.5) is no float
+        largest = (p.window_series_length - 1) * p.power_increment * math.log(p.window_base)
+        if largest > math.log(MOST_HALF_WINDOW):
+            fit = math.floor(math.log(MOST_HALF_WINDOW) / (p.power_increment * math.log(p.window_base))) + 1
+            raise ParamError(f"window_series_length: {p.window_series_length} windows of base {p.window_base:g} and "
+                             f"increment {p.power_increment:g} grow past {MOST_HALF_WINDOW:,} cells a half window; "
+                             f"at most {fit} fit")
         raw = [round(p.window_base ** (i * p.power_increment)) for i in range(p.window_series_length)]
         ks = tuple(sorted(set(raw)))
     ks = tuple(k for k in ks if k >= p.min_window)

@@ -45,6 +45,7 @@ import numpy as np
 from aldpat._lazy import lazy_import
 from aldpat.core.local_poly import PointSums, fit_surface
 from aldpat.core.lowest_grid import LowestGrid
+from aldpat.core.morphology import within
 from aldpat.core.surface_test import within_surface
 from aldpat.errors import ParamError
 from aldpat.filters.base import PointFilterParams, register_filter
@@ -70,7 +71,7 @@ class IpfParams(PointFilterParams):
     init_window_length: float = param(30.0, "first moving window: larger than the largest object",
                                       unit="m", gt=0, manual="Init Window Length", level="internal")
     window_series_length: int | None = param(
-        None, "number of windows (none: floor(log2(init_window_length)) + 1, down to 1 m)", ge=1,
+        None, "number of windows (none: floor(log2(init_window_length)) + 1, down to 1 m)", ge=1, le=64,
         manual="Window Series Length", level="internal",
     )
     window_series: tuple[float, ...] | None = param(
@@ -123,7 +124,7 @@ class Poly2Params(IpfParams):
                                           "surface is ground", unit="m", gt=0, manual="Outlier Tolerance",
                                           level="internal")
     neighbor_range: int = param(6, "fewest ground points a local fit uses (its window grows until it "
-                                    "holds them)", ge=1, manual="Neighbor Range", level="internal")
+                                    "holds them)", ge=1, le=10_000, manual="Neighbor Range", level="internal")
     interpolation_window: float = param(10.0, "window in which the two surfaces' fit to the ground "
                                               "points is compared", unit="m", gt=0,
                                         manual="Interpolation Wnd", level="internal")
@@ -148,7 +149,7 @@ def _candidates(zinf: np.ndarray, k: int) -> np.ndarray:
     """Cells holding the lowest point of the window around at least one node."""
     if k == 0:
         return np.isfinite(zinf)
-    size = 2 * k + 1
+    size = 2 * within(k, zinf.shape) + 1
     low = ndimage.minimum_filter(zinf, size=size, mode="constant", cval=np.inf)
     # the lowest of a window lies in it; a cell is some node's lowest when the highest of the
     # window minima around it equals its own height (every one of them is at most its height)
@@ -177,7 +178,7 @@ class _Ground:
 
 def _rms_residual(ground: np.ndarray, z: np.ndarray, surface: np.ndarray, k: int) -> np.ndarray:
     """RMS of ground cells' heights about ``surface`` over the window of ``k`` cells at each node."""
-    size = 2 * k + 1
+    size = 2 * within(k, z.shape) + 1
     r2 = np.where(ground, (z - surface) ** 2, 0.0)
     # the count as a whole number, the sum not below zero: the box filter's roundoff would
     # otherwise make a window without ground points (NaN: never better) a tiny ratio of tiny

@@ -35,6 +35,8 @@ from aldpat.io.esri_grid import filled_with_nodata
 FORMATS = {"geotiff": ".tif", "cog": ".tif"}
 #: nodata of GeoTIFF grids unless the user gives one
 DEFAULT_NODATA = -9999.0
+#: the largest float32 (a band's values and its nodata value)
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def _rasterio() -> Any:

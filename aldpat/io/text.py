@@ -11,7 +11,6 @@ the input had (detected from its first lines), so a round trip does not change c
 
 from __future__ import annotations
 
-import itertools
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -19,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
-from aldpat.errors import InputFormatError
+from aldpat.errors import InputFormatError, shown
 from aldpat.io.table import PointTable
 from aldpat.io.textfmt import BLOCK_ROWS, column_formats, format_block
 
@@ -35,6 +34,12 @@ DEFAULT_CHUNK = 2_000_000
 MAX_COORDINATE = 1e12
 COORDINATE_COLUMNS = frozenset({"x", "y", "z", "x1", "y1", "z1", "x2", "y2", "z2"})
 _SNIFF_BYTES = 1 << 16
+#: The longest line read (bytes): a point line is tens of characters, a header line hundreds; a
+#: longer one (a file of one 4 MB line) is not a point file, and reading it whole as a line
+#: would hold it all in memory, and as a point all its numbers as columns.
+LONGEST_LINE = _SNIFF_BYTES
+#: The most columns a point line has (x y z and every attribute a LAS point holds, with room).
+MOST_COLUMNS = 256
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE)
 _DELIMS = {"comma": ",", "tab": "\t", "space": " "}
 #: A UTF-8 byte-order mark, which some Windows editors put at the start of a text file.
@@ -114,7 +119,10 @@ class TextReader:
                                    path=self.path)
         text = head.decode("latin-1")
         lines = text.splitlines()
-        if len(head) == _SNIFF_BYTES and len(lines) > 1:
+        if len(head) == _SNIFF_BYTES:
+            if len(lines) <= 1:
+                raise InputFormatError(f"line 1 is longer than {LONGEST_LINE:,} bytes: not a point file",
+                                       path=self.path)
             lines = lines[:-1]  # the last one may be cut in the middle
         header = 0
         delimiter = None
@@ -130,7 +138,7 @@ class TextReader:
             if _NUMBER.match(first):
                 # starts like a point but is not one: a bad line, not a header
                 bad = next(t for t in _split(line, delimiter) if not _NUMBER.match(t))
-                raise InputFormatError(f"not a number: {bad[:40]!r}", path=self.path, line=number)
+                raise InputFormatError(f"not a number: {shown(bad)}", path=self.path, line=number)
             header += 1
             if header > 100:
                 raise InputFormatError("no numeric point lines in the first 100 lines", path=self.path)
@@ -141,6 +149,9 @@ class TextReader:
         sample = [ln for ln in lines[header: header + 200] if ln.strip()]
         tokens = [_split(ln, delimiter) for ln in sample]
         self.ncols = len(tokens[0])
+        if self.ncols > MOST_COLUMNS:
+            raise InputFormatError(f"{self.ncols:,} columns: a point line has at most {MOST_COLUMNS}",
+                                   path=self.path, line=self.first_data_line)
         # one plain space between values (the common case) parses twice as fast as any-whitespace
         self._single_space = delimiter == " " and all(
             ln == ln.strip() and "  " not in ln and "\t" not in ln for ln in sample)
@@ -194,15 +205,26 @@ class TextReader:
 
     def _raw_lines_before(self, data_row: int) -> int:
         """How many raw lines precede data row ``data_row`` (header and blank lines included)."""
-        seen = 0
+        seen = number = 0
         with open(self.path, "r", encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
-            for number, line in enumerate(fh):
-                if number < self.header_lines or not line.strip():
+            for number, line in self._lines(fh):
+                if number <= self.header_lines or not line.strip():
                     continue
                 if seen == data_row:
-                    return number
+                    return number - 1
                 seen += 1
-        return number + 1
+        return number
+
+    def _lines(self, fh) -> Iterator[tuple[int, str]]:
+        """``(number, line)`` of each line of ``fh`` from 1, none read longer than
+        :data:`LONGEST_LINE` (a longer one is refused, naming it)."""
+        number = 0
+        while line := fh.readline(LONGEST_LINE + 1):
+            number += 1
+            if len(line) > LONGEST_LINE and not line.endswith("\n"):
+                raise InputFormatError(f"longer than {LONGEST_LINE:,} characters: not a point line",
+                                       path=self.path, line=number)
+            yield number, line
 
     def read(self) -> PointTable:
         """The whole file as one table, told chunk by chunk as the job's read pass
@@ -217,9 +239,8 @@ class TextReader:
         """
         seen = 0
         with open(self.path, "r", encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
-            lines = itertools.islice(fh, self.header_lines, None)
-            for number, line in enumerate(lines, start=self.header_lines + 1):
-                if not line.strip():
+            for number, line in self._lines(fh):
+                if number <= self.header_lines or not line.strip():
                     continue
                 if seen >= data_row:
                     tokens = _split(line.strip(), self.delimiter)
@@ -230,12 +251,12 @@ class TextReader:
                         try:
                             value = float(tok)
                         except ValueError:
-                            raise InputFormatError(f"not a number: {tok[:40]!r}", path=self.path,
+                            raise InputFormatError(f"not a number: {shown(tok)}", path=self.path,
                                                    line=number) from None
                         if not np.isfinite(value):
-                            raise InputFormatError(f"non-finite value {tok!r}", path=self.path, line=number)
+                            raise InputFormatError(f"non-finite value {shown(tok)}", path=self.path, line=number)
                         if name in COORDINATE_COLUMNS and abs(value) > MAX_COORDINATE:
-                            raise InputFormatError(f"{name} = {tok[:40]} is not a plausible coordinate "
+                            raise InputFormatError(f"{name} = {shown(tok, quoted=False)} is not a plausible coordinate "
                                                    f"(larger than {MAX_COORDINATE:g} in magnitude)",
                                                    path=self.path, line=number)
                 seen += 1

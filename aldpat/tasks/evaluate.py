@@ -43,7 +43,7 @@ class EvaluateParams(JsonOption, OverwriteOption):
                       "classified when a column after x y z holds only 1 and 2, else terrain)",
                       choices=("auto", "terrain", "classified"))
     class_column: int | None = param(None, "1-based column holding the class in a classified text result "
-                                     "(default: found as --mode says)", ge=1, level="advanced")
+                                     "(default: found as --mode says)", ge=1, le=256, level="advanced")
     tolerance: float = param(0.001, "coordinates closer than this match", unit="m", gt=0, level="advanced")
     map: str | None = param(None, "also draw the calls over the reference as a PNG: bare earth rejected red, "
                             "objects accepted blue, right calls green / grey ({stem}: the result's name)",

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
-from aldpat.io.geotiff import write_geotiff
+from aldpat.io.geotiff import FLOAT32_MAX, write_geotiff
 from aldpat.io.surfer import read_surfer
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
@@ -24,7 +24,7 @@ from aldpat.params import param
 class Grd2BinParams(CrsOption):
     to: str = param("flt", "output: ArcGIS binary float grid (.flt + .hdr), ESRI ASCII grid (.asc), GeoTIFF "
                     "(tif) or Cloud Optimized GeoTIFF (cog; both need aldpat[geotiff])", choices=("flt", "asc", "tif", "cog"))
-    nodata: float = param(-9999.0, "value written for blank nodes")
+    nodata: float = param(-9999.0, "value written for blank nodes", ge=-FLOAT32_MAX, le=FLOAT32_MAX)
 
 
 def grd2bin_outputs(source: Path, params: Grd2BinParams, ctx: JobContext) -> list[Planned]:
