@@ -21,12 +21,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aldpat.core.resources import check_memory, count_text
 from aldpat.errors import DataError, UsageError
 
 log = logging.getLogger(__name__)
 
 #: relative tolerance when checking that a range is a whole number of cells
 _WHOLE = 1e-6
+#: the most nodes a grid has a side: GDAL's raster sizes (and Surfer 7's) are 32-bit integers
+MOST_A_SIDE = 2**31 - 1
 
 
 @dataclass(frozen=True)
@@ -64,6 +67,14 @@ class GridSpec:
         """(rows, columns), rows from the south."""
         return self.ny, self.nx
 
+    def check_fits(self, bytes_per_node: float, *, path=None,
+                   change: str = "use a larger --cell, or tile the data (aldpat tile)") -> None:
+        """Refuse (:class:`aldpat.core.resources.ResourceError`, naming ``path``) a grid whose
+        nodes, at ``bytes_per_node`` while it is made, need more memory than there is now."""
+        nodes = self.nx * self.ny
+        check_memory(nodes * bytes_per_node, f"a {self.nx} x {self.ny} grid ({count_text(nodes)} nodes) of "
+                     f"{self.dx:g} m cells", change, path=path)
+
     def x_nodes(self) -> np.ndarray:
         return self.xmin + np.arange(self.nx) * self.dx
 
@@ -97,12 +108,22 @@ def _count(lo: float, hi: float, cell: float, what: str) -> int:
     cells are extended (with a warning) so the grid still covers them."""
     if hi < lo:
         raise UsageError(f"{what}: maximum {hi:g} is below minimum {lo:g}")
-    steps = (hi - lo) / cell
+    steps = steps_between(lo, hi, cell, what)
     if whole_cells(lo, hi, cell):
         return round(steps) + 1
     log.warning("%s range %g..%g is not a whole number of %g cells; grid extended to %g",
                 what, lo, hi, cell, lo + math.ceil(steps) * cell)
     return math.ceil(steps) + 1
+
+
+def steps_between(lo: float, hi: float, cell: float, what: str = "range") -> float:
+    """``(hi - lo) / cell``, refused (:class:`DataError`) when no grid could have that many
+    nodes a side (a cell of 1e-300 m, a range of 1e300 m)."""
+    steps = (hi - lo) / cell
+    if not abs(steps) < MOST_A_SIDE:  # NaN and infinity too
+        raise DataError(f"{what} {lo:g} .. {hi:g} at {cell:g} m cells would take {abs(steps):.3g} nodes a side, "
+                        f"more than a grid holds ({MOST_A_SIDE}); use a larger cell")
+    return steps
 
 
 def from_bounds(minx: float, miny: float, maxx: float, maxy: float, cell: float) -> GridSpec:
@@ -119,9 +140,9 @@ def from_data(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     if not cell > 0:
         raise UsageError(f"cell size must be positive, got {cell:g}")
     ox, oy = origin
-    lo_x = ox + math.floor((float(np.min(x)) - ox) / cell) * cell
-    lo_y = oy + math.floor((float(np.min(y)) - oy) / cell) * cell
-    nx = math.ceil((float(np.max(x)) - lo_x) / cell - _WHOLE) + 1
-    ny = math.ceil((float(np.max(y)) - lo_y) / cell - _WHOLE) + 1
+    lo_x = ox + math.floor(steps_between(ox, float(np.min(x)), cell, "x")) * cell
+    lo_y = oy + math.floor(steps_between(oy, float(np.min(y)), cell, "y")) * cell
+    nx = math.ceil(steps_between(lo_x, float(np.max(x)), cell, "x") - _WHOLE) + 1
+    ny = math.ceil(steps_between(lo_y, float(np.max(y)), cell, "y") - _WHOLE) + 1
     # Surfer grids need two nodes a side to define a spacing.
     return GridSpec(lo_x, lo_y, cell, cell, max(nx, 2), max(ny, 2))

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat._lazy import lazy_import
+from aldpat.core.grid_extent import steps_between
+from aldpat.core.resources import check_memory, count_text
 from aldpat.errors import DataError
 
 ndimage = lazy_import("scipy.ndimage")
@@ -29,6 +31,9 @@ log = logging.getLogger(__name__)
 #: Refuse grids larger than this many cells: a stray far-away point or a tiny cell would
 #: otherwise exhaust memory before anything useful happens.
 MAX_CELLS = 400_000_000
+#: what a cell of the filters' grids takes while they run (the lowest point's height and index,
+#: the opened and filled surfaces, marks), checked against the memory there is before they are made
+BYTES_PER_CELL = 48
 
 
 @dataclass(frozen=True)
@@ -100,15 +105,17 @@ def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
         return CellGridSpec(ox, oy, float(cell), 0, 0)
     xmin, ymin, xmax, ymax = extent if extent is not None else (
         float(np.min(x)), float(np.min(y)), float(np.max(x)), float(np.max(y)))
-    c0 = math.floor((xmin - ox) / cell)
-    c1 = math.floor((xmax - ox) / cell)
-    r0 = math.floor((ymin - oy) / cell)
-    r1 = math.floor((ymax - oy) / cell)
+    c0 = math.floor(steps_between(ox, xmin, cell, "x"))
+    c1 = math.floor(steps_between(ox, xmax, cell, "x"))
+    r0 = math.floor(steps_between(oy, ymin, cell, "y"))
+    r1 = math.floor(steps_between(oy, ymax, cell, "y"))
     rows, cols = r1 - r0 + 1, c1 - c0 + 1
     if rows * cols > MAX_CELLS:
         raise DataError(
             f"a {rows} x {cols} grid of {cell:g} m cells is too large; use a larger cell or tile the data"
         )
+    check_memory(rows * cols * BYTES_PER_CELL, f"a {rows} x {cols} grid ({count_text(rows * cols)} cells) of "
+                 f"{cell:g} m", "use a larger cell, --chunk, or tile the data (aldpat tile)")
     return CellGridSpec(ox + c0 * cell, oy + r0 * cell, float(cell), rows, cols)
 
 

@@ -26,7 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.resources import check_disk, count_text
 from aldpat.core.workers import WorkerPool
+from aldpat.errors import UsageError
 from aldpat.io.atomic import scratch_dir
 
 #: one spilled point: its row in the input, and its coordinates
@@ -43,6 +45,49 @@ class ChunkLattice:
         """Column and row of the chunk each point belongs to."""
         ox, oy = self.origin
         return (np.floor((x - ox) / self.size).astype(np.int64), np.floor((y - oy) / self.size).astype(np.int64))
+
+
+#: The most copies of a point a chunked run may spill (the area of a chunk with its buffer over
+#: the chunk's own, at most 10 x 10: a buffer of 4.5 chunks): past that a run writes many times
+#: its input to disk (``--chunk 1`` with a 40 m buffer: 6,561 copies of every point) to gain
+#: nothing a larger chunk would not give.
+MOST_COPIES = 100
+#: The most chunks one input is cut into (a spill file each, a task each): a million chunks of
+#: 100 m cover 10,000 km2; more are the sign of a chunk far too small for the data.
+MOST_CHUNKS = 1_000_000
+#: the bytes a text point line has at the least, as files are written (``x y z`` with decimals)
+_TEXT_POINT_BYTES = 24
+
+
+def expected_points(reader) -> int:
+    """The points of an input: its header's count, or from a text file's size."""
+    if reader.count is not None:
+        return int(reader.count)
+    try:
+        return Path(reader.path).stat().st_size // _TEXT_POINT_BYTES
+    except OSError:
+        return 0
+
+
+def check_spill(lattice: ChunkLattice, readers, folder: Path, path: Path | None = None) -> None:
+    """Refuse, before a byte is spilled, chunks whose buffers copy each point more than
+    :data:`MOST_COPIES` times (a usage error: the options ask for it) and spill files larger than
+    the free disk of ``folder``; ``path`` is the input named."""
+    copies = ((lattice.size + 2 * lattice.buffer) / lattice.size) ** 2
+    if not copies <= MOST_COPIES:
+        least = 2 * lattice.buffer / (math.sqrt(MOST_COPIES) - 1)
+        raise UsageError(f"--chunk {lattice.size:g} m with a {lattice.buffer:g} m buffer copies every point into "
+                         f"{copies:,.0f} chunks (at most {MOST_COPIES}); use a --chunk of at least {least:.4g} m "
+                         "or a smaller --chunk-buffer", path=path)
+    points = sum(expected_points(r) for r in readers)
+    check_disk(points * copies * RECORD.itemsize, folder,
+               f"spilling {count_text(points)} points into chunks with buffers ({copies:.1f} copies each)",
+               "give --tmpdir on a disk with room, a larger --chunk or a smaller --chunk-buffer", path=path)
+
+
+def too_many_chunks(lattice: ChunkLattice, count: int) -> UsageError:
+    return UsageError(f"--chunk {lattice.size:g} m cuts the input into {count:,} chunks or more (at most "
+                      f"{MOST_CHUNKS:,}); use a larger --chunk")
 
 
 @dataclass
@@ -116,6 +161,8 @@ def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = N
             high = np.maximum(high, [records["x"].max(), records["y"].max()])
             col, row = lattice.index(records["x"], records["y"])
             owned.update(zip(col.tolist(), row.tolist()))
+            if len(owned) > MOST_CHUNKS:
+                raise too_many_chunks(lattice, len(owned))
             for dc in range(-reach, reach + 1):
                 for dr in range(-reach, reach + 1):
                     take = _in_buffer(records, col + dc, row + dr, lattice) if (dc or dr) else slice(None)

@@ -17,6 +17,7 @@ nodes.
 from __future__ import annotations
 
 import logging
+import os
 import struct
 from pathlib import Path
 
@@ -61,6 +62,19 @@ def _zrange(values: np.ndarray) -> tuple[float, float]:
     return float(np.min(values, where=finite, initial=np.inf)), float(np.max(values, where=finite, initial=-np.inf))
 
 
+def check_holds(spec: GridSpec, fmt: str, path: str | Path | None = None) -> None:
+    """Refuse a grid the format ``fmt`` cannot hold (checked before a grid is made, and by the
+    writer): a Surfer 6 binary grid at most :data:`DSBB_MAX` nodes a side, a Surfer 7 grid's
+    data section less than 2 GiB of doubles."""
+    if fmt == "surfer6" and max(spec.nx, spec.ny) > DSBB_MAX:
+        raise DataError(
+            f"Surfer 6 binary grids hold at most {DSBB_MAX} nodes a side; this grid is "
+            f"{spec.nx} x {spec.ny} (use surfer7)", path=path)
+    if fmt == "surfer7" and spec.nx * spec.ny * 8 >= 2**31:
+        raise DataError(f"a grid of {spec.nx} x {spec.ny} nodes is too large for one Surfer 7 data section "
+                        "(2 GiB); use a larger --cell, --grid-format geotiff, or tile the data", path=path)
+
+
 def write_surfer(path: str | Path, values: np.ndarray, spec: GridSpec, *, fmt: str = "surfer7",
                  blank: float | None = None, overwrite: bool = False) -> Path:
     """Write a grid atomically in one of :data:`FORMATS`; NaN nodes are written blank.
@@ -74,10 +88,7 @@ def write_surfer(path: str | Path, values: np.ndarray, spec: GridSpec, *, fmt: s
         raise UsageError(f"unknown grid format {fmt!r} (use {', '.join(FORMATS)})")
     if blank is not None and fmt != "surfer7" and blank != BLANK:
         raise UsageError(f"Surfer 6 grids only know the blank value {BLANK:g}; use surfer7 for {blank:g}")
-    if fmt == "surfer6" and max(spec.nx, spec.ny) > DSBB_MAX:
-        raise DataError(
-            f"Surfer 6 binary grids hold at most {DSBB_MAX} nodes a side; this grid is "
-            f"{spec.nx} x {spec.ny} (use surfer7)", path=path)
+    check_holds(spec, fmt, path)
     with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "wb") as fh:
         if fmt == "surfer7":
             _write_dsrb(fh, values, spec, BLANK if blank is None else blank)
@@ -111,15 +122,12 @@ def _write_dsbb(fh, values: np.ndarray, spec: GridSpec) -> None:
 
 def _write_dsrb(fh, values: np.ndarray, spec: GridSpec, blank: float) -> None:
     zlo, zhi = _zrange(values)
-    nbytes = values.size * 8
-    if nbytes >= 2**31:
-        raise DataError(f"grid of {spec.nx} x {spec.ny} nodes is too large for one Surfer 7 data section")
     # Version 1 blanks every value >= BlankValue (Surfer's own), version 2 only == BlankValue.
     version = 1 if blank == BLANK else 2
     fh.write(struct.pack("<iii", _TAG_HEADER, 4, version))
     fh.write(struct.pack("<ii", _TAG_GRID, _DSRB_GRID.size))
     fh.write(_DSRB_GRID.pack(spec.ny, spec.nx, spec.xmin, spec.ymin, spec.dx, spec.dy, zlo, zhi, 0.0, blank))
-    fh.write(struct.pack("<ii", _TAG_DATA, nbytes))
+    fh.write(struct.pack("<ii", _TAG_DATA, values.size * 8))
     for start in range(0, spec.ny, 512):
         block = values[start:start + 512]
         fh.write(np.where(np.isnan(block), blank, block).astype("<f8").tobytes())
@@ -193,11 +201,21 @@ def _read_dsaa(path: Path) -> tuple[np.ndarray, GridSpec]:
     return _blanked(values).reshape(ny, nx), spec
 
 
+def _node_values(fh, dtype: str, count: int, path: Path) -> np.ndarray:
+    """``count`` node values from ``fh``: a header counting more nodes than the file's bytes
+    hold is refused before anything is allocated for them (numpy would allocate them all)."""
+    size = np.dtype(dtype).itemsize
+    left = os.fstat(fh.fileno()).st_size - fh.tell()
+    if count * size > left:
+        raise InputFormatError(f"expected {count:,} node values, the file holds {max(left, 0) // size:,}", path=path)
+    return np.fromfile(fh, dtype=dtype, count=count)
+
+
 def _read_dsbb(path: Path) -> tuple[np.ndarray, GridSpec]:
     with open(path, "rb") as fh:
         _magic, nx, ny, xlo, xhi, ylo, yhi, _, _ = _DSBB_HEAD.unpack(fh.read(_DSBB_HEAD.size))
         spec = _spec_from_range(path, nx, ny, xlo, xhi, ylo, yhi)
-        values = np.fromfile(fh, dtype="<f4", count=nx * ny)
+        values = _node_values(fh, "<f4", nx * ny, path)
     if values.size != nx * ny:
         raise InputFormatError(f"expected {nx * ny} node values, found {values.size}", path=path)
     return _blanked(values).reshape(ny, nx), spec
@@ -227,7 +245,7 @@ def _read_dsrb(path: Path) -> tuple[np.ndarray, GridSpec]:
             elif tag == _TAG_DATA:
                 if spec is None:
                     raise InputFormatError("data section before the grid section", path=path)
-                values = np.fromfile(fh, dtype="<f8", count=spec.nx * spec.ny)
+                values = _node_values(fh, "<f8", spec.nx * spec.ny, path)
                 if values.size != spec.nx * spec.ny:
                     raise InputFormatError(f"expected {spec.nx * spec.ny} node values, found {values.size}",
                                            path=path)

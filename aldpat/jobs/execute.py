@@ -59,10 +59,11 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
         with interrupt.doing(f"running: {job_names(sources)}"):
             body(ctx)
     except AldpatError as exc:
-        result.error = str(exc)
+        # a message names its file: the job's inputs when the step that refused did not know them
+        result.error = str(exc) if exc.path is not None or not sources else f"{job_names(sources)}: {exc}"
         result.usage = isinstance(exc, UsageError)
     except MemoryError:
-        result.error = f"{job_names(sources)}: out of memory"
+        result.error = f"{job_names(sources)}: out of memory (a larger cell, --chunk, or tiles need less)"
     except OSError as exc:  # the system refused a read or write: say which file and why
         where = exc.filename if exc.filename is not None else job_names(sources)
         result.error = f"{where}: {(exc.strerror or str(exc)).lower()}"

@@ -46,8 +46,8 @@ from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.streamed import stream_ground, streamable
 from aldpat.io.bounds import Bounds, point_bounds
+from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
-from aldpat.io.geotiff import Raster, write_geotiff
 from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
 from aldpat.jobs.context import JobContext, Planned
@@ -55,7 +55,7 @@ from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
 from aldpat.tasks.filter import STREAM_CHUNK, apply_auto
-from aldpat.tasks.grid import check_spread, grid_mosaic, grid_spec_for, mosaic_outputs, tile_grid
+from aldpat.tasks.grid import check_grid_fits, check_spread, grid_mosaic, grid_spec_for, mosaic_outputs, tile_grid
 
 log = logging.getLogger(__name__)
 
@@ -81,7 +81,7 @@ class DtmParams(OriginOption, CrsOption, Checked):
     grid_format: str = param("cog", "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
                              choices=tuple(GEOTIFF_FORMATS), level="advanced")
     nodata: float | None = param(None, "value of nodes outside the ground points' triangles; none: -9999",
-                                 level="advanced")
+                                 ge=-FLOAT32_MAX, le=FLOAT32_MAX, level="advanced")
     max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this",
                                        unit="m", gt=0, level="advanced")
     mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every DTM written (a path "
@@ -180,6 +180,7 @@ def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints
     x, y, z, count, (xmin, ymin, xmax, ymax) = made
     spec = grid_spec_for(params, xy=(np.array([xmin, xmax]), np.array([ymin, ymax])))
     assert spec is not None  # from the points
+    check_grid_fits(spec, "linear", params.grid_format, ctx.output_dir(reader.path), reader.path)
     ctx.note(f"{count} points of {reader.path.name}, filtered in two passes")
     return x, y, z, spec, count, len(x)
 
@@ -191,6 +192,7 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
         raise DataError("no points", path=source)
     spec = grid_spec_for(params, xy=(table.x, table.y))
     assert spec is not None  # from the points
+    check_grid_fits(spec, "linear", params.grid_format, ctx.output_dir(source), source)
     region = Bounds(spec.xmin, spec.ymin, spec.xmax, spec.ymax).grown(params.buffer)
     bx, by, bz = _buffer_points(ctx, region)
     x = np.concatenate([np.asarray(table.x, np.float64), bx])

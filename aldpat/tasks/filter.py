@@ -216,7 +216,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     writes them (:mod:`aldpat.filters.chunked`)."""
     from aldpat.core.units import on_dask_worker
     from aldpat.filters.chunked import chunk_plan, filter_chunks
-    from aldpat.io.chunks import scratch_folder
+    from aldpat.io.chunks import check_spill, scratch_folder
 
     if params.data_mode == "center":
         raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")
@@ -227,6 +227,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     readers = [ctx.open_input(s) for s in sources]
     plan = chunk_plan(algorithm, params, params.chunk, params.chunk_buffer)
     outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers)]
+    check_spill(plan.lattice, readers, Path(params.tmpdir) if params.tmpdir else outputs[0][0][0].parent, source)
     for path, _ in (o for outs in outputs for o in outs):  # refuse an existing output before the long part
         check_writable(path, overwrite=ctx.overwrite)
     counts: list[int] = []

@@ -28,17 +28,26 @@ from aldpat.core.grid_extent import (
     from_data,
     whole_cells,
 )
-from aldpat.core.interpolate import BINNING, METHODS, Binner, interpolate
+from aldpat.core.interpolate import BINNING, BYTES_PER_NODE, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
+from aldpat.core.resources import check_disk
 from aldpat.core.tile_edges import core_nodes, grid_tile
 from aldpat.errors import DataError, ParamError
 from aldpat.io.bounds import point_bounds
-from aldpat.io.chunks import ChunkLattice, map_chunks, scratch_folder, spill_chunks
-from aldpat.io.geotiff import DEFAULT_NODATA, geotiff_header, write_geotiff
+from aldpat.io.chunks import (
+    MOST_CHUNKS,
+    ChunkLattice,
+    check_spill,
+    map_chunks,
+    scratch_folder,
+    spill_chunks,
+    too_many_chunks,
+)
+from aldpat.io.geotiff import DEFAULT_NODATA, FLOAT32_MAX, geotiff_header, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.surfer import BLANK as SURFER_BLANK
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS
-from aldpat.io.surfer import read_surfer, write_surfer
+from aldpat.io.surfer import check_holds, read_surfer, write_surfer
 from aldpat.io.tile_project import TileJob, find_tile_job, tile_points
 from aldpat.io.vrt import TileGrid, write_mosaic
 from aldpat.jobs.context import JobContext, JobResult, Planned
@@ -67,13 +76,13 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
                              "GeoTIFF or Cloud Optimized GeoTIFF (float32, deflate; needs aldpat[geotiff])",
                              choices=SURFER_FORMATS + tuple(GEOTIFF_FORMATS))
     nodata: float | None = param(None, "blank value of a surfer7 or GeoTIFF grid; none: Surfer's 1.70141e38, "
-                                 "GeoTIFF's -9999", level="advanced")
+                                 "GeoTIFF's -9999", ge=-FLOAT32_MAX, le=FLOAT32_MAX, level="advanced")
     max_distance: float | None = param(None, "leave nodes blank farther than this from any point (linear: "
                                        "in triangles with a longer edge)", unit="m", gt=0, level="advanced")
     power: float = param(2.0, "inverse distance weighting power (idw)", gt=0, level="internal")
     radius: float | None = param(None, "search radius for neighbours (idw, kriging); none: unlimited",
                                  unit="m", gt=0, level="internal")
-    max_points: int = param(16, "neighbours used per node (idw, kriging)", ge=1, level="internal")
+    max_points: int = param(16, "neighbours used per node (idw, kriging)", ge=1, le=1024, level="internal")
     variogram: str = param("linear", "variogram model fitted to the data (kriging)", choices=MODELS, level="internal")
     nugget: float = param(0.0, "variogram nugget (kriging)", unit="m^2", ge=0, level="internal")
     drift: str = param("none", "kriging drift: none (ordinary kriging) or linear (universal)", choices=DRIFTS,
@@ -109,6 +118,22 @@ def grid_spec_for(params, xy: tuple[np.ndarray, np.ndarray] | None = None) -> Gr
     return None
 
 
+#: Bytes a node takes on disk, by grid format (a COG's overviews add a third to a GeoTIFF's).
+DISK_PER_NODE = {"surfer7": 8, "surfer6": 4, "surfer6-ascii": 14, "geotiff": 4, "cog": 6}
+
+
+def check_grid_fits(spec: GridSpec, method: str, grid_format: str, folder: Path, source: Path) -> None:
+    """Refuse, naming ``source``, a grid that needs more memory than there is now or more disk
+    than ``folder`` has free -- before it is made, not after minutes of swapping."""
+    if grid_format in SURFER_FORMATS:
+        check_holds(spec, grid_format, source)
+    spec.check_fits(BYTES_PER_NODE.get(method, 64), path=source)
+    nodes = spec.nx * spec.ny
+    check_disk(nodes * DISK_PER_NODE.get(grid_format, 8), folder,
+               f"a {spec.nx} x {spec.ny} grid of {spec.dx:g} m cells", "use a larger --cell, or another --odir",
+               path=source)
+
+
 #: Methods that fit a surface through the points: they need three points not on one line.
 SURFACE_METHODS = ("linear", "kriging")
 
@@ -140,8 +165,10 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
             b = point_bounds(source, format=ctx.input.format if ctx.input is not None else None)
             spec = from_data(np.array([b.minx, b.maxx]), np.array([b.miny, b.maxy]), params.cell,
                              origin=params.origin or (0.0, 0.0))
+        check_grid_fits(spec, "mean", params.grid_format, out.parent, source)  # the whole grid, filled by chunks
         values, count = grid_chunked(reader, spec, params, ctx, out.parent)
     elif spec is not None and params.method in BINNING:
+        check_grid_fits(spec, params.method, params.grid_format, out.parent, source)
         binner = Binner(spec, params.method)  # streams: memory is the grid's, not the points'
         count = 0
         for chunk in reader.chunks():
@@ -161,6 +188,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         if spec is None:
             spec = grid_spec_for(params, xy=(x, y))
         assert spec is not None  # from the points when no bounds give it
+        check_grid_fits(spec, params.method, params.grid_format, out.parent, source)
         if params.method in SURFACE_METHODS:
             check_spread(x, y, params.method, source)
         units.stage("interpolate")
@@ -204,6 +232,7 @@ def tile_grid(tile: TileJob, x: np.ndarray, y: np.ndarray, z: np.ndarray, params
     if spec is None:
         ctx.warn(f"{name}: no node of the {params.cell:g} m lattice lies in its core; no grid written")
         return None
+    check_grid_fits(spec, method, params.grid_format, ctx.output_dir(tile.source), tile.source)
     try:
         if method in SURFACE_METHODS:
             check_spread(x, y, method, tile.source)
@@ -262,6 +291,10 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
     options = {"method": params.method, "power": params.power, "radius": params.radius,
                "max_points": params.max_points, "max_distance": params.max_distance,
                "variogram": params.variogram, "nugget": params.nugget, "drift": params.drift}
+    chunks = -(-spec.nx // k) * -(-spec.ny // k)
+    if chunks > MOST_CHUNKS:
+        raise too_many_chunks(lattice, chunks)
+    check_spill(lattice, [reader], Path(params.tmpdir) if params.tmpdir else place, reader.path)
     with scratch_folder(params.tmpdir, place) as scratch, \
             spill_chunks(reader.chunks(), lattice, tmpdir=scratch) as spilled:
         jobs = []
