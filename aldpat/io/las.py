@@ -8,6 +8,7 @@ the source's point format, scale, offset and VLRs (CRS included).
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,8 +17,10 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
+from aldpat.core.resources import check_memory, count_text
 from aldpat.errors import InputFormatError, InputMissingError
 from aldpat.io.table import PointTable
+from aldpat.io.text import MAX_COORDINATE
 
 if TYPE_CHECKING:
     import laspy
@@ -26,6 +29,9 @@ DEFAULT_CHUNK = 2_000_000
 #: table column -> LAS dimension for the columns a task may set
 LAS_DIMENSIONS = {"x": "x", "y": "y", "z": "z", "intensity": "intensity", "class": "classification",
                   "classification": "classification", "t": "gps_time", "gps_time": "gps_time"}
+#: the widest x or y range a header may declare: the Earth's circumference (in metres; degrees and
+#: feet stay far below it in any CRS)
+MOST_EXTENT = 4.1e7
 _READ_DIMS = ("intensity", "classification", "return_number", "number_of_returns", "gps_time")
 #: The extra-byte dimension marking the buffer points of a tile (``aldpat tile``): 1 for a copy of
 #: a point of a neighbouring tile's core, 0 for the tile's own. Neither a class nor the withheld
@@ -55,6 +61,7 @@ class LasReader:
         except Exception as exc:  # noqa: BLE001  (laspy raises several unrelated types for bad files)
             raise _corrupt(self.path, exc) from None
         self.count = int(self.header.point_count)
+        self._check_header()
         self._check_record_count()
         self.scales = tuple(float(s) for s in self.header.scales)
         try:
@@ -63,18 +70,66 @@ class LasReader:
             self.crs = None
         self.names, self.decimals = _columns(self.header)
 
+    def _check_header(self) -> None:
+        """A header is data: refuse, in one line, one that contradicts itself -- scales that are
+        not positive (every point at the offset, or mirrored), offsets or bounds that are no
+        coordinates (NaN, 1e300: every x collapses to one value), bounds the wrong way round or
+        wider than the Earth (the point counts: :meth:`_check_record_count`)."""
+        h = self.header
+        for axis, scale, offset in zip("xyz", h.scales, h.offsets):
+            if not (math.isfinite(scale) and scale > 0):
+                raise InputFormatError(f"LAS header: {axis} scale {scale:g} is not a positive number", path=self.path)
+            if not abs(offset) <= MAX_COORDINATE:  # NaN too
+                raise InputFormatError(f"LAS header: {axis} offset {offset:g} is not a coordinate (a finite "
+                                       f"number within +-{MAX_COORDINATE:g})", path=self.path)
+        if self.count:
+            for axis, low, high in zip("xyz", h.mins, h.maxs):
+                if not (abs(low) <= MAX_COORDINATE and abs(high) <= MAX_COORDINATE):
+                    raise InputFormatError(f"LAS header: {axis} bounds {low:g} .. {high:g} are not coordinates "
+                                           f"(finite numbers within +-{MAX_COORDINATE:g})", path=self.path)
+                if low > high:
+                    raise InputFormatError(f"LAS header: {axis} minimum {low:g} is above its maximum {high:g}",
+                                           path=self.path)
+                if axis != "z" and high - low > MOST_EXTENT:
+                    raise InputFormatError(f"LAS header: {axis} bounds {low:g} .. {high:g} span more than the Earth's "
+                                           "circumference", path=self.path)
+
+    def check_within_header(self, cols: dict[str, np.ndarray], done: int) -> None:
+        """Refuse decoded points outside the header's bounds (by more than a stored unit): a LAZ
+        with damaged bytes inside a chunk decodes without an error, to points anywhere."""
+        h = self.header
+        for k, axis in enumerate("xyz"):
+            values = cols[axis]
+            if not len(values):
+                continue
+            slack = float(h.scales[k]) + 1e-9 * max(abs(float(h.mins[k])), abs(float(h.maxs[k])))
+            outside = (values < h.mins[k] - slack) | (values > h.maxs[k] + slack)
+            if outside.any():
+                first = int(np.flatnonzero(outside)[0])
+                raise InputFormatError(
+                    f"point {done + first + 1:,} has {axis} = {values[first]:.10g}, outside the header's bounds "
+                    f"{h.mins[k]:.10g} .. {h.maxs[k]:.10g}: corrupt data or a wrong header", path=self.path)
+
     def _check_record_count(self) -> None:
         """An uncompressed LAS whose header counts fewer records than it holds would lose the
-        rest without a word (readers stop at the header's count): refuse it."""
-        if self.path.suffix.lower() == ".laz" or self.header.point_format.id >= 128:
-            return
+        rest without a word (readers stop at the header's count), one that counts more would
+        have them allocated before the reader finds the file short: refuse both. A LAZ file's
+        count is bounded by its size (a point takes 0.007 bytes at the least: a million points,
+        each the one before it)."""
         size = self.path.stat().st_size
+        if self.path.suffix.lower() == ".laz" or self.header.point_format.id >= 128:
+            if self.count > size * 1024:
+                raise InputFormatError(f"truncated or a corrupt header: header says {self.count:,} points, more than "
+                                       f"the file's {size:,} bytes can hold", path=self.path)
+            return
         end = int(getattr(self.header, "start_of_first_evlr", 0) or 0) or size
         record = int(self.header.point_format.size)
         held = max(0, end - int(self.header.offset_to_point_data)) // record if record else 0
         if held > self.count:
             raise InputFormatError(f"header says {self.count} points, the file holds {held} point records",
                                    path=self.path)
+        if held < self.count:
+            raise InputFormatError(f"truncated: header says {self.count} points, file holds {held}", path=self.path)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -97,8 +152,10 @@ class LasReader:
         try:
             with laspy.open(self.path) as fh:
                 for chunk in fh.chunk_iterator(size):
+                    table = _table(chunk, self.names, self.decimals)
+                    self.check_within_header(table.columns, done)
                     done += len(chunk)
-                    yield _table(chunk, self.names, self.decimals)
+                    yield table
         except InputFormatError:
             raise
         except Exception as exc:  # noqa: BLE001  (laspy/lazrs raise several types for damaged data)
@@ -110,6 +167,9 @@ class LasReader:
     def read(self) -> PointTable:
         """The whole file as one table (one chunk: no concatenation, no second copy), told as
         the job's read pass (:mod:`aldpat.core.units`)."""
+        check_memory(self.count * (int(self.header.point_format.size) + 8 * len(self.names)),
+                     f"reading {count_text(self.count)} points whole", "use --chunk, or tile the data (aldpat tile)",
+                     path=self.path)
         units.stage("read", self.count)
         table = next(iter(self.chunks(size=max(self.count, 1))))
         units.advance(len(table))
@@ -210,6 +270,9 @@ class LasWriter:
             kind = dtype if small else np.int32 if np.issubdtype(dtype, np.integer) else np.float64
             header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind,
                                                         description=EXTRA_DESCRIPTIONS.get(name, "")))
+        if (header.version.major, header.version.minor) < (1, 2):
+            # LAS 1.0 and 1.1 points are 1.2's (formats 0 and 1); laspy writes 1.2 and later only
+            header.version = laspy.header.Version(1, 2)
         if self._extra and (header.version.major, header.version.minor) < (1, 4):
             # extra bytes are a LAS 1.4 record: PDAL reads them from 1.4 files only (unless told to),
             # and 1.4 keeps point formats 0-5 as they are

@@ -103,11 +103,14 @@ def read_polygons(path: str | Path) -> list[list[np.ndarray]]:
     with reader:
         if reader.shapeType not in (shapefile.POLYGON, shapefile.POLYGONZ, shapefile.POLYGONM, shapefile.NULL):
             raise InputFormatError(f"not a polygon shapefile (shape type {reader.shapeTypeName})", path=path)
-        polygons = []
+        polygons: list[list[np.ndarray]] = []
         for shape in reader.iterShapes():
             if shape.shapeType == shapefile.NULL or not shape.points:
                 continue
             pts = np.asarray(shape.points, dtype=np.float64)[:, :2]
+            if not np.isfinite(pts).all():
+                raise InputFormatError(f"a vertex of shape {len(polygons) + 1} is not a number (NaN or infinite)",
+                                       path=path)
             bounds = list(shape.parts) + [len(pts)]
             polygons.append([pts[a:b] for a, b in itertools.pairwise(bounds)])
     if not polygons:

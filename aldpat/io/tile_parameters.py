@@ -15,6 +15,8 @@ from pathlib import Path
 from aldpat.core.grid_extent import GridSpec, from_bounds
 from aldpat.errors import DataError, InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_output
+from aldpat.io.text import MAX_COORDINATE
+from aldpat.io.toml import MAX_SIDE_FILE_BYTES, read_limited
 
 #: The file's name in the tile folder.
 PARAMETER_FILE = "tile_parameter.txt"
@@ -78,26 +80,38 @@ def _rows(path: Path):
     if not path.is_file():
         raise InputMissingError("no such tile parameter file", path=path)
     seen = False
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for number, raw in enumerate(fh, start=1):
-            text = raw.strip()
-            if not text or text.startswith("#"):
-                continue
-            parsed = _parse_row(text)
-            if parsed is None:
-                if seen:
-                    raise InputFormatError(
-                        "expected: path, min x, max x, min y, max y, width, height, buffer", path=path, line=number)
-                continue  # header line
-            seen = True
-            yield parsed[0], parsed[1], number
+    try:
+        lines = read_limited(path, MAX_SIDE_FILE_BYTES, what="tile parameter file", errors="replace").splitlines()
+    except OSError as exc:
+        raise InputMissingError(f"cannot read: {(exc.strerror or str(exc)).lower()}", path=path) from None
+    for number, raw in enumerate(lines, start=1):
+        text = raw.strip()
+        if not text or text.startswith("#"):
+            continue
+        parsed = _parse_row(text)
+        if parsed is None:
+            if seen:
+                raise InputFormatError(
+                    "expected: path, min x, max x, min y, max y, width, height, buffer", path=path, line=number)
+            continue  # header line
+        seen = True
+        yield parsed[0], parsed[1], number
+
+
 
 
 def read_tile_parameters(path: str | Path) -> list[TileRow]:
     """All tile rows; relative tile paths are taken from the parameter file's folder."""
     path = Path(path)
     rows: list[TileRow] = []
-    for name, (minx, maxx, miny, maxy, width, height, buffer), number in _rows(path):
+    for name, numbers, number in _rows(path):
+        minx, maxx, miny, maxy, width, height, buffer = numbers
+        if not all(abs(v) <= MAX_COORDINATE for v in numbers):  # NaN too
+            raise InputFormatError("a number of the row is not a coordinate or a size (NaN, infinite, or beyond "
+                                   f"+-{MAX_COORDINATE:g})", path=path, line=number)
+        if not (width > 0 and height > 0 and buffer >= 0):
+            raise InputFormatError(f"tile width {width:g} and height {height:g} must be positive, buffer {buffer:g} "
+                                   "at least 0", path=path, line=number)
         if maxx <= minx or maxy <= miny:
             raise InputFormatError(f"tile range is empty ({minx:g}..{maxx:g}, {miny:g}..{maxy:g})",
                                    path=path, line=number)

@@ -10,19 +10,23 @@ from aldpat.errors import InputFormatError, InputMissingError, UsageError
 
 #: the largest worksheet or parameter file read: a worksheet of 10,000 jobs is about 2 MB
 MAX_TOML_BYTES = 32 << 20
+#: the largest side file read whole (a polygon's vertices, a tile parameter file's rows): a
+#: million vertices or tiles take tens of MB
+MAX_SIDE_FILE_BYTES = 256 << 20
 
 
-def read_limited(path: str | Path, limit: int, *, what: str) -> str:
+def read_limited(path: str | Path, limit: int, *, what: str, errors: str = "strict") -> str:
     """The UTF-8 text of ``path``, read with a bound: a file (or ``/dev/zero``, a pipe that never
     ends) longer than ``limit`` bytes is refused after reading ``limit`` bytes, never read on.
-    ``OSError`` (a missing file) is the caller's to word."""
+    ``errors="replace"`` keeps a byte that is not UTF-8 as one character. ``OSError`` (a missing
+    file) is the caller's to word."""
     path = Path(path)
     with open(path, "rb") as fh:
         data = fh.read(limit + 1)
     if len(data) > limit:
         raise InputFormatError(f"{what} larger than {limit >> 20} MB; is it the right file?", path=path)
     try:
-        return data.decode("utf-8-sig")
+        return data.decode("utf-8-sig", errors=errors)
     except UnicodeDecodeError as exc:
         raise InputFormatError(f"{what} is not UTF-8 text (byte {exc.start + 1})", path=path) from None
 

@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.polygon import clean_ring, points_in_polygons
-from aldpat.errors import InputFormatError, InputMissingError
+from aldpat.errors import InputFormatError, InputMissingError, shown
 from aldpat.io.atomic import atomic_output
 from aldpat.io.rawtext import RawLines, passthrough_ok
+from aldpat.io.toml import MAX_SIDE_FILE_BYTES, read_limited
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import kept_names
@@ -41,7 +42,7 @@ class PolygonExtractParams:
 def read_polygon_text(path: Path) -> list[list[np.ndarray]]:
     """One polygon from an ``x,y`` a line text file (comma, space or tab; header lines allowed)."""
     try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+        lines = read_limited(path, MAX_SIDE_FILE_BYTES, what="polygon file", errors="replace").splitlines()
     except OSError as exc:
         raise InputMissingError(f"cannot read: {exc.strerror or exc}", path=path) from None
     vertices: list[tuple[float, float]] = []
@@ -53,7 +54,7 @@ def read_polygon_text(path: Path) -> list[list[np.ndarray]]:
             values = [float(t) for t in tokens]
         except ValueError:
             if vertices:
-                raise InputFormatError(f"expected x,y numbers, got {line.strip()[:60]!r}", path=path,
+                raise InputFormatError(f"expected x,y numbers, got {shown(line.strip())}", path=path,
                                        line=number) from None
             continue  # a header line before the vertices
         if len(values) < 2 or not np.all(np.isfinite(values[:2])):

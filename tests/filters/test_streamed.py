@@ -95,9 +95,10 @@ def test_a_header_wider_than_the_points_gives_the_points_own_grid():
         lowest_codes(chunks, (xmin + 10.0, ymin, xmax, ymax), reader.height_codes(), 1.0, None)
 
 
-def test_a_header_narrower_than_the_points_reads_the_file_whole(tmp_path, runner, cli):
-    """Bounds in the header that leave points out (written by a careless tool) do not lose them:
-    the file is read whole instead, with the same classes."""
+def test_a_header_narrower_than_the_points_is_refused(tmp_path, runner, cli):
+    """Bounds in the header that leave points out contradict the data (a damaged file, or a tool
+    that did not update them): the file is refused in one line naming the first such point,
+    nothing is written."""
     import struct
 
     las = laspy.read(STRIP)
@@ -108,11 +109,9 @@ def test_a_header_narrower_than_the_points_reads_the_file_whole(tmp_path, runner
         fh.write(struct.pack("<d", float(np.asarray(las.x).max()) - 50.0))
     assert laspy.open(bad).header.maxs[0] < np.asarray(las.x).max()
     out = runner.invoke(cli, ["filter", "pm", str(bad), "--result", "classified", "--cell", "1"])
-    assert out.exit_code == 0, out.output
-    got = laspy.read(tmp_path / "bad_pm.las")
-    x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
-    expected = ground_filter(x, y, z, "pm", FILTERS["pm"].params(cell=1.0))
-    assert np.array_equal(np.asarray(got.classification) == 2, expected.is_ground)
+    assert out.exit_code == 1
+    assert "outside the header's bounds" in out.output
+    assert not (tmp_path / "bad_pm.las").exists()
 
 
 def test_a_height_stored_as_the_empty_cells_code_is_not_streamed():
