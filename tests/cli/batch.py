@@ -72,8 +72,11 @@ def main() -> None:
     for n, case in enumerate(cases):
         print(f"START {n}", flush=True)
         results.append(run_case(case["args"], case["cwd"], case.get("limit", 30.0), case.get("env", {})))
-        with open(out, "w", encoding="utf-8") as fh:  # what is done so far, should the next hang
+        # what is done so far, should the next hang: whole, or not at all (the process may be
+        # ended in the middle of a write)
+        with open(out + ".part", "w", encoding="utf-8") as fh:
             json.dump(results, fh)
+        os.replace(out + ".part", out)
 
 
 if __name__ == "__main__":

@@ -219,6 +219,14 @@ def _none_of(*paths: Path) -> Callable[[], str | None]:
     return check
 
 
+def _no_files(folder: Path) -> Callable[[], str | None]:
+    """Nothing written in ``folder`` (a command refusing its input midway may have made it)."""
+    def check() -> str | None:
+        there = sorted(str(p) for p in folder.rglob("*") if p.is_file()) if folder.exists() else []
+        return f"written: {there}" if there else None
+    return check
+
+
 def _no_png(folder: Path) -> Callable[[], str | None]:
     def check() -> str | None:
         pngs = sorted(str(p) for p in folder.rglob("*.png"))
@@ -546,4 +554,158 @@ def data_loss_cases(root: Path) -> list[Hostile]:
         return None
     cases.append(Hostile("data loss", "a killed run's lock, temporaries and scratch", ["run", sheet, "--resume"], root,
                          0, holds=swept))
+    return cases
+
+
+def _far_points(path: Path, apart: float) -> Path:
+    """Three points ``apart`` metres from each other: a grid of their extent at 1 m cells has
+    (apart + 1)**2 nodes."""
+    path.write_text(f"0 0 1\n{apart:.0f} 0 2\n0 {apart:.0f} 3\n", encoding="ascii")
+    return path
+
+
+def resources_cases(root: Path) -> list[Hostile]:
+    """Every allocation that follows from the data or a parameter is checked before it is made
+    (grid nodes, chunk copies, line length, file sizes, windows, counts in headers) and refused
+    in one line naming the input and what to change; parameters at extremes are refused."""
+    root.mkdir(parents=True, exist_ok=True)
+    rows = _lines(_points(300), "points")
+    a = _write(root / "a.txt", rows)
+    far = _far_points(root / "far.txt", 2_000_000)  # 4e12 nodes at 1 m: no machine holds them
+    out = root / "out"
+    cases = [
+        Hostile("resources", "grid on 3 points 2,000 km apart at 1 m cells", ["grid", far, "--cell", "1",
+                "--grid-format", "geotiff", "--odir", out], root, 1,
+                r"far\.txt: a 2000001 x 2000001 grid \(4\.0e\+12 nodes\) of 1 m cells needs 256\.0 TB of memory",
+                _none_of(out), limit=30),
+        Hostile("resources", "grid to Surfer 7 past its 2 GiB data section", ["grid", far, "--cell", "1", "--odir", out],
+                root, 1, r"far\.txt: a grid of 2000001 x 2000001 nodes is too large for one Surfer 7 data section",
+                _none_of(out), limit=30),
+        Hostile("resources", "dtm on 3 points 2,000 km apart", ["dtm", far, "--cell", "1", "--odir", out], root, 1,
+                r"far\.txt: a 2000001 x 2000001 grid .* needs .* of memory", _none_of(out), limit=30),
+        Hostile("resources", "a filter's grid of 3 points 2,000 km apart names the file", ["filter", "pm", far,
+                "--cell", "0.01", "--odir", out], root, 1, r"far\.txt: a \d+ x \d+ grid of 0\.01 m cells is too large",
+                _none_of(out), limit=30),
+        Hostile("resources", "grid --cell 1e-300", ["grid", a, "--cell", "1e-300", "--odir", out], root, 1,
+                r"a\.txt: x .* at 1e-300 m cells would take .* nodes a side", _none_of(out), limit=30),
+        Hostile("resources", "grid --chunk 1 with a 40 m buffer", ["grid", a, "--chunk", "1", "--chunk-buffer", "40",
+                "--odir", out], root, 2, r"--chunk 1 m with a 40 m buffer copies every point into 6,561 chunks",
+                _none_of(out), limit=30),
+        Hostile("resources", "filter --chunk 1 with its windows' buffer", ["filter", "pm", a, "--chunk", "1",
+                "--odir", out], root, 2, r"a\.txt: --chunk 1 m with a \d+ m buffer copies every point", _none_of(out),
+                limit=30),
+        Hostile("resources", "grid --chunk at the cell: a chunk a node", ["grid", a, "--cell", "0.01", "--chunk", "0.01",
+                "--chunk-buffer", "0", "--grid-format", "geotiff", "--odir", out], root, 2,
+                r"cuts the input into [\d,]+ chunks or more \(at most 1,000,000\)", _none_of(out), limit=30),
+        Hostile("resources", "--window-series-length 3000", ["filter", "pm", a, "--window-series-length", "3000",
+                "--odir", out], root, 2, r"window_series_length: 3000 is out of range", _none_of(out)),
+        Hostile("resources", "--window-series-length 200 past the widest window", ["filter", "pm", a,
+                "--window-series-length", "200", "--odir", out], root, 2,
+                r"window_series_length: 200 windows .* grow past 100,000 cells", _none_of(out)),
+        Hostile("resources", "a half window of 2**31 cells", ["filter", "gapm", a, "--window-series", "1,2,2147483648",
+                "--odir", out], root, 2, r"window_series: 2147483648 is out of range", _none_of(out)),
+        Hostile("resources", "--params /dev/zero", ["filter", "pm", a, "--params", "/dev/zero", "--odir", out], root, 2,
+                r"/dev/zero: TOML file larger than \d+ MB", _none_of(out), limit=30),
+        Hostile("resources", "--polygon /dev/zero", ["polygon-extract", a, "--polygon", "/dev/zero", "--odir", out],
+                root, 1, r"/dev/zero: polygon file larger than \d+ MB", _none_of(out), limit=30),
+        Hostile("resources", "an option of a megabyte", ["thin", a, "--cell", "1" * 1_000_000], root, 2,
+                r"cell: expected a finite number, got '1+\.\.\. \(1,000,002 characters\)"),
+    ]
+    # a file of one 4 MB line, a megabyte token on a later line, ten thousand columns
+    one_line = root / "one_line.txt"
+    one_line.write_text(" ".join(["1.5"] * 1_000_000) + "\n", encoding="ascii")
+    cases.append(Hostile("resources", "a 4 MB file of one line", ["thin", one_line, "--odir", out], root, 1,
+                         r"one_line\.txt: line 1 is longer than 65,536 bytes", _none_of(out)))
+    token = _write(root / "token.txt", rows[:5] + ["7" * 1_000_000 + " 1 2 3"] + rows[5:])
+    cases.append(Hostile("resources", "a megabyte token on line 6", ["thin", token, "--odir", root / "streamed"], root,
+                         1, r"token\.txt:6: longer than 65,536 characters", _none_of(root / "streamed" / "token_thin.txt")))
+    wide = _write(root / "wide.txt", [" ".join(["1.5"] * 10_000)] * 3)
+    cases.append(Hostile("resources", "ten thousand columns", ["thin", wide, "--odir", out], root, 1,
+                         r"wide\.txt:1: 10,000 columns", _none_of(out)))
+    bad = _write(root / "bad_token.txt", ["x" * 50_000 + " 1 2"] + rows)
+    cases.append(Hostile("resources", "a 50 kB header token is not echoed whole", ["thin", bad, "--odir", root / "kept"],
+                         root, 0))
+    # sizes in headers: a grid of 2**60 nodes, tile rows that are no numbers
+    import struct
+
+    huge = root / "huge.grd"
+    with open(huge, "wb") as fh:
+        fh.write(struct.pack("<iii", 0x42525344, 4, 1) + struct.pack("<ii", 0x44495247, 72)
+                 + struct.pack("<ii8d", 2**30, 2**30, 0, 0, 1, 1, 0, 1, 0, 1.70141e38)
+                 + struct.pack("<ii", 0x41544144, 32) + b"\0" * 32)
+    cases.append(Hostile("resources", "a Surfer grid header of 2**60 nodes", ["grd2bin", huge, "--odir", out], root, 1,
+                         r"huge\.grd: expected [\d,]+ node values, the file holds 4", _none_of(out)))
+    tp = root / "tp_nan.txt"
+    tp.write_text(f"{a} 500000 500100 4000000 4000100 100 100 10\nb.txt nan 500200 4000000 4000100 100 100 10\n")
+    cases.append(Hostile("resources", "a NaN in a tile_parameter.txt row", ["grid", a, "--tile-params", tp,
+                         "--odir", out], root, 1, r"tp_nan\.txt:2: a number of the row is not a coordinate",
+                         _none_of(out)))
+    # a list naming itself, and a worksheet of 3,000 jobs checked in linear time
+    listed = root / "self.lst"
+    listed.write_text(f"{a}\n@{listed}\n")
+    cases.append(Hostile("resources", "an @list naming itself", ["info", f"@{listed}"], root, 1, r"self\.lst"))
+    sheet = root / "many" / "w.toml"
+    sheet.parent.mkdir()
+    _write(sheet.parent / "in.txt", rows)
+    sheet.write_text("".join(f'[[job]]\ntask = "thin"\ninputs = ["in.txt"]\nsuffix = "_t{i}"\n\n' for i in range(3000)))
+    cases.append(Hostile("resources", "checking a worksheet of 3,000 jobs", ["run", sheet, "--dry-run", "-q"], root, 0,
+                         limit=60))
+    return cases
+
+
+def _patched(source: Path, path: Path, offset: int, fmt: str, value) -> Path:
+    """``source`` with the bytes at ``offset`` replaced by ``value`` packed as ``fmt``."""
+    import struct
+
+    data = bytearray(source.read_bytes())
+    struct.pack_into(fmt, data, offset, value)
+    path.write_bytes(bytes(data))
+    return path
+
+
+def las_header_cases(root: Path) -> list[Hostile]:
+    """A LAS header is data: one that contradicts itself or the points is refused in one line;
+    LAS 1.0 and 1.1 files are written as 1.2."""
+    root.mkdir(parents=True, exist_ok=True)
+    good = _las(root / "good.las", 400, point_format=1)
+    out = root / "out"
+    # LAS 1.2 header: x y z scales at 131, offsets at 155, max x at 179, min x at 187, the
+    # legacy point count at 107, the minor version at 25
+    broken = [
+        ("x scale 0", "scale0.las", 131, "<d", 0.0, r"x scale 0 is not a positive number"),
+        ("a negative y scale", "scaleneg.las", 139, "<d", -0.01, r"y scale -0\.01 is not a positive number"),
+        ("a NaN x offset", "offnan.las", 155, "<d", float("nan"), r"x offset nan is not a coordinate"),
+        ("a 1e300 y offset", "off1e300.las", 163, "<d", 1e300, r"y offset 1e\+300 is not a coordinate"),
+        ("an extent of 2e12 m", "extent.las", 179, "<d", 2e12, r"x bounds .* are not coordinates"),
+        ("an extent wider than the Earth", "earth.las", 179, "<d", 9e7, r"x bounds .* span more than the Earth"),
+        ("the minimum above the maximum", "minmax.las", 187, "<d", 600000.0, r"x minimum 600000 is above its maximum"),
+        ("four billion points in 20 kB", "count.las", 107, "<I", 2**32 - 1, r"truncated: header says 4294967295 points"),
+        ("points outside the header's bounds", "tight.las", 179, "<d", 500010.0,
+         r"point \d+ has x = .* outside the header's bounds"),
+    ]
+    cases = []
+    for name, file, offset, fmt, value, message in broken:
+        path = _patched(good, root / file, offset, fmt, value)
+        for command in (["info"], ["filter", "pm"], ["grid", "--chunk", "20"]):
+            cases.append(Hostile("LAS header", f"{' '.join(command)}: {name}", [*command, path, "--odir", out]
+                                 if command != ["info"] else [*command, path], root, 1,
+                                 rf"{re.escape(file)}: .*{message}", _no_files(out)))
+    laz = root / "count.laz"
+    laz.write_bytes(_las(root / "whole.laz", 400, point_format=1).read_bytes())
+    _patched(laz, laz, 107, "<I", 2**32 - 1)
+    cases.append(Hostile("LAS header", "a LAZ header counting 4 billion points", ["info", laz], root, 1,
+                         r"count\.laz: truncated or a corrupt header: header says 4,294,967,295 points"))
+    for minor in (0, 1):
+        old = _patched(good, root / f"v1{minor}.las", 25, "<B", minor)
+
+        def written_as_12(minor: int = minor) -> str | None:
+            made = root / "written" / f"v1{minor}_thin.las"
+            if not made.exists():
+                return f"{made.name} not written"
+            with laspy.open(made) as fh:
+                version = str(fh.header.version)
+            return None if version == "1.2" else f"{made.name} is LAS {version}"
+        cases.append(Hostile("LAS header", f"LAS 1.{minor} is written as 1.2", ["thin", old, "--odir", root / "written"],
+                             root, 0,
+                             holds=written_as_12))
     return cases

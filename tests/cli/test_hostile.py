@@ -13,7 +13,7 @@ import socket
 
 import pytest
 
-from tests.cli.corpus import Hostile, data_loss_cases, security_cases
+from tests.cli.corpus import Hostile, data_loss_cases, las_header_cases, resources_cases, security_cases
 from tests.cli.fresh import aldpat_batch
 
 
@@ -31,6 +31,8 @@ def check(cases: list[Hostile]) -> None:
             why.append(f"no one line matching {case.message!r}")
         if case.status == 2 and len(lines) != 1:
             why.append(f"{len(lines)} lines for a usage error")
+        if any(len(ln) > 2000 for ln in lines):  # a megabyte token is not echoed whole
+            why.append(f"a line of {max(map(len, lines)):,} characters")
         if case.holds is not None:
             try:
                 broken = case.holds()
@@ -66,3 +68,11 @@ def test_security(tmp_path, listener):
 
 def test_data_loss(tmp_path):
     check(data_loss_cases(tmp_path))
+
+
+def test_resources(tmp_path):
+    check(resources_cases(tmp_path))
+
+
+def test_las_header(tmp_path):
+    check(las_header_cases(tmp_path))
