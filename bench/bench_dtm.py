@@ -292,7 +292,7 @@ def run_project(width: float, buffer: float, cell: float, jobs: int) -> None:
         start = time.perf_counter()
         report = get_task(*name.split())(inputs, **options)
         if report.exit_code != 0:
-            raise RuntimeError([r.error for r in report.results])
+            raise RuntimeError(report.input_errors + [r.error for r in report.results if r.error])
         return time.perf_counter() - start, [w for r in report.results for w in r.warnings]
 
     with tempfile.TemporaryDirectory() as tmp:
