@@ -14,13 +14,14 @@ order (a TIN's triangles on a grid of points that are exactly cocircular, a sum'
 nodes on an edge are therefore computed again from the points within ``reach`` of that edge
 alone, sorted by (x, y, z), on a lattice spelt from the edge's own coordinates: the two tiles
 pass the very same arrays to the very same interpolator and get the very same values. A corner
-node, held by up to four tiles, is computed from the points within ``reach`` of the corner.
+node, held by up to four tiles, is computed from the points within ``reach`` of the corner. An
+edge no other tile holds, on the project's outer edge, keeps the tile's own values.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +35,8 @@ _ON_LATTICE = 1e-6
 #: ``fn(x, y, z, spec) -> values``: an interpolator (``aldpat.core.interpolate.interpolate`` with
 #: its options bound)
 Gridder = Callable[[np.ndarray, np.ndarray, np.ndarray, GridSpec], np.ndarray]
+#: a tile's core or a box of points: min x, max x, min y, max y (closed)
+Box = tuple[float, float, float, float]
 
 
 def _first_node(v: float, o: float, cell: float, up: bool) -> tuple[int, float]:
@@ -73,12 +76,20 @@ class SharedNodes:
     rows: slice
     cols: slice
     spec: GridSpec
-    box: tuple[float, float, float, float]  # min x, max x, min y, max y (closed)
+    box: Box  # the points they are computed from
 
 
-def shared_nodes(spec: GridSpec, core: tuple[float, float, float, float], origin: tuple[float, float],
-                 reach: float) -> Iterator[SharedNodes]:
-    """The edges on the lattice, then the corners on it (a corner's value replaces its edges')."""
+def _meets(a: Box, b: Box, tol: float) -> bool:
+    """Whether the closed boxes ``a`` and ``b`` have a point in common."""
+    return a[0] - tol <= b[1] and b[0] <= a[1] + tol and a[2] - tol <= b[3] and b[2] <= a[3] + tol
+
+
+def shared_nodes(spec: GridSpec, core: Box, origin: tuple[float, float], reach: float,
+                 others: Sequence[Box] | None = None) -> Iterator[SharedNodes]:
+    """The edges on the lattice, then the corners on it (a corner's value replaces its edges');
+    with ``others`` (the other tiles' cores) only those another tile holds a node of -- for an
+    edge, a node that is not one of its corners: on the project's outer edge the tile's own
+    interpolation stands, as in a grid of the whole site."""
     x0, x1, y0, y1 = core
     cell = spec.dx
     ox, oy = origin
@@ -86,16 +97,21 @@ def shared_nodes(spec: GridSpec, core: tuple[float, float, float, float], origin
     ys = [(y0, slice(0, 1)), (y1, slice(spec.ny - 1, spec.ny))]
     xs = [(v, s) for v, s in xs if on_lattice(v, ox, cell)]
     ys = [(v, s) for v, s in ys if on_lattice(v, oy, cell)]
-    for x, cols in xs:
-        yield SharedNodes(slice(0, spec.ny), cols, GridSpec(x, spec.ymin, cell, cell, 1, spec.ny),
-                          (x - reach, x + reach, y0 - reach, y1 + reach))
-    for y, rows in ys:
-        yield SharedNodes(rows, slice(0, spec.nx), GridSpec(spec.xmin, y, cell, cell, spec.nx, 1),
-                          (x0 - reach, x1 + reach, y - reach, y + reach))
-    for x, cols in xs:
-        for y, rows in ys:
-            yield SharedNodes(rows, cols, GridSpec(x, y, cell, cell, 1, 1),
-                              (x - reach, x + reach, y - reach, y + reach))
+    # the nodes of a column or row between its corners (empty when lo > hi)
+    ylo, yhi = spec.ymin + cell * (y0 in dict(ys)), spec.ymax - cell * (y1 in dict(ys))
+    xlo, xhi = spec.xmin + cell * (x0 in dict(xs)), spec.xmax - cell * (x1 in dict(xs))
+    parts = [((x, x, ylo, yhi), SharedNodes(slice(0, spec.ny), cols, GridSpec(x, spec.ymin, cell, cell, 1, spec.ny),
+                                             (x - reach, x + reach, y0 - reach, y1 + reach))) for x, cols in xs]
+    parts += [((xlo, xhi, y, y), SharedNodes(rows, slice(0, spec.nx), GridSpec(spec.xmin, y, cell, cell, spec.nx, 1),
+                                              (x0 - reach, x1 + reach, y - reach, y + reach))) for y, rows in ys]
+    parts += [((x, x, y, y), SharedNodes(rows, cols, GridSpec(x, y, cell, cell, 1, 1),
+                                         (x - reach, x + reach, y - reach, y + reach)))
+              for x, cols in xs for y, rows in ys]
+    tol = _ON_LATTICE * cell
+    for nodes, part in parts:
+        if others is None or (nodes[0] <= nodes[1] + tol and nodes[2] <= nodes[3] + tol
+                              and any(_meets(box, nodes, tol) for box in others)):
+            yield part
 
 
 def canonical_points(x: np.ndarray, y: np.ndarray, z: np.ndarray,
@@ -106,13 +122,14 @@ def canonical_points(x: np.ndarray, y: np.ndarray, z: np.ndarray,
     return x[order], y[order], z[order]
 
 
-def grid_tile(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec,
-              core: tuple[float, float, float, float], origin: tuple[float, float], reach: float,
-              grid: Gridder) -> np.ndarray:
+def grid_tile(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, core: Box,
+              origin: tuple[float, float], reach: float, grid: Gridder,
+              others: Sequence[Box] | None = None) -> np.ndarray:
     """The tile's nodes from its points and its neighbours' (every point within ``reach`` of its
-    core), with the nodes on its edges and corners computed as every tile holding them does."""
+    core), with the nodes on its edges and corners computed as every tile holding them does
+    (``others``: the cores of the tiles around it; None: every edge on the lattice)."""
     values = grid(x, y, z, spec)
-    for part in shared_nodes(spec, core, origin, reach):
+    for part in shared_nodes(spec, core, origin, reach, others):
         px, py, pz = canonical_points(x, y, z, part.box)
         try:
             shared = grid(px, py, pz, part.spec)

@@ -240,7 +240,8 @@ def tile_grid(tile: TileJob, x: np.ndarray, y: np.ndarray, z: np.ndarray, params
         def grid(px, py, pz, part: GridSpec) -> np.ndarray:
             return interpolate(px, py, pz, part, method=method, **options)
 
-        values = grid_tile(x, y, z, spec, tile.core, params.origin or (0.0, 0.0), params.buffer, grid)
+        touching = [(o.minx, o.maxx, o.miny, o.maxy) for o in tile.near(0.0)]
+        values = grid_tile(x, y, z, spec, tile.core, params.origin or (0.0, 0.0), params.buffer, grid, touching)
     except DataError as exc:
         ctx.warn(f"{name}: no grid written: {exc}")
         return None

@@ -69,3 +69,38 @@ def test_two_tiles_give_their_shared_column_bit_for_bit(method):
     assert np.isfinite(west[1:-1, -1]).all()
     if method in ("linear", "idw", "mean"):  # each tile on its own points differs in the last bits
         assert plain[0][:, -1].tobytes() != plain[1][:, 0].tobytes()
+
+
+def test_only_the_edges_and_corners_another_tile_holds_are_computed_again():
+    core = (0.0, 30.0, 0.0, 20.0)
+    spec = core_nodes(core, 2.0)
+
+    def parts(others):
+        return [(p.spec.xmin, p.spec.ymin, p.spec.nx, p.spec.ny)
+                for p in shared_nodes(spec, core, (0.0, 0.0), 5.0, others)]
+
+    # the tile to the east holds the east column, corners included
+    assert parts([(30.0, 60.0, 0.0, 20.0)]) == [(30.0, 0.0, 1, 11), (30.0, 0.0, 1, 1), (30.0, 20.0, 1, 1)]
+    assert parts([(30.0, 60.0, 20.0, 40.0)]) == [(30.0, 20.0, 1, 1)]  # a diagonal tile: its corner
+    assert parts([]) == []  # a tile alone
+    assert len(parts(None)) == 4 + 4  # not told: every edge and corner on the lattice
+
+
+def test_on_the_projects_outer_edge_the_tiles_own_interpolation_stands():
+    """IDW reaches any distance; an edge no other tile holds keeps the tile's own values instead
+    of being computed again from the points near it (none here: it would be blank)."""
+    rng = np.random.default_rng(5)
+    x, y = rng.uniform(10, 30, (2, 400))  # no point within 5 m of any edge
+    z = x + 2 * y
+
+    def grid(px, py, pz, part):
+        return interpolate(px, py, pz, part, method="idw")
+
+    core = (0.0, 40.0, 0.0, 40.0)
+    spec = core_nodes(core, 1.0)
+    plain = grid(x, y, z, spec)
+    alone = grid_tile(x, y, z, spec, core, (0.0, 0.0), 5.0, grid, others=[])
+    assert alone.tobytes() == plain.tobytes() and np.isfinite(alone).all()
+    beside = grid_tile(x, y, z, spec, core, (0.0, 0.0), 5.0, grid, others=[(40.0, 80.0, 0.0, 40.0)])
+    assert beside[:, :-1].tobytes() == plain[:, :-1].tobytes()
+    assert np.isnan(beside[:, -1]).all()  # the shared column: from the points within 5 m of it
