@@ -12,8 +12,9 @@ difference of each tiled DTM (its VRT mosaic) from the whole file's.
 wall time, points per second and peak memory of the process (with ``-j 2`` the workers' own
 memory is not in the parent's figure: see the ``-j 1`` row for one job's).
 
-``python bench/bench_dtm.py project [--width 500] [--buffer 30] [--cell 1] [--jobs 2]`` -- the
-README's project in tiles on FSite5 (``bench/data_paths.py``): ``aldpat tile`` at ``--width``
+``python bench/bench_dtm.py project [--site FSite5_orig-utm] [--width 500] [--buffer 30] [--cell 1]
+[--jobs 2]`` -- the README's project in tiles on a raw ISPRS site (FSite5, or ``--site
+CSite1_red2-utm`` / ``FSite8_red2-utm``; ``bench/data_paths.py``): ``aldpat tile`` at ``--width``
 with ``--buffer``, ``aldpat dtm`` and ``aldpat grid`` over the tile folder, ``aldpat filter gapm
 --result classified`` of the folder and ``aldpat merge`` of the classified tiles. Reported: the
 tiles, the nodes two or more tile grids hold and how many of them differ in any bit (values or
@@ -283,7 +284,7 @@ def shared_nodes(tifs: list[Path]) -> tuple[int, int]:
     return int((size > 1).sum()), int(differs.sum())
 
 
-def run_project(width: float, buffer: float, cell: float, jobs: int) -> None:
+def run_project(site_name: str, width: float, buffer: float, cell: float, jobs: int) -> None:
     import laspy
 
     from aldpat.tasks import get_task
@@ -297,7 +298,8 @@ def run_project(width: float, buffer: float, cell: float, jobs: int) -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
-        t_tile, _ = timed("tile", [FSITE5], width=width, height=width, buffer=buffer, odir=str(root / "tiles"))
+        source = ISPRS_SITES / f"{site_name}.laz"
+        t_tile, _ = timed("tile", [source], width=width, height=width, buffer=buffer, odir=str(root / "tiles"))
         tiles = sorted((root / "tiles").glob("tile_*.laz"))
         t_dtm, warned = timed("dtm", [root / "tiles"], cell=cell, jobs=jobs, odir=str(root / "dtm"),
                               mosaic=str(root / "dtm.vrt"))
@@ -308,14 +310,14 @@ def run_project(width: float, buffer: float, cell: float, jobs: int) -> None:
         grid_shared = shared_nodes(sorted((root / "grid").glob("*_linear.tif")))
         t_filter, _ = timed("filter gapm", [root / "tiles"], result="classified", jobs=jobs, odir=str(root / "ground"))
         t_merge, _ = timed("merge", [root / "ground"], output=str(root / "site.laz"))
-        site, merged = laspy.read(FSITE5), laspy.read(root / "site.laz")
+        site, merged = laspy.read(source), laspy.read(root / "site.laz")
         held = sum(laspy.open(p).header.point_count for p in tiles)
 
         def records(las) -> np.ndarray:
             return np.sort(np.rec.fromarrays([las.X, las.Y, las.Z, las.intensity, las.return_number]))
 
         same = np.array_equal(records(site), records(merged))
-    print(f"FSite5 ({len(site.points):,} points) in {len(tiles)} tiles of {width:g} m with a {buffer:g} m buffer "
+    print(f"{site_name} ({len(site.points):,} points) in {len(tiles)} tiles of {width:g} m with a {buffer:g} m buffer "
           f"({held:,} points held), cell {cell:g} m, -j {jobs}, load {os.getloadavg()[0]:.1f}")
     print("| step | wall s | result |")
     print("|---|---|---|")
@@ -336,7 +338,8 @@ def main() -> None:
     sp = sub.add_parser("speed", help="aldpat dtm over FSite5 in LAZ tiles")
     sp.add_argument("--tiles", type=int, default=3, help="N: N x N tiles")
     sp.add_argument("--cell", type=float, default=1.0)
-    pj = sub.add_parser("project", help="FSite5 as a project in tiles: tile, dtm, grid, filter, merge")
+    pj = sub.add_parser("project", help="a raw ISPRS site as a project in tiles: tile, dtm, grid, filter, merge")
+    pj.add_argument("--site", default=FSITE5.stem, choices=[FSITE5.stem, "CSite1_red2-utm", "FSite8_red2-utm"])
     pj.add_argument("--width", type=float, default=500.0)
     pj.add_argument("--buffer", type=float, default=30.0)
     pj.add_argument("--cell", type=float, default=1.0)
@@ -351,7 +354,7 @@ def main() -> None:
     elif args.command == "levels":
         run_levels(args.auto, args.filter_params, args.keep)
     elif args.command == "project":
-        run_project(args.width, args.buffer, args.cell, args.jobs)
+        run_project(args.site, args.width, args.buffer, args.cell, args.jobs)
     else:
         run_speed(args.tiles, args.cell)
 
