@@ -80,6 +80,14 @@ class InputMissingError(AldpatError, FileNotFoundError):
 class OutputExistsError(AldpatError, FileExistsError):
     """An output exists and ``--overwrite`` was not given."""
 
+    HINT = "use --overwrite to replace it"
+
+    def named_after_input(self) -> OutputExistsError:
+        """The same refusal of an output named after its input: a second product of that input
+        (another method, algorithm or colouring) is written beside the first with ``--suffix``."""
+        message = self.message.replace(self.HINT, self.HINT + ", or --suffix to name a second one apart", 1)
+        return OutputExistsError(message, path=self.path)
+
 
 class OutputError(AldpatError, OSError):
     """An output cannot be written (directory not writable, disk full...)."""

@@ -144,6 +144,9 @@ class JobContext:
         #: the run's scratch folder, where a first pass leaves what the task's jobs read
         self.scratch: Path | None = None
         self._planned: list[Planned] | None = None
+        #: the beginnings of the output names made from an input's name (:meth:`output_path`),
+        #: which ``--suffix`` changes
+        self.named_after_inputs: list[str] = []
 
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,
@@ -159,6 +162,8 @@ class JobContext:
             ext = output_extension(reader.path if reader is not None else source,
                                    getattr(self.output, "out_format", None))
         folder = self.output_dir(source)
+        if use_suffix_option and self.output is not None:
+            self.named_after_inputs.append(str(folder / f"{source.stem}{suffix}"))
         return folder / f"{source.stem}{suffix}{ext}"
 
     def outputs_for(self, source: Path) -> list[Planned]:

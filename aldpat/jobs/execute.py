@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 from aldpat import interrupt
-from aldpat.errors import AldpatError, UsageError
+from aldpat.errors import AldpatError, OutputExistsError, UsageError
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.joblog import write_job_log
 
@@ -58,6 +58,9 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
     try:
         with interrupt.doing(f"running: {job_names(sources)}"):
             body(ctx)
+    except OutputExistsError as exc:
+        named = exc.path is not None and exc.path.startswith(tuple(ctx.named_after_inputs))
+        result.error = str(exc.named_after_input() if named else exc)
     except AldpatError as exc:
         # a message names its file: the job's inputs when the step that refused did not know them
         result.error = str(exc) if exc.path is not None or not sources else f"{job_names(sources)}: {exc}"

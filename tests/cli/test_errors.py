@@ -74,9 +74,29 @@ def test_existing_output_without_overwrite(tmp_path, samp24):
     before = (tmp_path / "samp24.laz").read_bytes()
     again = run("convert", samp24, "--out-format", "laz", "--odir", tmp_path)
     assert again.returncode == 1
-    assert "samp24.laz: output exists (use --overwrite to replace it)" in again.stderr
+    assert "samp24.laz: output exists (use --overwrite to replace it, or --suffix to name a second one apart)" \
+        in again.stderr
     assert (tmp_path / "samp24.laz").read_bytes() == before
     assert run("convert", samp24, "--out-format", "laz", "--odir", tmp_path, "--overwrite").returncode == 0
+
+
+def test_a_second_choice_of_method_is_refused_with_the_way_to_keep_both(tmp_path, samp24):
+    """thin's (and dtm's, preview's) outputs are named by the task, not the method: a second
+    method is refused, and the refusal says how to write it beside the first."""
+    assert run("thin", samp24, "--cell", "5", "--method", "lowest", "--odir", tmp_path).returncode == 0
+    lowest = (tmp_path / "samp24_thin.txt").read_bytes()
+    again = run("thin", samp24, "--cell", "5", "--method", "median", "--odir", tmp_path)
+    assert again.returncode == 1
+    assert "samp24_thin.txt: output exists (use --overwrite to replace it, or --suffix to name a second one " \
+        "apart)" in again.stderr
+    assert (tmp_path / "samp24_thin.txt").read_bytes() == lowest
+    assert run("thin", samp24, "--cell", "5", "--method", "median", "--odir", tmp_path,
+               "--suffix", "_thin_median").returncode == 0
+    assert (tmp_path / "samp24_thin_median.txt").read_bytes() != lowest
+    # a name given whole is not made from the input's: there --suffix would change nothing
+    merged = run("merge", samp24, "-o", tmp_path / "samp24_thin.txt")
+    assert merged.returncode == 1
+    assert "samp24_thin.txt: output exists (use --overwrite to replace it)" in merged.stderr
 
 
 def test_output_folder_not_writable(tmp_path, samp24):
