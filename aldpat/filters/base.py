@@ -31,9 +31,9 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.height_codes import FloatHeights, Heights
+from aldpat.core.low_points import NO_LOW_POINTS, LowPoints, find_low_points, point_spacing
 from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_nearest, flat_cell_indices, lowest_grid
 from aldpat.core.memory import one_arena, release_free_memory
-from aldpat.core.morphology import within
 from aldpat.core.surface_test import SurfaceTest
 from aldpat.errors import DataError, ParamError
 from aldpat.options import ChunkOption, OriginOption
@@ -54,13 +54,6 @@ MARK_ABOVE_SURFACE = 1
 MARK_RAISED_SEGMENT = 9000
 #: Mark of a point set aside as a low outlier before filtering.
 MARK_LOW_OUTLIER = -9000
-#: Rounds of low-outlier removal: a clump of low points gives up one point per cell a round.
-LOW_OUTLIER_ROUNDS = 8
-#: A low outlier lies below the height this percentage of its window's cells reach: the floor
-#: of the neighbourhood, not its lowest cell, so a clump smaller than this share of the window
-#: is caught while a street between roofs (most of its window) is not.
-LOW_OUTLIER_RANK = 20
-
 #: Points classified per block when comparing with the ground surface (bounds temporaries).
 _CHUNK = 1 << 21
 
@@ -78,20 +71,25 @@ class FilterOutputOption(SharedOption):
 
 @dataclass(frozen=True)
 class LowOutlierOption(SharedOption):
-    """The low-outlier test (:func:`low_outliers`), taken by every ground filter."""
+    """The low-outlier test (:mod:`aldpat.core.low_points`), taken by every ground filter."""
 
     low_outliers: float | None = param(
-        None,
-        "before filtering, set aside low outliers (multipath, a pulse through a window): the lowest "
-        "point of a cell lying this far below the floor of its window (the height a fifth of the "
-        "window's cells reach) is non-ground and the cell's next point is taken, repeatedly "
-        "(after dissertation §4.1.1); none: off",
+        2.0,
+        "low outliers (multipath, a pulse through a window) take no part in finding ground and are "
+        "not ground (class 7 in classified output): points this far below every point around them "
+        "and below the floor of the terrain within low_outlier_reach (further where the heights "
+        "there spread more; after dissertation §4.1.1); none: off",
         unit="m", gt=0,
     )
     low_outlier_window: int = param(
-        4, "half window of the low-outlier test: a clump of low points must cover less than a fifth "
-        "of the (2k+1)^2 window to be caught",
+        2, "a clump of low points at most twice this many cells (or point spacings, where the "
+        "points are sparser than the cells) across is a low outlier; a wider hollow is terrain",
         unit="cells", ge=1, level="advanced",
+    )
+    low_outlier_reach: float = param(
+        20.0, "the terrain a low outlier must lie below: a plane through the points within this "
+        "distance, raised to the height a tenth of them reach",
+        unit="m", gt=0, level="advanced",
     )
 
 
@@ -324,6 +322,7 @@ class CellHeights:
     codes: np.ndarray
     heights: Heights
     owned: bool = False
+    spacing: float | None = None  # the points' mean spacing, where known
 
     @classmethod
     def of(cls, grid: LowestGrid) -> CellHeights:
@@ -344,6 +343,7 @@ class CellClasses:
     tolerance: float
     origin: tuple[float, float] | None = None
     surface: SurfaceTest | None = None
+    low: LowPoints = NO_LOW_POINTS  # the low outliers' cells, left out of the grid stage
 
     def classify(self, x, y, z, cell_index: np.ndarray | None = None, *, marks: bool = True
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -357,7 +357,8 @@ class CellClasses:
         other point is ground when it lies no more than ``tolerance`` above the final ground
         surface, interpolated bilinearly between ground cell centres so that a sloping cell does
         not push its upper points out of the ground. With the final surface test
-        (``surface``), that test decides every point's class instead.
+        (``surface``), that test decides every point's class instead. A point below the limit
+        of a low outlier's cell (``low``) is a low outlier whatever the rest says.
         """
         spec = self.cells.spec
         n = len(z)
@@ -372,8 +373,8 @@ class CellClasses:
             ci = flat_cell_indices(xs, ys, spec, origin=self.origin) if cell_index is None else cell_index[a:b]
             cm = flat_marks[ci]
             pm = cm.astype(np.int32)
-            other = np.flatnonzero(zs != decode(codes[ci]))
-            del ci
+            # a cell left out of the grid (empty, or a low outlier's) has no lowest point
+            other = np.flatnonzero((zs != decode(codes[ci])) | (cm == MARK_INTERPOLATED))
             if len(other) and (marks or self.surface is None):
                 h = zs[other] - self._ground_height(xs[other], ys[other])
                 ok = h <= self.tolerance  # NaN (no ground around) compares False
@@ -384,6 +385,11 @@ class CellClasses:
                 pm[~ig & (pm == MARK_GROUND)] = MARK_ABOVE_SURFACE
             else:
                 ig = pm == MARK_GROUND
+            if len(self.low):
+                low = self.low.below(ci, zs)
+                pm[low] = MARK_LOW_OUTLIER
+                ig[low] = False
+            del ci
             point_marks[a:b] = pm
             is_ground[a:b] = ig
         return point_marks, is_ground
@@ -438,8 +444,9 @@ class CellClasses:
             return num / den
 
 
-def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
-    """Fill, filter and return the cell mark matrix (int16 or int32) of one grid.
+def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | None) -> tuple[np.ndarray, LowPoints]:
+    """Fill, find the low outliers, filter and return the cell mark matrix (int16 or int32) of
+    one grid and the low outliers' cells (left out of the grid: marked as empty ones).
 
     Peak memory is what makes 1 m cells over a large survey possible, so the steps hold as
     little at once as they can: the empty cells are filled in the codes themselves when the
@@ -449,6 +456,8 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
     one_arena()  # before the filter's threads start: their scratch is then returned with the rest
     empty = cells.heights.is_empty(cells.codes)
     filled = cells.codes if cells.owned else cells.codes.copy()
+    low = find_low_outliers(cells, ~empty, params, spacing)  # on the cells as gridded
+    empty.ravel()[low.cells] = True  # filled from their neighbours, as an empty cell is
     fill_nearest(filled, empty, out=filled)
     raised = None
     if params.object_step > 0:
@@ -478,20 +487,32 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params) -> np.ndarray:
     if raised is not None:
         marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
     marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
-    return marks
+    return marks, low
 
 
-def cell_classes(spec: FilterSpec, cells: CellHeights, params, *, origin: tuple[float, float] | None = None
-                 ) -> CellClasses:
-    """The grid stage of a grid filter: fill, filter, the raised-segment test and, with
-    ``surface_threshold``, the provisional surface of SMRF's final test."""
-    marks = _run_grid(spec, cells, params)
+def find_low_outliers(cells: CellHeights, real: np.ndarray, params, spacing: float | None) -> LowPoints:
+    """The low outliers of a grid (:mod:`aldpat.core.low_points`) with the test's parameters;
+    none when ``low_outliers`` is off. ``spacing``: the input's point spacing."""
+    if getattr(params, "low_outliers", None) is None:
+        return NO_LOW_POINTS
+    return find_low_points(cells.codes, cells.heights.decode, real, cells.spec,
+                           origin=getattr(params, "origin", None), spacing=spacing, threshold=params.low_outliers,
+                           window=params.low_outlier_window, reach=params.low_outlier_reach)
+
+
+def cell_classes(spec: FilterSpec, cells: CellHeights, params, *, origin: tuple[float, float] | None = None,
+                 spacing: float | None = None) -> CellClasses:
+    """The grid stage of a grid filter: fill, the low-outlier test, filter, the raised-segment
+    test and, with ``surface_threshold``, the provisional surface of SMRF's final test.
+    ``spacing``: the input's point spacing (:func:`aldpat.core.low_points.point_spacing`), which
+    sets the low-outlier test's blocks."""
+    marks, low = _run_grid(spec, cells, params, spacing)
     surface = None
     if params.surface_threshold is not None:
         surface = SurfaceTest.build(cells, marks, threshold=params.surface_threshold,
                                     slope_scalar=params.surface_slope)
         release_free_memory()
-    return CellClasses(cells, marks, params.ground_tolerance, origin, surface)
+    return CellClasses(cells, marks, params.ground_tolerance, origin, surface, low)
 
 
 def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin, extent: Extent | None = None
@@ -510,43 +531,29 @@ def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin, 
 
 
 def low_outlier_reach(params) -> int:
-    """Cells the low-outlier test looks across: its window, once each round."""
+    """Cells the low-outlier test looks across: the terrain around a pit, in cells."""
     if getattr(params, "low_outliers", None) is None:
         return 0
-    return params.low_outlier_window * LOW_OUTLIER_ROUNDS
+    cell = float(getattr(params, "cell", None) or 1.0)
+    return max(4 * params.low_outlier_window, math.ceil(params.low_outlier_reach / cell - 1e-9))
 
 
-def low_outliers(x, y, z, params, extent: Extent | None = None) -> tuple[np.ndarray | None, LowestGrid]:
-    """Points set aside as low outliers (``None`` when the test is off) and the axis-aligned
-    lowest-point grid without them.
+def low_outlier_points(x, y, z, params, extent: Extent | None = None, spacing: float | None = None
+                       ) -> np.ndarray | None:
+    """Which points the low-outlier test finds on the lowest-point grid of ``params.cell`` (a
+    point filter's, which sets them aside before it runs); ``None`` when the test is off."""
+    if getattr(params, "low_outliers", None) is None or len(z) == 0:
+        return None
+    grid = lowest_grid(x, y, z, params.cell, origin=getattr(params, "origin", None), extent=extent)
+    spacing = spacing if spacing is not None else points_spacing(x, y)
+    return find_low_outliers(CellHeights.of(grid), ~grid.empty, params, spacing).below(grid.cell_index, z)
 
-    The dissertation (§4.1.1) finds low outliers as cells sinking below a small *closing* of the
-    grid. A closing also fills every street narrower than its window between roofs, so here a
-    cell is compared with the floor of its window instead -- the height ``LOW_OUTLIER_RANK`` % of
-    the window's cells reach (a rank filter) -- which a clump of low points covering less than
-    that share of the window stays below while a street covering more of it does not. Each
-    round sets aside the lowest point of every such cell and looks again at the next one, so a
-    clump of multipath points drains within ``LOW_OUTLIER_ROUNDS`` rounds.
-    """
-    origin = getattr(params, "origin", None)  # point filters' cells start at whole multiples
-    if params.low_outliers is None or len(z) == 0:
-        return None, lowest_grid(x, y, z, params.cell, origin=origin, extent=extent)
-    from scipy import ndimage
 
-    out = np.zeros(len(z), bool)
-    for _ in range(LOW_OUTLIER_ROUNDS):
-        grid = _lowest_without(x, y, z, out, params.cell, origin, extent)
-        if grid.empty.all():
-            return out, grid
-        size = 2 * within(params.low_outlier_window, grid.z.shape) + 1
-        filled = fill_nearest(grid.z, grid.empty)
-        floor = ndimage.rank_filter(filled, LOW_OUTLIER_RANK * size * size // 100, size=size, mode="nearest")
-        deep = floor - filled > params.low_outliers
-        deep &= ~grid.empty
-        if not deep.any():
-            return out, grid
-        out[grid.lowest[deep]] = True
-    return out, _lowest_without(x, y, z, out, params.cell, origin, extent)
+def points_spacing(x: np.ndarray, y: np.ndarray) -> float | None:
+    """The mean spacing of points over their own extent (:func:`point_spacing`)."""
+    if len(x) == 0:
+        return None
+    return point_spacing(len(x), (float(x.min()), float(y.min()), float(x.max()), float(y.max())))
 
 
 def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, np.ndarray]:
@@ -556,7 +563,8 @@ def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, n
     return x * c - y * s, x * s + y * c
 
 
-def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None = None) -> FilterResult:
+def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None = None,
+                  spacing: float | None = None) -> FilterResult:
     """Classify points as ground / non-ground with the registered grid filter ``algorithm``.
 
     Parameters
@@ -568,6 +576,9 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
     extent : (xmin, ymin, xmax, ymax), optional
         the extent the grid covers (default: the points'); a chunk of a file passes the file's
         extent clipped to the chunk's buffer, so that its grid has the file's cells and edges.
+    spacing : float, optional
+        the input's mean point spacing, which sets the low-outlier test's blocks (default: the
+        points' own, over their extent); a chunk of a file passes the whole file's.
 
     With the manual's Rotate Angle / Rotate Times (filters registered with ``rotations``),
     the data are rotated, gridded and filtered at each angle; a point is ground only when every
@@ -586,30 +597,34 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
         raise ValueError("x, y and z must be 1-D arrays of the same length")
     if len(z) and not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(z).all()):
         raise DataError("points with non-finite coordinates cannot be filtered")
+    if spacing is None:
+        spacing = points_spacing(x, y)
     if spec.on_points:
-        return _point_filter(spec, x, y, z, params, extent)
+        return _point_filter(spec, x, y, z, params, extent, spacing)
     angles = tuple(float(a) for a in spec.rotations(params)) if spec.rotations else (0.0,)
     if not angles:
         angles = (0.0,)
 
     units.stage("grid")
-    set_aside, base = low_outliers(x, y, z, params, extent)
+    base = lowest_grid(x, y, z, params.cell, origin=params.origin, extent=extent)
     if len(z) == 0:
         return FilterResult(np.zeros(0, np.int32), np.zeros(0, bool), base,
                             np.full(base.z.shape, MARK_INTERPOLATED, np.int32), angles, algorithm, params)
     point_marks: np.ndarray | None = None
     is_ground: np.ndarray | None = None
+    low = np.zeros(len(z), bool)  # a low outlier on any orientation's grid
     for angle in angles:
         if angle % 360.0 == 0.0:
             grid, xr, yr = base, x, y
         else:
             xr, yr = _rotate(x, y, angle)
-            grid = _lowest_without(xr, yr, z, set_aside, params.cell, None)
+            grid = lowest_grid(xr, yr, z, params.cell)
         units.stage("filter" if len(angles) == 1 else f"filter at {angle:g} degrees")
-        classes = cell_classes(spec, CellHeights.of(grid), params)
+        classes = cell_classes(spec, CellHeights.of(grid), params, spacing=spacing)
         units.stage("classify", len(z))
         pm, ig = classes.classify(xr, yr, z, grid.cell_index)
         units.advance(len(z))
+        low |= pm == MARK_LOW_OUTLIER
         if point_marks is None:
             point_marks, is_ground = pm, ig
         else:
@@ -619,9 +634,7 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
         del classes, pm, ig
 
     assert point_marks is not None and is_ground is not None  # one angle at least
-    if set_aside is not None:
-        is_ground[set_aside] = False
-        point_marks[set_aside] = MARK_LOW_OUTLIER
+    point_marks[low] = MARK_LOW_OUTLIER
     # the mark matrix reported is that of the axis-aligned grid
     return FilterResult(point_marks, is_ground, base, _cell_marks(base, point_marks), angles, algorithm, params)
 
@@ -647,11 +660,12 @@ def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Exten
     return _lowest_without(x, y / stretch if stretch != 1.0 else y, z, leave_out, width, None, extent)
 
 
-def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None = None) -> FilterResult:
+def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None, spacing: float | None
+                  ) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
     units.stage("grid")
-    set_aside = low_outliers(x, y, z, params, extent)[0] if params.low_outliers is not None else None
+    set_aside = low_outlier_points(x, y, z, params, extent, spacing)
     # the filter's own grid, gridded once for it and the report; low outliers are no cell's lowest
     grid = cell_grid(x, y, z, params, extent, leave_out=set_aside)
     if len(z) == 0:

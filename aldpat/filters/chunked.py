@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from aldpat.core.low_points import point_spacing
 from aldpat.errors import UsageError
 from aldpat.filters.base import get_filter, ground_filter, low_outlier_reach
 from aldpat.io.chunks import ChunkLattice, SpilledChunks, map_chunks, spill_chunks
@@ -79,7 +80,9 @@ def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, pla
         n = spilled.points
         marks = np.lib.format.open_memmap(scratch / "marks.npy", mode="w+", dtype=np.int32, shape=(max(n, 1),))
         classes = np.lib.format.open_memmap(scratch / "classes.npy", mode="w+", dtype=np.uint8, shape=(max(n, 1),))
-        jobs = [(spilled, col, row, algorithm, params, classes_of) for col, row in spilled.chunks]
+        # the whole input's spacing: every chunk's low-outlier test takes the blocks a whole-file run takes
+        spacing = point_spacing(spilled.points, spilled.bounds)
+        jobs = [(spilled, col, row, algorithm, params, classes_of, spacing) for col, row in spilled.chunks]
         seconds = 0.0
         for rows, m, c, t in map_chunks(_filter_one_chunk, jobs, workers):
             marks[rows] = m
@@ -99,8 +102,8 @@ class ChunkRun:
     seconds: float  # the chunks' own filtering time, summed over them
 
 
-def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of,
+                      spacing: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The rows, marks and classes of the points of chunk (col, row), filtered with its buffer,
     and the seconds it took."""
     start = time.perf_counter()
@@ -110,6 +113,6 @@ def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str
     own = (own_col == col) & (own_row == row)
     # the grid of the whole file's cells there, edges included: a grid on the chunk's own points
     # would end where they end, and an opening at a grid's edge sees other cells than inside it
-    res = ground_filter(x, y, z, algorithm, params, extent=spilled.extent(col, row))
+    res = ground_filter(x, y, z, algorithm, params, extent=spilled.extent(col, row), spacing=spacing)
     cls = classes_of(res, z, params)
     return points["row"][own], res.point_marks[own], cls[own], time.perf_counter() - start

@@ -9,8 +9,9 @@ The classes are those :func:`aldpat.filters.base.ground_filter` gives the same p
 memory: the same cells, the same grid stage (:func:`aldpat.filters.base.cell_classes`), the same
 per-point tests.
 
-Which runs can go this way (:func:`streamable`): a grid filter without rotations, low-outlier
-rounds or noise classes (each needs every point at once), on heights given as scaled integers.
+Which runs can go this way (:func:`streamable`): a grid filter without rotations or noise classes
+(each needs every point at once), on heights given as scaled integers. The low-outlier test
+decides from the grid (:mod:`aldpat.core.low_points`), so it streams too.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
+from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, floor_index, grid_spec
 from aldpat.filters.base import CellClasses, CellHeights, cell_classes, get_filter
 
@@ -42,12 +44,13 @@ def streamable(algorithm: str, params) -> bool:
         return False
     if spec.rotations is not None and any(float(a) % 360.0 for a in spec.rotations(params)):
         return False
-    return getattr(params, "low_outliers", None) is None and not getattr(params, "auto", False)
+    return not getattr(params, "auto", False)
 
 
 def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHeights, cell: float,
                  origin: tuple[float, float] | None) -> CellHeights:
-    """The lowest height code of every cell, over the cells of the points' own extent.
+    """The lowest height code of every cell, over the cells of the points' own extent, and the
+    points' spacing over it.
 
     The grid is laid over ``bounds`` (a file header's), then cut to the cells the points reach:
     the grid a whole-file run makes from the points' minima and maxima. A point outside
@@ -60,6 +63,7 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
     codes = np.full(outer.size, heights.empty, heights.dtype)
     lo = [np.inf, np.inf]
     hi = [-np.inf, -np.inf]
+    count = 0
     for x, y, z in chunks:
         if not len(x):
             continue
@@ -76,6 +80,7 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
         flat += col
         del col
         np.minimum.at(codes, flat, z)
+        count += len(x)
         lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
         hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
     own = grid_spec(np.zeros(0), np.zeros(0), cell, origin=origin, extent=(lo[0], lo[1], hi[0], hi[1])
@@ -86,7 +91,8 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
         c0 = round((own.x0 - outer.x0) / cell)
         grid = grid[r0:r0 + own.rows, c0:c0 + own.cols].copy()
     del codes
-    return CellHeights(own, grid, heights, owned=True)
+    extent = (lo[0], lo[1], hi[0], hi[1]) if np.isfinite(lo[0]) else None
+    return CellHeights(own, grid, heights, owned=True, spacing=point_spacing(count, extent))
 
 
 def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, heights: ScaledHeights,
@@ -98,7 +104,7 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
     log.debug("%s: %d x %d cells of %g m from two passes", algorithm, cells.spec.rows, cells.spec.cols,
               params.cell)
     units.stage("filter")
-    return cell_classes(spec, cells, params, origin=params.origin)
+    return cell_classes(spec, cells, params, origin=params.origin, spacing=cells.spacing)
 
 
 def stream_ground(reader, algorithm: str, params, chunk: int

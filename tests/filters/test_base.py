@@ -149,14 +149,15 @@ def test_registration_rules():
 
 def test_low_outliers_are_set_aside_and_the_ground_around_them_kept():
     """A clump of 40 multipath points 3-8 m below a slope and 10 isolated ones: without the
-    test most of them are taken for ground, and ground around them is rejected."""
+    test most of them are taken for ground, and ground around them is rejected; the defaults
+    set every one aside and keep all the ground."""
     from aldpat.filters.base import MARK_LOW_OUTLIER
     from aldpat.filters.gapm import GapmParams
 
     xs, ys, zs, ground = slope_with_low_clump(isolated=10)
-    without = ground_filter(xs, ys, zs, "gapm", GapmParams())
+    without = ground_filter(xs, ys, zs, "gapm", GapmParams(low_outliers=None))
     assert (~without.is_ground[ground]).sum() > 5 and without.is_ground[~ground].sum() > 40
-    res = ground_filter(xs, ys, zs, "gapm", GapmParams(low_outliers=1.0))
+    res = ground_filter(xs, ys, zs, "gapm", GapmParams())
     assert (~res.is_ground[ground]).sum() == 0 and res.is_ground[~ground].sum() == 0
     assert (res.point_marks[~ground] == MARK_LOW_OUTLIER).all()
     assert len(res.is_ground) == len(zs)  # every point classified, none dropped

@@ -84,15 +84,18 @@ def test_the_other_filters_agree_on_a_real_strip(tmp_path, algorithm):
 
 def test_point_filters_take_their_own_buffer_with_auto(tmp_path):
     """slope: its search radius and two cells; ipf and poly2: three first windows; atin: the
-    manual's Tile Buffer."""
+    manual's Tile Buffer; each with twice the low-outlier test's terrain (20 m at 1 m cells)."""
     buffers = {name: chunk_plan(name, FILTERS[name].params(), 100.0, "auto").lattice.buffer
                for name in ("slope", "ipf", "poly2", "atin")}
-    assert buffers == {"slope": 10.0, "ipf": 90.0, "poly2": 120.0, "atin": 100.0}
+    assert buffers == {"slope": 50.0, "ipf": 130.0, "poly2": 160.0, "atin": 140.0}
+    bare = {name: chunk_plan(name, FILTERS[name].params(low_outliers=None), 100.0, "auto").lattice.buffer
+            for name in ("slope", "ipf", "poly2", "atin")}
+    assert bare == {"slope": 10.0, "ipf": 90.0, "poly2": 120.0, "atin": 100.0}
     wide = FILTERS["ipf"].params(init_window_length=50.0, cell=2.0)
-    assert chunk_plan("ipf", wide, 100.0, "auto").lattice.buffer == 150.0
+    assert chunk_plan("ipf", wide, 100.0, "auto").lattice.buffer == 150.0 + 40.0
     report = get_task("filter", "slope")([SAMPLE], odir=str(tmp_path), chunk=50.0)
     assert report.exit_code == 0
-    assert "with 10 m buffers" in (tmp_path / "samp24_slope.log").read_text()
+    assert "with 50 m buffers" in (tmp_path / "samp24_slope.log").read_text()
 
 
 def test_a_filter_without_reach_or_buffer_asks_for_metres(monkeypatch):

@@ -226,15 +226,15 @@ def test_atin_roof_larger_than_the_seed_squares_is_a_raised_segment():
 @pytest.mark.parametrize("name", POINT_FILTERS)
 def test_point_filters_set_low_outliers_aside(name):
     """The clump of multipath points of the grid filters' low-outlier test, under every point
-    filter: with ``low_outliers`` the clump is set aside (marked as the grid filters mark it) and
-    the ground around it kept."""
+    filter: with ``low_outliers`` (the default) the clump is set aside (marked as the grid filters
+    mark it) and the ground around it kept."""
     from aldpat.filters.base import MARK_LOW_OUTLIER
 
     xs, ys, zs, ground = slope_with_low_clump()
     n = int(ground.sum())
     params = FILTERS[name].params
-    without = ground_filter(xs, ys, zs, name, params())
-    res = ground_filter(xs, ys, zs, name, params(low_outliers=1.0))
+    without = ground_filter(xs, ys, zs, name, params(low_outliers=None))
+    res = ground_filter(xs, ys, zs, name, params())
     lost_without, lost = (~without.is_ground[ground]).sum(), (~res.is_ground[ground]).sum()
     assert lost < lost_without and lost <= 0.01 * n, (lost_without, lost)
     assert res.is_ground[~ground].sum() <= 1

@@ -36,7 +36,7 @@ def _params(name: str, **values):
 def test_the_grid_filters_that_can_stream():
     # every grid filter but the one that finds noise (it needs all points' heights at once)
     assert set(STREAMABLE) == {n for n, s in FILTERS.items() if not s.on_points} - {"outlier"}
-    assert not streamable("gapm", _params("gapm", low_outliers=2.0))
+    assert streamable("gapm", _params("gapm", low_outliers=2.0))  # the test decides on the grid
     assert not streamable("gapm", _params("gapm", auto=True))
 
 
@@ -124,3 +124,30 @@ def test_a_height_stored_as_the_empty_cells_code_is_not_streamed():
     codes = np.array([1200, EMPTY_CODE], np.int32)
     with pytest.raises(Unstreamable, match="empty cell"):
         lowest_codes([(x, y, codes)], (10.0, 5.0, 12.0, 6.0), reader.height_codes(), 1.0, None)
+
+
+def test_low_outliers_are_found_in_the_two_passes(tmp_path, monkeypatch, runner, cli):
+    """The low-outlier test decides on the grid, so a file holding a point 106 m under the ground
+    is still filtered in two passes (never read whole), with the classes of the points held in
+    memory: that point is class 7, low noise."""
+    pit = DATA / "fsite5_pit.laz"
+    las = laspy.read(pit)
+    x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
+    params = FILTERS["gapm"].params(cell=1.0)
+    assert streamable("gapm", params)
+    expected = ground_filter(x, y, z, "gapm", params)
+    aldpat("filter", "gapm", pit, "--odir", tmp_path, "--result", "classified", "--marks", "--cell", "1").ok()
+    got = laspy.read(tmp_path / "fsite5_pit_gapm.laz")
+    assert np.array_equal(np.asarray(got["mark"]), expected.point_marks)
+    cls = np.asarray(got.classification)
+    assert np.array_equal(cls == 2, expected.is_ground)
+    assert cls[np.argmin(z)] == 7 and z.min() < np.median(z) - 100
+
+    def whole(_self):
+        raise AssertionError("the file was read whole")
+
+    monkeypatch.setattr(LasReader, "read", whole)
+    out = runner.invoke(cli, ["filter", "gapm", str(pit), "--odir", str(tmp_path / "again"), "--result", "classified",
+                              "--cell", "1"])
+    assert out.exit_code == 0, out.output
+    assert np.array_equal(np.asarray(laspy.read(tmp_path / "again" / "fsite5_pit_gapm.laz").classification), cls)
