@@ -33,7 +33,7 @@ import hashlib
 import logging
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +45,7 @@ from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.streamed import stream_ground, streamable
+from aldpat.filters.base import LowOutlierOption
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
@@ -59,12 +60,15 @@ from aldpat.tasks.grid import check_grid_fits, check_spread, grid_mosaic, grid_s
 
 log = logging.getLogger(__name__)
 
+#: The low-outlier test's options, which ``dtm`` takes itself and hands to its filter.
+LOW_OUTLIER_KEYS = tuple(f.name for f in fields(LowOutlierOption))
+
 #: Filters that find ground (``outlier`` finds noise only: a DTM from it would keep the roofs).
 GROUND_FILTERS = tuple(sorted(name for name in FILTERS if name != "outlier"))
 
 
 @dataclass(frozen=True)
-class DtmParams(OriginOption, CrsOption, Checked):
+class DtmParams(LowOutlierOption, OriginOption, CrsOption, Checked):
     cell: float = param(1.0, "DTM node spacing", unit="m", gt=0)
     algorithm: str = param("gapm", "ground filter", choices=GROUND_FILTERS)
     filter_params: str | None = param(None, "the filter's parameters: a TOML file of the keys 'aldpat filter "
@@ -94,10 +98,12 @@ class DtmParams(OriginOption, CrsOption, Checked):
         self.ground_params()  # a bad filter parameter file fails before any point is read
 
     def ground_params(self) -> Any:
-        """The filter's parameters: its defaults, then ``filter_params``, then ``auto``."""
+        """The filter's parameters: its defaults, then ``filter_params``, then the low-outlier
+        test's options of ``dtm`` itself, then ``auto``."""
         layers: list[tuple[str, dict]] = []
         if self.filter_params:
             layers.append((self.filter_params, load_toml(self.filter_params)))
+        layers.append(("dtm", {name: getattr(self, name) for name in LOW_OUTLIER_KEYS}))
         if self.auto:
             layers.append(("--auto", {"auto": True}))
         return resolve(FILTERS[self.algorithm].params, layers, where="filter_params: ").values

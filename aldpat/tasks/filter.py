@@ -26,6 +26,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
+from aldpat.filters.base import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
 from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, for_point_format
@@ -42,16 +43,18 @@ log = logging.getLogger(__name__)
 STREAM_CHUNK = 200_000
 
 
-def ground_classes(is_ground: np.ndarray) -> np.ndarray:
-    """ASPRS classes from ground flags: 2 ground, 1 unclassified."""
-    return np.where(is_ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+def ground_classes(is_ground: np.ndarray, marks: np.ndarray) -> np.ndarray:
+    """ASPRS classes from ground flags and marks: 2 ground, 7 a low outlier, else 1."""
+    cls = np.where(is_ground, GROUND, UNCLASSIFIED).astype(np.uint8)
+    cls[marks == MARK_LOW_OUTLIER] = LOW_NOISE
+    return cls
 
 
 def point_classes(res, z: np.ndarray, params, algorithm: str) -> np.ndarray:
-    """ASPRS classes of every point: 2 ground, 1 unclassified, and for a filter that finds noise
-    (``outlier``) 7 low noise and 18 high noise (made 7 where written to LAS point formats 0-5,
-    which reserve 18: :func:`aldpat.io.classified.for_point_format`)."""
-    cls = ground_classes(res.is_ground)
+    """ASPRS classes of every point: 2 ground, 7 low outliers, 1 unclassified, and for a filter
+    that finds noise (``outlier``) 7 low noise and 18 high noise (made 7 where written to LAS
+    point formats 0-5, which reserve 18: :func:`aldpat.io.classified.for_point_format`)."""
+    cls = ground_classes(res.is_ground, res.point_marks)
     noise = FILTERS[algorithm].noise
     if noise is not None:
         kind = noise(res, z, params)
@@ -203,7 +206,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
 
     def classes_of(table, _start, _stop):
         marks, ground = classes.classify(table.x, table.y, table.z, marks=params.marks)
-        return marks, ground_classes(ground)
+        return marks, ground_classes(ground, marks)
 
     _write_from_classes(source, reader, outputs, params, ctx, classes_of, STREAM_CHUNK)
     return True

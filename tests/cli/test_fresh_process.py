@@ -105,8 +105,11 @@ def test_every_filter_writes_terrain_and_classified_las(work, tmp_path, algorith
            "--odir", tmp_path / "c").ok()
     las = laspy.read(tmp_path / "c" / f"samp_{algorithm}.laz")
     assert len(las.points) == n
-    noise = {7} if algorithm == "outlier" else set()  # ASPRS low noise (high noise too: point format 0)
-    assert set(np.unique(las.classification)) <= {1, 2} | noise and int((las.classification == 2).sum()) == ground
+    # ASPRS low noise: the low outliers every filter sets aside (and the outlier filter's noise,
+    # high noise too in point format 0)
+    assert set(np.unique(las.classification)) <= {1, 2, 7} and int((las.classification == 2).sum()) == ground
+    if algorithm != "outlier":
+        assert np.array_equal(las.classification == 7, np.asarray(las["mark"]) == -9000)
     assert "mark" in las.point_format.extra_dimension_names
     done = aldpat("evaluate", tmp_path / "t" / f"samp_{algorithm}.txt", "--reference", src, "--json",
                   "--map", tmp_path / "calls.png").ok()
@@ -283,6 +286,7 @@ def test_worksheet_runs_the_manuals_point_filters_with_their_parameter_files(tmp
         assert count_points(out) == n
         table = np.loadtxt(out)
         mark, cls = table[:, -2], table[:, -1]
-        assert set(np.unique(cls)) == {1.0, 2.0} and np.array_equal(mark == 0, cls == 2)
+        assert {1.0, 2.0} <= set(np.unique(cls)) <= {1.0, 2.0, 7.0} and np.array_equal(mark == 0, cls == 2)
+        assert np.array_equal(cls == 7, mark == -9000)  # low outliers: ASPRS low noise
         log = (work / "out" / f"samp24_{algo}.log").read_text()
         assert "(params file)" in log

@@ -201,3 +201,23 @@ def test_a_las_is_filtered_in_two_passes_with_the_in_memory_dtm(tmp_path, monkey
             rasterio.open(tmp_path / "whole" / "fsite5_strip_dtm.tif") as b:
         assert a.transform == b.transform
         np.testing.assert_array_equal(a.read(1), b.read(1))
+PIT = Path(__file__).resolve().parents[1] / "data" / "fsite5_pit.laz"  # 80 m of FSite5 round a low point
+PIT_XY = (493801.0, 5420487.0)  # one point there lies 106 m below the ground around it
+
+
+def test_no_default_dtm_carries_a_pit_from_a_single_low_point(tmp_path):
+    """In a fresh ``aldpat`` process: the default DTM of real points holding one point 106 m
+    under the ground has no pit there; with the low-outlier test off (``--low-outliers none``)
+    it has, 106 m deep."""
+    from tests.cli.fresh import aldpat
+
+    depths = {}
+    for label, extra in (("default", []), ("off", ["--low-outliers", "none"])):
+        aldpat("dtm", PIT, "--odir", tmp_path / label, *extra).ok()
+        with rasterio.open(tmp_path / label / "fsite5_pit_dtm.tif") as grid:
+            z = grid.read(1, masked=True)
+            r, c = grid.index(*PIT_XY)
+        ring = np.ma.concatenate([z[r - 3, c - 3:c + 4], z[r + 3, c - 3:c + 4], z[r - 2:r + 3, c - 3], z[r - 2:r + 3, c + 3]])
+        depths[label] = float(np.ma.median(ring) - z[r - 1:r + 2, c - 1:c + 2].min())
+    assert depths["default"] < 1.0, depths  # the ground's own relief over 3 m
+    assert depths["off"] > 100.0, depths
