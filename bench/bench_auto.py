@@ -4,7 +4,8 @@
     python bench/bench_auto.py sweep --auto # the same with --auto
     python bench/bench_auto.py report       # the shipped defaults and --auto, per sample
     python bench/bench_auto.py others       # the same two steps added to pm, pm2d, pmcircle, etew
-    python bench/bench_auto.py lowout       # the low-outlier test on top of the defaults
+    python bench/bench_auto.py lowout       # the low-outlier test's cost: off, shipped, in-sample, LOO
+    python bench/bench_auto.py planted      # single low points planted under the raw sites: found?
     python bench/bench_auto.py terraces     # walled terraces: the defaults against the former ones
     python bench/bench_auto.py scenes       # the known-answer scenes of each terrain type
 
@@ -31,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from isprs import Score, load_samples, score
 
 import aldpat.tasks  # noqa: F401  (registers every filter)
-from aldpat.filters.base import ground_filter
+from aldpat.filters.base import MARK_LOW_OUTLIER, ground_filter
 from aldpat.filters.gapm import GapmParams, auto_params
 
 #: The candidates: the published windows and thresholds of parameter set 01 stay as printed;
@@ -118,13 +119,82 @@ def others(samples) -> None:
             print(f"| {label} | " + " | ".join(f"{t:.2f}" for t in totals) + f" | {np.mean(totals):.2f} |")
 
 
+#: The low-outlier test's candidate settings (``lowout``): threshold (m), window (cells), reach (m).
+LOW_OUTLIER_CANDIDATES = {
+    "low_outliers": (1.5, 2.0, 3.0),
+    "low_outlier_window": (1, 2, 3),
+    "low_outlier_reach": (10.0, 20.0, 30.0),
+}
+
+
 def lowout(samples) -> None:
-    """gapm's defaults with the low-outlier test at a few thresholds and windows."""
-    for thr, window in ((None, 0), (1.0, 1), (2.0, 1), (1.0, 4), (2.0, 4), (2.0, 6)):
-        settings = {} if thr is None else {"low_outliers": thr, "low_outlier_window": window}
-        totals = [sc.total for sc in evaluate(samples, settings)]
-        label = "off" if thr is None else f"{thr} m, half window {window}"
-        print(f"| {label} | " + " | ".join(f"{t:.2f}" for t in totals) + f" | {np.mean(totals):.2f} |")
+    """The low-outlier test's cost on gapm's defaults and ``--auto``: off against the shipped
+    setting per sample, then every candidate setting in-sample and by leave-one-out (each sample
+    scored with the setting best on the other six), and which points the shipped test sets aside
+    (reference ground or object)."""
+    from aldpat.filters.base import low_outlier_points
+
+    names = list(LOW_OUTLIER_CANDIDATES)
+    combos = [dict(zip(names, v)) for v in itertools.product(*LOW_OUTLIER_CANDIDATES.values())]
+    shipped = {k: getattr(GapmParams(), k) for k in names}
+    for label, auto in (("gapm defaults", False), ("gapm --auto", True)):
+        off = np.array([sc.total for sc in evaluate(samples, {"low_outliers": None, "auto": auto})])
+        on = np.array([sc.total for sc in evaluate(samples, dict(shipped, auto=auto))])
+        totals = np.array([[sc.total for sc in evaluate(samples, dict(c, auto=auto))] for c in combos])
+        held = []
+        for j in range(len(samples)):
+            others = [k for k in range(len(samples)) if k != j]
+            held.append(totals[int(np.argmin(totals[:, others].mean(axis=1))), j])
+        held_a = np.array(held)
+        best = int(np.argmin(totals.mean(axis=1)))
+        print(f"\n{label} (total %)\n| setting | " + " | ".join(s.name for s in samples) + " | mean | cost |")
+        print("|---" * (len(samples) + 3) + "|")
+        rows = (("off", off), (f"shipped {shipped}", on), (f"best in-sample {combos[best]}", totals[best]),
+                ("leave-one-out", held_a))
+        for name, row in rows:
+            print(f"| {name} | " + " | ".join(f"{t:.2f}" for t in row) + f" | {row.mean():.3f} | "
+                  f"{row.mean() - off.mean():+.3f} |")
+        print(f"  spread over the {len(combos)} candidates: mean total {totals.mean(axis=1).min():.3f} .. "
+              f"{totals.mean(axis=1).max():.3f}")
+    print("\npoints the shipped test sets aside: | sample | reference ground | reference object |")
+    for s in samples:
+        out = low_outlier_points(s.x, s.y, s.z, GapmParams())
+        out = np.zeros(len(s.z), bool) if out is None else out
+        print(f"| {s.name} | {int((out & s.ground).sum())} | {int((out & ~s.ground).sum())} |")
+
+
+def planted(_samples) -> None:
+    """Single low points planted under the ground of the raw ISPRS sites (a copy of a point gapm
+    calls ground, 1 cm aside, so many metres lower; at most one in every other 50 m square, so
+    that no two hide each other, and at most 200 at a time): the share the defaults set aside as low
+    outliers and the share still taken for ground, by depth, at 1 m cells (``aldpat dtm``'s
+    default)."""
+    import laspy
+    from data_paths import ISPRS_SITES
+
+    depths = (2.5, 3.0, 5.0, 10.0, 20.0, 50.0)
+    print("| site | points | found in the file itself | " + " | ".join(f"{d:g} m" for d in depths) + " |")
+    print("|---" * (len(depths) + 3) + "|")
+    for site in ("CSite1_red2-utm", "FSite5_orig-utm", "FSite8_red2-utm"):
+        las = laspy.read(ISPRS_SITES / f"{site}.laz")
+        x, y, z = (np.asarray(v, np.float64) for v in (las.x, las.y, las.z))
+        params = GapmParams(cell=1.0)
+        base = ground_filter(x, y, z, "gapm", params)
+        ground = np.flatnonzero(base.is_ground)
+        rng = np.random.default_rng(7)
+        cells = []
+        for depth in depths:
+            order = rng.permutation(ground)
+            col, row = np.floor(x[order] / 50.0), np.floor(y[order] / 50.0)
+            order = order[(col % 2 == 0) & (row % 2 == 0)]  # squares 50 m apart
+            square = np.floor(x[order] / 50.0) * 1e6 + np.floor(y[order] / 50.0)
+            pick = order[np.unique(square, return_index=True)[1]][:200]
+            res = ground_filter(np.r_[x, x[pick] + 0.01], np.r_[y, y[pick] + 0.01], np.r_[z, z[pick] - depth],
+                                "gapm", params)
+            low = (res.point_marks[len(x):] == MARK_LOW_OUTLIER).mean()
+            cells.append(f"{100 * low:.0f} % / {100 * res.is_ground[len(x):].mean():.0f} %")
+        found = int((base.point_marks == MARK_LOW_OUTLIER).sum())
+        print(f"| {site} | {len(x):,} | {found} | " + " | ".join(cells) + " |")
 
 
 #: gapm's raised-segment constants before 2026-11-24, for ``terraces``.
@@ -166,14 +236,14 @@ def scenes(_samples) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "terraces", "scenes"))
+    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "planted", "terraces", "scenes"))
     ap.add_argument("--auto", action="store_true", help="sweep: every combination with --auto")
     args = ap.parse_args()
-    samples = load_samples() if args.what not in ("terraces", "scenes") else []
+    samples = load_samples() if args.what not in ("terraces", "scenes", "planted") else []
     if args.what == "sweep":
         sweep(samples, auto=args.auto)
     else:
-        {"report": report, "others": others, "lowout": lowout, "terraces": terraces,
+        {"report": report, "others": others, "lowout": lowout, "planted": planted, "terraces": terraces,
          "scenes": scenes}[args.what](samples)
 
 
