@@ -30,17 +30,17 @@ class IsprsScore:
 
 #: each filter's score with its defaults, best first
 ISPRS_SCORES: dict[str, IsprsScore] = {
-    "gapm": IsprsScore(2.90, held_out=3.20),
-    "atin": IsprsScore(3.45, held_out=5.69),
-    "pm": IsprsScore(3.91),
-    "pmcircle": IsprsScore(4.04),
-    "pm2d": IsprsScore(4.31),
-    "ipf": IsprsScore(5.22, held_out=5.77),
-    "poly2": IsprsScore(5.88, held_out=5.88),
-    "cluster-pm": IsprsScore(6.09),
-    "slope": IsprsScore(6.15, held_out=7.24),
-    "multipass": IsprsScore(8.24),
-    "etew": IsprsScore(11.23),
+    "gapm": IsprsScore(2.88, held_out=3.17),
+    "atin": IsprsScore(3.46, held_out=5.69),
+    "pm": IsprsScore(3.88),
+    "pmcircle": IsprsScore(4.02),
+    "pm2d": IsprsScore(4.29),
+    "ipf": IsprsScore(5.16, held_out=5.73),
+    "poly2": IsprsScore(5.83, held_out=5.83),
+    "slope": IsprsScore(6.03, held_out=7.05),
+    "cluster-pm": IsprsScore(6.05),
+    "multipass": IsprsScore(7.61),
+    "etew": IsprsScore(10.76),
     "outlier": IsprsScore(24.61, note="noise only, a step before a ground filter"),
 }
 
