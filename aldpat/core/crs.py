@@ -53,3 +53,10 @@ def prj_wkt(crs: Any) -> str:
     except pyproj.exceptions.CRSError:
         wkt = None
     return wkt or crs.to_wkt(pyproj.enums.WktVersion.WKT1_GDAL)  # a CRS ESRI WKT1 cannot express
+
+
+def without_crs(out: Any) -> str:
+    """The one warning line of an output that can carry a CRS (LAS/LAZ, GeoTIFF) and will not:
+    none was given and the input names none."""
+    name = getattr(out, "name", str(out))
+    return f"{name}: written without a CRS (none given with --crs, none in the input)"

@@ -36,7 +36,8 @@ from aldpat.core.lowest_grid import CellGridSpec, Extent, LowestGrid, fill_neare
 from aldpat.core.memory import one_arena, release_free_memory
 from aldpat.core.surface_test import SurfaceTest
 from aldpat.errors import DataError, ParamError
-from aldpat.options import ChunkOption, OriginOption
+from aldpat.filters.survey import ExistingClassesOption
+from aldpat.options import ChunkOption, CrsOption, OriginOption
 from aldpat.params import Checked, SharedOption, param, validate_instance
 
 log = logging.getLogger(__name__)
@@ -62,9 +63,11 @@ _CHUNK = 1 << 21
 class FilterOutputOption(SharedOption):
     """What ``aldpat filter`` writes (the filter functions ignore these)."""
 
-    result: str = param("terrain", "what to write: terrain points, non-terrain points, both files, "
-                        "or every point classified (LAS class 2/1, text column class)",
-                        choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
+    result: str | None = param(
+        None, "what to write: terrain points, non-terrain points, both files, or every point classified "
+        "(in input order with every attribute: ground LAS class 2, a former 2 or 0 that is not ground 1, low "
+        "outliers 7, other classes kept; text: a column class); default: classified for a LAS/LAZ output, "
+        "terrain for text", choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
     marks: bool = param(False, "add each point's mark: 0 for ground, else the half window (cells) "
                         "at which it was removed (column / LAS extra byte 'mark')", level="advanced")
 
@@ -112,7 +115,8 @@ class RaisedSegmentOption(SharedOption):
 
 
 @dataclass(frozen=True)
-class GroundParams(RaisedSegmentOption, LowOutlierOption, FilterOutputOption, ChunkOption, OriginOption, Checked):
+class GroundParams(RaisedSegmentOption, LowOutlierOption, ExistingClassesOption, FilterOutputOption, ChunkOption,
+                   OriginOption, CrsOption, Checked):
     """Parameters every grid filter shares; each filter's params class subclasses it."""
 
     cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
@@ -141,7 +145,7 @@ class GroundParams(RaisedSegmentOption, LowOutlierOption, FilterOutputOption, Ch
 
 
 @dataclass(frozen=True)
-class PointFilterParams(LowOutlierOption, FilterOutputOption, ChunkOption, Checked):
+class PointFilterParams(LowOutlierOption, ExistingClassesOption, FilterOutputOption, ChunkOption, CrsOption, Checked):
     """Parameters every point filter shares (``slope``, ``ipf``, ``poly2``, ``atin``): filters that
     test points against their neighbours or a fitted surface rather than a mark matrix.
 

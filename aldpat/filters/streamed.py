@@ -107,7 +107,7 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
     return cell_classes(spec, cells, params, origin=params.origin, spacing=cells.spacing)
 
 
-def stream_ground(reader, algorithm: str, params, chunk: int
+def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, Extent] | None:
     """The ground points of a LAS/LAZ file in two passes (what ``aldpat dtm`` triangulates): x, y
     and z of the ground points, the file's point count and its points' extent; the points
@@ -115,6 +115,8 @@ def stream_ground(reader, algorithm: str, params, chunk: int
 
     ``None`` when the file cannot go this way (:func:`stream_classes`; the reason is logged): the
     caller reads it whole. The classes are those of :func:`aldpat.filters.base.ground_filter`.
+    ``used(table) -> mask`` selects the points taking part (withheld and ignored classes do not);
+    the extent is every point's.
     """
     from aldpat.io.las import z_codes
 
@@ -125,7 +127,11 @@ def stream_ground(reader, algorithm: str, params, chunk: int
 
     def coded_chunks() -> Iterator[CodedChunk]:
         for table in units.counted(reader.chunks(chunk), "read + grid", reader.count):
-            yield table.x, table.y, z_codes(table)
+            if used is None:
+                yield table.x, table.y, z_codes(table)
+            else:
+                part = used(table)
+                yield table.x[part], table.y[part], z_codes(table)[part]
 
     try:
         classes = stream_classes(coded_chunks, reader.bounds, heights, algorithm, params)
@@ -138,6 +144,8 @@ def stream_ground(reader, algorithm: str, params, chunk: int
     for table in units.counted(reader.chunks(chunk), "classify", reader.count):
         x, y, z = (np.asarray(a, np.float64) for a in (table.x, table.y, table.z))
         ground = classes.classify(x, y, z, marks=False)[1]
+        if used is not None:
+            ground = ground & used(table)
         xs.append(x[ground])
         ys.append(y[ground])
         zs.append(z[ground])

@@ -42,3 +42,56 @@ def ground_of(reader, table) -> np.ndarray | None:
         return np.asarray(table["classification"]) == GROUND
     k = class_column_of(reader, table)
     return None if k is None else np.asarray(table[reader.names[k]]) == GROUND
+
+
+def parse_classes(text: str) -> tuple[int, ...] | None:
+    """``--classes``: ``all`` (None: every point) or a list of ASPRS classes ``2`` / ``2,9``;
+    ValueError for anything else."""
+    value = str(text).strip().lower()
+    if value == "all":
+        return None
+    items = [v for v in value.replace(";", ",").replace(" ", ",").split(",") if v]
+    if not items:
+        raise ValueError("expected 'all' or a list of LAS classes such as 2 or 2,9")
+    out = []
+    for item in items:
+        if not item.isdigit() or not 0 <= int(item) <= 255:
+            raise ValueError(f"{item!r} is not a LAS class (0 to 255); expected 'all' or a list such as 2,9")
+        out.append(int(item))
+    return tuple(sorted(set(out)))
+
+
+def classes_of_table(table) -> np.ndarray | None:
+    """The classes a point table carries: LAS ``classification`` or a text column ``class``."""
+    for name in ("classification", "class"):
+        if name in table.columns:
+            return np.asarray(table.columns[name])
+    return None
+
+
+def in_classes(table, classes: tuple[int, ...] | None) -> np.ndarray:
+    """Which points of ``table`` are of ``classes`` (every point for None). A table without
+    classes has none of them."""
+    if classes is None:
+        return np.ones(len(table), bool)
+    held = classes_of_table(table)
+    if held is None:
+        return np.zeros(len(table), bool)
+    return np.isin(held, np.asarray(classes, dtype=np.int64))
+
+
+def withheld(table) -> np.ndarray | None:
+    """The withheld flag of a LAS table's points (None for other tables): points a LAS says are
+    not to be used (LAS 1.4 R15: "should be considered deleted")."""
+    record = table.record
+    if record is None or "withheld" not in record.point_format.dimension_names:
+        return None
+    return np.asarray(record["withheld"]).astype(bool)
+
+
+def product_points(table, classes: tuple[int, ...] | None) -> np.ndarray:
+    """The points of ``table`` a grid or DTM of ``classes`` is made from: those of the classes
+    (every one for None, ``--classes all``), withheld points only with ``all``."""
+    keep = in_classes(table, classes)
+    held = withheld(table) if classes is not None else None
+    return keep if held is None else keep & ~held

@@ -28,7 +28,8 @@ if TYPE_CHECKING:
 DEFAULT_CHUNK = 2_000_000
 #: table column -> LAS dimension for the columns a task may set
 LAS_DIMENSIONS = {"x": "x", "y": "y", "z": "z", "intensity": "intensity", "class": "classification",
-                  "classification": "classification", "t": "gps_time", "gps_time": "gps_time"}
+                  "classification": "classification", "t": "gps_time", "gps_time": "gps_time",
+                  "return_number": "return_number", "number_of_returns": "number_of_returns"}
 #: the widest x or y range a header may declare: the Earth's circumference (in metres; degrees and
 #: feet stay far below it in any CRS)
 MOST_EXTENT = 4.1e7
@@ -39,6 +40,15 @@ _READ_DIMS = ("intensity", "classification", "return_number", "number_of_returns
 BUFFER_DIMENSION = "tile_buffer"
 #: extra-byte dimension -> the description written in its extra-bytes record (32 characters at most)
 EXTRA_DESCRIPTIONS = {BUFFER_DIMENSION: "1: buffer, a neighbour's point"}
+#: The return columns of a point table and the LAS dimensions they set.
+RETURN_DIMENSIONS = ("return_number", "number_of_returns")
+
+
+def generating_software() -> str:
+    """What a LAS header written here names as its generating software (32 characters at most)."""
+    from aldpat import __version__
+
+    return f"aldpat {__version__}"[:32]
 
 
 def _corrupt(path: Path, exc: Exception) -> InputFormatError:
@@ -278,6 +288,7 @@ class LasWriter:
             # and 1.4 keeps point formats 0-5 as they are
             header.version = laspy.header.Version(1, 4)
         header.point_count = 0
+        header.generating_software = generating_software()  # the file is ours, whatever the input's said
         self._header = header
         self._fh = laspy.open(self.path, mode="w", header=header, do_compress=self.compress)
 
@@ -311,6 +322,12 @@ class LasWriter:
                     for dim in table.record.point_format.dimension_names:
                         if dim in points.point_format.dimension_names:
                             points[dim] = table.record[dim]
+        if table.record is None:
+            # a point from text is one return of its pulse unless a column says otherwise (ASPRS:
+            # return numbers start at 1; lidR's las_check calls 0 invalid)
+            for dim in RETURN_DIMENSIONS:
+                if dim not in table.columns:
+                    points[dim] = np.ones(n, np.uint8)
         for name in ("x", "y", "z"):
             if name not in same:
                 setattr(points, name, table.columns[name])

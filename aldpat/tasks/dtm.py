@@ -24,6 +24,10 @@ ground points it and its neighbours own, each as its own tile classed it, with t
 edges computed alike in every tile holding them (:mod:`aldpat.core.tile_edges`). A tile whose
 core holds no node with a value is a warning, and the mosaic is made of the others.
 
+Points a survey file sets aside (withheld, ``ignore_classes``: noise 7 and 18 by default) take no
+part in finding ground (:mod:`aldpat.filters.survey`). ``classes`` makes the DTM from a classified
+file's own classes (``2``, ``2,9``) without filtering it again.
+
 ``--mosaic dtm.vrt`` adds a GDAL virtual raster over every tile's DTM.
 """
 
@@ -40,15 +44,19 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.crs import without_crs
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.streamed import stream_ground, streamable
 from aldpat.filters.base import LowOutlierOption
+from aldpat.filters.survey import ExistingClassesOption, taking_part
 from aldpat.io.bounds import Bounds, point_bounds
+from aldpat.io.classified import parse_classes, product_points
 from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
+from aldpat.io.table import PointTable
 from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
 from aldpat.jobs.context import JobContext, Planned
@@ -56,21 +64,32 @@ from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
 from aldpat.tasks.filter import STREAM_CHUNK, apply_auto
-from aldpat.tasks.grid import check_grid_fits, check_spread, grid_mosaic, grid_spec_for, mosaic_outputs, tile_grid
+from aldpat.tasks.grid import (
+    check_classes,
+    check_grid_fits,
+    check_spread,
+    grid_mosaic,
+    grid_spec_for,
+    mosaic_outputs,
+    tile_grid,
+)
 
 log = logging.getLogger(__name__)
 
-#: The low-outlier test's options, which ``dtm`` takes itself and hands to its filter.
-LOW_OUTLIER_KEYS = tuple(f.name for f in fields(LowOutlierOption))
+#: The low-outlier test's and the existing classes' options, which ``dtm`` takes itself and hands
+#: to its filter.
+LOW_OUTLIER_KEYS = tuple(f.name for f in (*fields(LowOutlierOption), *fields(ExistingClassesOption)))
 
 #: Filters that find ground (``outlier`` finds noise only: a DTM from it would keep the roofs).
 GROUND_FILTERS = tuple(sorted(name for name in FILTERS if name != "outlier"))
 
 
 @dataclass(frozen=True)
-class DtmParams(LowOutlierOption, OriginOption, CrsOption, Checked):
+class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption, Checked):
     cell: float = param(1.0, "DTM node spacing", unit="m", gt=0)
     algorithm: str = param("gapm", "ground filter", choices=GROUND_FILTERS)
+    classes: str | None = param(None, "make the DTM from the file's own classes (2, or 2,9; all: every point) "
+                                "without filtering; default: find the ground with --algorithm", metavar="LIST|all")
     filter_params: str | None = param(None, "the filter's parameters: a TOML file of the keys 'aldpat filter "
                                       "ALGO --params' takes (default: the filter's own defaults)",
                                       path=True, metavar="FILE.toml")
@@ -95,6 +114,7 @@ class DtmParams(LowOutlierOption, OriginOption, CrsOption, Checked):
         super().check()
         if self.auto and self.algorithm != "gapm":
             raise ParamError(f"auto: derives gapm's parameters; --algorithm is {self.algorithm}")
+        check_classes(self.classes)
         self.ground_params()  # a bad filter parameter file fails before any point is read
 
     def ground_params(self) -> Any:
@@ -136,12 +156,27 @@ def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> lis
     return jobs
 
 
-def _buffer_points(ctx: JobContext, region: Bounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """x, y, z of the neighbours' points inside ``region``, read chunk by chunk."""
+def points_used(params: DtmParams):
+    """``used(table) -> mask``: the points a DTM is made from -- with ``classes``, those of the
+    classes (the file's own ground), else those taking part in finding ground."""
+    if params.classes is not None:
+        classes = parse_classes(params.classes)
+        return lambda table: product_points(table, classes)
+    fparams = params.ground_params()
+
+    def used(table: PointTable) -> np.ndarray:
+        part = taking_part(table, fparams)
+        return np.ones(len(table), bool) if part is None else part
+
+    return used
+
+
+def _buffer_points(ctx: JobContext, region: Bounds, used) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x, y, z of the neighbours' points inside ``region`` that ``used`` selects, read chunk by chunk."""
     xs, ys, zs = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
     for path in ctx.neighbours:
         for chunk in units.counted(ctx.open_input(path).chunks(), f"read {path.name} (buffer)"):
-            inside = region.holds(chunk.x, chunk.y)
+            inside = region.holds(chunk.x, chunk.y) & used(chunk)
             xs.append(np.asarray(chunk.x[inside], np.float64))
             ys.append(np.asarray(chunk.y[inside], np.float64))
             zs.append(np.asarray(chunk.z[inside], np.float64))
@@ -158,10 +193,10 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     if made is None:
         made = _ground_in_memory(source, reader, params, ctx)
     x, y, z, spec, count, own_ground = made
-    ctx.note(f"{own_ground} ground ({params.algorithm})")
-    raster, blank = terrain_raster(x, y, z, spec, params, crs=params.crs or reader.crs, where=source)
-    del x, y, z
+    ctx.note(f"{own_ground} ground ({_how(params)})")
     out = ctx.outputs_for(source)[0].path
+    raster, blank = terrain_raster(x, y, z, spec, params, crs=dtm_crs(params, reader, out, ctx), where=source)
+    del x, y, z
     units.stage("write")
     raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
     log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
@@ -177,10 +212,12 @@ GroundPoints = tuple[np.ndarray, np.ndarray, np.ndarray, GridSpec, int, int]
 def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints | None:
     """A LAS/LAZ without neighbours filtered in two passes (:func:`stream_ground`): the points
     are never held, only the grid and the ground points. ``None`` when it cannot go this way."""
+    if params.classes is not None:
+        return None  # the file's own classes: read whole, nothing to filter
     fparams = params.ground_params()
     if ctx.neighbours or reader.format != "las" or reader.count == 0 or not streamable(params.algorithm, fparams):
         return None
-    made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK)
+    made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK, used=points_used(params))
     if made is None:
         return None
     x, y, z, count, (xmin, ymin, xmax, ymax) = made
@@ -200,14 +237,42 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
     assert spec is not None  # from the points
     check_grid_fits(spec, "linear", params.grid_format, ctx.output_dir(source), source)
     region = Bounds(spec.xmin, spec.ymin, spec.xmax, spec.ymax).grown(params.buffer)
-    bx, by, bz = _buffer_points(ctx, region)
-    x = np.concatenate([np.asarray(table.x, np.float64), bx])
-    y = np.concatenate([np.asarray(table.y, np.float64), by])
-    z = np.concatenate([np.asarray(table.z, np.float64), bz])
-    ground = filtered_ground(x, y, z, params, params.ground_params(), ctx.note)
-    ctx.note(f"{len(table)} points of {source.name} and {len(bx)} of {len(ctx.neighbours)} neighbouring "
+    used = points_used(params)
+    own = table.take(used(table))
+    bx, by, bz = _buffer_points(ctx, region, used)
+    x = np.concatenate([np.asarray(own.x, np.float64), bx])
+    y = np.concatenate([np.asarray(own.y, np.float64), by])
+    z = np.concatenate([np.asarray(own.z, np.float64), bz])
+    if params.classes is not None:
+        ground = np.ones(len(x), bool)
+    else:
+        ground = filtered_ground(x, y, z, params, params.ground_params(), ctx.note)
+    ctx.note(f"{len(own)} points of {source.name} and {len(bx)} of {len(ctx.neighbours)} neighbouring "
              f"inputs within {params.buffer:g} m")
-    return x[ground], y[ground], z[ground], spec, len(table), int(ground[:len(table)].sum())
+    if len(own) < len(table):
+        ctx.note(f"{len(table) - len(own)} points of {source.name} took no part ({_set_aside(params)})")
+    return x[ground], y[ground], z[ground], spec, len(table), int(ground[:len(own)].sum())
+
+
+def _how(params: DtmParams) -> str:
+    """How the DTM's ground points were found, for its log."""
+    return f"class {params.classes}" if params.classes is not None else params.algorithm
+
+
+def _set_aside(params: DtmParams) -> str:
+    """Which points took no part, for the log."""
+    if params.classes is not None:
+        return f"withheld, not of class {params.classes}"
+    ignored = ",".join(map(str, params.ignore_classes or ())) or "none"
+    return f"withheld, classes {ignored}, returns {params.returns}"
+
+
+def dtm_crs(params: DtmParams, reader, out: Path, ctx: JobContext):
+    """``--crs``, else the input's; one warning line when the DTM will carry none."""
+    crs = params.crs or reader.crs
+    if crs is None:
+        ctx.warn(without_crs(out))
+    return crs
 
 
 def filtered_ground(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: DtmParams, ground_params,
@@ -224,7 +289,7 @@ def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, 
     triangle (manual task 9's TIN), and its count of blank nodes. What ``aldpat dtm`` writes and
     :func:`aldpat.dtm` returns; errors name ``where``."""
     if len(x) == 0:
-        raise DataError(f"no ground point found by {params.algorithm}: no terrain to grid", path=where)
+        raise DataError(f"no ground point found by {_how(params)}: no terrain to grid", path=where)
     check_spread(x, y, "linear", where)
     units.stage("triangulate")
     values = interpolate(x, y, z, spec, method="linear", max_distance=params.max_distance)
@@ -243,8 +308,11 @@ def _tile_or_none(source: Path, params: DtmParams) -> TileJob | None:
 
 def first_jobs(sources: list[Path], params: DtmParams, input_params) -> list[list[str]]:
     """Over tiles: a first-pass job for every input tile and every neighbour within ``buffer``
-    (an input or not: a DTM does not depend on which tiles were asked for at once)."""
+    (an input or not: a DTM does not depend on which tiles were asked for at once). None with
+    ``classes``: the files' own classes are the ground."""
     jobs: list[list[str]] = []
+    if params.classes is not None:
+        return jobs
     seen: set[Path] = set()
     for s in sources:
         tile = _tile_or_none(s, params)
@@ -271,7 +339,7 @@ def classify_tile(source: Path, params: DtmParams, ctx: JobContext) -> None:
     if tile is None:
         raise DataError("not a tile of the tile parameter file", path=source)
     fmt = ctx.input.format if ctx.input is not None else None
-    parts = tile_points(tile, params.buffer, fmt=fmt)
+    parts = tile_points(tile, params.buffer, fmt=fmt, keep=points_used(params))  # the others are no ground
     own = parts[0]
     flags = np.zeros(own.count, np.uint8)
     if len(own.x):
@@ -301,10 +369,14 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
     """A tile's DTM from the ground points it and its neighbours own, each classed by its own tile
     in the first pass (see the module docstring)."""
     fmt = ctx.input.format if ctx.input is not None else None
-    parts = tile_points(tile, params.buffer, fmt=fmt, warn=ctx.warn)
-    for line in _classes_file(ctx.scratch, tile.source, ".txt").read_text(encoding="utf-8").splitlines():
-        ctx.note(line)  # what the first pass found (--auto's parameters)
-    ground = np.concatenate([_ground_of(p, ctx.scratch) for p in parts])
+    if params.classes is not None:  # the files' own classes: no first pass
+        parts = tile_points(tile, params.buffer, fmt=fmt, keep=points_used(params), warn=ctx.warn)
+        ground = np.ones(sum(len(p.x) for p in parts), bool)
+    else:
+        parts = tile_points(tile, params.buffer, fmt=fmt, warn=ctx.warn)
+        for line in _classes_file(ctx.scratch, tile.source, ".txt").read_text(encoding="utf-8").splitlines():
+            ctx.note(line)  # what the first pass found (--auto's parameters)
+        ground = np.concatenate([_ground_of(p, ctx.scratch) for p in parts])
     x, y, z = (np.concatenate([getattr(p, a) for p in parts])[ground] for a in "xyz")
     own, own_ground = len(parts[0].x), int(ground[:len(parts[0].x)].sum())
     ctx.note(f"{int(ground.sum())} ground points within {params.buffer:g} m of the core of {tile.source.name}, "
@@ -321,7 +393,7 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
     out = ctx.outputs_for(tile.source)[0].path
     units.stage("write")
     write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
-                  crs=params.crs or ctx.open_input(tile.source).crs, overwrite=ctx.overwrite)
+                  crs=dtm_crs(params, ctx.open_input(tile.source), out, ctx), overwrite=ctx.overwrite)
     ctx.wrote(out)
     ctx.tally(points=own, ground=own_ground, nodes=values.size, blank=int(np.isnan(values).sum()))
 

@@ -6,8 +6,12 @@ filter's own, with ``result`` and ``marks``
 ``--params`` file all come from the filter's declaration.
 
 Outputs (manual "Result Mode"): ``<stem>_<algo>`` holds the terrain points, ``<stem>_<algo>_nt``
-the non-terrain points; ``classified`` writes every point once, with LAS class 2 (ground) / 1
-(unclassified) or a last text column ``class`` holding 2 / 1. ``--marks`` adds the mark matrix
+the non-terrain points; ``classified`` -- the default for a LAS/LAZ output, as lasground, PDAL's
+smrf and lidR's classify_ground give it -- writes every point once, in input order, with every
+attribute, ground as LAS class 2 and the other classes as :func:`aldpat.filters.survey.survey_classes`
+says (or a last text column ``class`` holding 2 / 1). The points a survey file sets aside --
+withheld, or of a class in ``ignore_classes`` (7 and 18, noise) -- and the returns ``returns``
+leaves out take no part in finding ground and keep their class (:mod:`aldpat.filters.survey`). ``--marks`` adds the mark matrix
 value of every point (dissertation Table 5-1: 0 ground, else the window that removed it) as a
 ``mark`` column / LAS extra byte. LAS inputs keep every attribute. ``--data-mode center``
 writes ALDPAT's one point per cell: the cell's lowest point moved to the cell centre.
@@ -16,6 +20,7 @@ writes ALDPAT's one point per cell: the cell's lowest point moved to the cell ce
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import logging
 from collections.abc import Callable
@@ -24,12 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.crs import parse_crs, without_crs
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.base import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
+from aldpat.filters.survey import ground_flags, survey_classes, taking_part
 from aldpat.io.atomic import check_writable
-from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, for_point_format
+from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, classes_of_table, for_point_format
 from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext, Planned
@@ -41,6 +48,8 @@ log = logging.getLogger(__name__)
 #: Points per chunk of a file filtered in two streaming passes: small enough that a chunk's
 #: scratch arrays stay a fraction of the grid's memory.
 STREAM_CHUNK = 200_000
+#: Mark of a point that took no part in finding ground (withheld, an ignored class or return).
+MARK_SET_ASIDE = -8000
 
 
 def ground_classes(is_ground: np.ndarray, marks: np.ndarray) -> np.ndarray:
@@ -81,20 +90,13 @@ def classify_points(table: PointTable, algorithm: str, params, note: Callable[[s
                     ) -> tuple[FilterResult, np.ndarray]:
     """The filter's result on the points of ``table`` held in memory, and every point's ASPRS
     class (:func:`point_classes`): what ``aldpat filter`` writes for a file read whole, and what
-    :func:`aldpat.ground` returns."""
-    params = apply_auto(params, table.x, table.y, table.z, note)
-    res = ground_filter(table.x, table.y, table.z, algorithm, params)
-    return res, point_classes(res, table.z, params, algorithm)
-
-
-def _output_table(table: PointTable, res, params) -> tuple[PointTable, np.ndarray | slice, np.ndarray, np.ndarray]:
-    """Rows to write, the input rows they come from, their ground flags and marks (one per
-    cell in ``center`` mode)."""
-    if params.data_mode == "center":
-        c = res.center()
-        out = table.take(c.index).with_columns(x=c.x, y=c.y, z=c.z)
-        return out, c.index, c.is_ground, c.marks
-    return table, slice(None), res.is_ground, res.point_marks
+    :func:`aldpat.ground` returns. The filter runs on the points taking part
+    (:func:`~aldpat.filters.survey.taking_part`); the others are unclassified here."""
+    part = taking_part(table, params)  # withheld points and ignored classes take no part
+    taken = table if part is None else table.take(part)
+    params = apply_auto(params, taken.x, taken.y, taken.z, note)
+    res = ground_filter(taken.x, taken.y, taken.z, algorithm, params)
+    return res, _every_point(point_classes(res, taken.z, params, algorithm), part, UNCLASSIFIED)
 
 
 def _output_point_format(reader, ctx: JobContext, source: Path) -> int | None:
@@ -107,12 +109,30 @@ def _output_point_format(reader, ctx: JobContext, source: Path) -> int | None:
     return new_point_format(reader.names)
 
 
+def with_result(params, source: Path, ctx: JobContext, reader):
+    """``params`` with ``result`` decided: when not given, ``classified`` for a LAS/LAZ output
+    (every point back, ground as class 2, as LAS users expect) and ``terrain`` for text, as ALDPAT."""
+    if params.result is not None:
+        return params
+    las = ctx.output_path(source, "", reader=reader).suffix.lower() in (".las", ".laz")
+    return dataclasses.replace(params, result="classified" if las else "terrain")
+
+
+def output_crs(params, reader, path: Path, ctx: JobContext):
+    """The CRS of a point output: ``--crs``, else the input's (a LAS output of a LAS input keeps
+    its header's); one warning line when a LAS/LAZ output will carry none."""
+    crs = parse_crs(params.crs) if params.crs else getattr(reader, "crs", None)
+    if crs is None and path.suffix.lower() in (".las", ".laz"):
+        ctx.warn(without_crs(path))
+    return crs
+
+
 def _output_names(reader, params) -> tuple[str, ...]:
     """The columns of the outputs: the input's, then ``mark`` and the class where asked."""
     names = tuple(reader.names)
     if params.marks:
         names += ("mark",)
-    if params.result == "classified" and not (reader.format == "las" and "classification" in names):
+    if params.result == "classified" and not ("classification" in names or "class" in names):
         names += ("classification",) if reader.format == "las" else ("class",)
     return names
 
@@ -122,7 +142,7 @@ def _with_classes(rows: PointTable, reader, params, marks: np.ndarray, cls: np.n
     if params.marks:
         extra["mark"] = marks.astype(np.int32)
     if cls is not None:
-        extra["classification" if reader.format == "las" else "class"] = cls
+        extra["classification" if reader.format == "las" or "classification" in rows.columns else "class"] = cls
     return rows.with_columns(**extra) if extra else rows
 
 
@@ -154,28 +174,62 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
         filter_chunked(source, params, ctx, algorithm=algorithm)
         return
     reader = ctx.open_input(source)
+    params = with_result(params, source, ctx, reader)
     if (reader.format == "las" and params.data_mode == "real" and streamable(algorithm, params)
             and filter_streamed(source, reader, params, ctx, algorithm=algorithm)):
         return
     table = reader.read()
-    res, classes = classify_points(table, algorithm, params, ctx.note)
-    rows, origin_rows, ground, marks = _output_table(table, res, params)
-    cls = None
-    if params.result == "classified":
-        cls = for_point_format(classes[origin_rows], _output_point_format(reader, ctx, source))
-    rows = _with_classes(rows, reader, params, marks, cls)
+    res, found = classify_points(table, algorithm, params, ctx.note)
+    part = taking_part(table, params)
+    marks = _every_point(res.point_marks, part, MARK_SET_ASIDE)
+    if params.data_mode == "center":
+        c = res.center()
+        rows_of = c.index if part is None else np.flatnonzero(part)[c.index]
+        rows = table.take(rows_of).with_columns(x=c.x, y=c.y, z=c.z)
+        found, marks, part = found[rows_of], marks[rows_of], None
+    else:
+        rows = table
+    cls = classes_written(found, rows, part, params, algorithm, _output_point_format(reader, ctx, source))
+    ground = ground_flags(found, part)
+    rows = _with_classes(rows, reader, params, marks, cls if params.result == "classified" else None)
     names = _output_names(reader, params)
     n_ground = int(ground.sum())
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
+    _note_set_aside(ctx, params, len(table) - (len(table) if part is None else int(part.sum())), len(table))
     units.stage("write", len(rows))
     for path, which in _outputs(source, params, ctx, reader, algorithm):
-        with ctx.write_points(path, names, like=reader) as writer:
+        with ctx.write_points(path, names, like=reader, crs=output_crs(params, reader, path, ctx)) as writer:
             writer.write(_part(rows, which, ground))
         ctx.wrote(path, writer.count)
     units.advance(len(rows))
     ctx.tally(points=len(table), ground=int(res.is_ground.sum()))
     log.info("%s: %d of %d points ground (%s)", source, n_ground, len(ground), algorithm)
+
+
+def _every_point(values: np.ndarray, part: np.ndarray | None, fill) -> np.ndarray:
+    """``values`` of the points that took part, spread over every point (``fill`` for the others)."""
+    if part is None:
+        return np.asarray(values)
+    out = np.full(len(part), fill, dtype=np.asarray(values).dtype)
+    out[part] = values
+    return out
+
+
+def classes_written(found: np.ndarray, table: PointTable, part: np.ndarray | None, params, algorithm: str,
+                    point_format: int | None) -> np.ndarray:
+    """The class of every point of ``table`` in classified output: what the filter found
+    (``found``, as the output's point format holds it) where it decides, the input's own class
+    elsewhere (:func:`aldpat.filters.survey.survey_classes`)."""
+    return survey_classes(for_point_format(found, point_format), classes_of_table(table), part,
+                          noise_only=FILTERS[algorithm].noise is not None)
+
+
+def _note_set_aside(ctx: JobContext, params, set_aside: int, n: int) -> None:
+    if set_aside:
+        ignored = ",".join(map(str, params.ignore_classes or ())) or "none"
+        ctx.note(f"{set_aside} of {n} points took no part in finding ground and kept their class "
+                 f"(withheld, classes {ignored}, returns {params.returns})")
 
 
 def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm: str) -> bool:
@@ -192,7 +246,11 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
 
     def coded_chunks():
         for table in units.counted(reader.chunks(STREAM_CHUNK), "read + grid", reader.count):
-            yield table.x, table.y, z_codes(table)
+            part = taking_part(table, params)  # the points set aside are no cell's lowest
+            if part is None:
+                yield table.x, table.y, z_codes(table)
+            else:
+                yield table.x[part], table.y[part], z_codes(table)[part]
 
     heights = reader.height_codes()
     if heights is None:
@@ -208,7 +266,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         marks, ground = classes.classify(table.x, table.y, table.z, marks=params.marks)
         return marks, ground_classes(ground, marks)
 
-    _write_from_classes(source, reader, outputs, params, ctx, classes_of, STREAM_CHUNK)
+    _write_from_classes(source, reader, outputs, params, ctx, classes_of, algorithm, STREAM_CHUNK)
     return True
 
 
@@ -228,6 +286,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
                          "(aldpat filter gapm --auto on the file writes them to its log) and pass them")
     sources = [source, *ctx.neighbours]  # the catalog's other inputs (--catalog), else none
     readers = [ctx.open_input(s) for s in sources]
+    params = with_result(params, source, ctx, readers[0])
     plan = chunk_plan(algorithm, params, params.chunk, params.chunk_buffer)
     outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers)]
     check_spill(plan.lattice, readers, Path(params.tmpdir) if params.tmpdir else outputs[0][0][0].parent, source)
@@ -235,12 +294,14 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
         check_writable(path, overwrite=ctx.overwrite)
     counts: list[int] = []
 
-    def every_table():
+    def every_table():  # the points taking part, input after input
         for reader in readers:
             counts.append(0)
             for table in reader.chunks():
-                counts[-1] += len(table)
-                yield table
+                part = taking_part(table, params)
+                taken = table if part is None else table.take(part)
+                counts[-1] += len(taken)
+                yield taken
 
     classes_of = functools.partial(point_classes, algorithm=algorithm)
     with scratch_folder(params.tmpdir, outputs[0][0][0].parent) as scratch:
@@ -252,36 +313,50 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
                  f"{where}; the chunks' own filtering {done.seconds:.1f} s")
         offset = 0
         for src, reader, outs, count in zip(sources, readers, outputs, counts):
-            _write_from_classes(src, reader, outs, params, ctx, functools.partial(
-                _stored_classes, done.marks, done.classes, offset))
+            _write_from_classes(src, reader, outs, params, ctx, StoredClasses(done.marks, done.classes, offset, params),
+                                algorithm)
             offset += count
         del done  # the memory maps close before their folder goes
 
 
-def _stored_classes(marks: np.ndarray, classes: np.ndarray, offset: int, _table, start: int, stop: int
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The marks and classes of input rows ``start:stop`` from arrays of the whole run (which
-    begin at the run's row ``offset``)."""
-    return np.asarray(marks[offset + start:offset + stop]), np.asarray(classes[offset + start:offset + stop])
+class StoredClasses:
+    """The marks and classes of an input's rows, table after table, from arrays of the whole run
+    that hold the points taking part (from the run's row ``offset`` on)."""
+
+    def __init__(self, marks: np.ndarray, classes: np.ndarray, offset: int, params):
+        self.marks, self.classes, self.at, self.params = marks, classes, offset, params
+
+    def __call__(self, table: PointTable, _start: int, _stop: int) -> tuple[np.ndarray, np.ndarray]:
+        part = taking_part(table, self.params)
+        k = len(table) if part is None else int(part.sum())
+        marks = np.asarray(self.marks[self.at:self.at + k])
+        classes = np.asarray(self.classes[self.at:self.at + k])
+        self.at += k
+        return _every_point(marks, part, MARK_SET_ASIDE), _every_point(classes, part, UNCLASSIFIED)
 
 
 def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], params, ctx: JobContext,
-                        classes_of, chunk: int | None = None) -> None:
+                        classes_of, algorithm: str, chunk: int | None = None) -> None:
     """One input's outputs, streamed from the input again; ``classes_of(table, start, stop)``
-    gives the marks and classes of its rows ``start:stop`` (the table)."""
+    gives the marks and the classes the filter found of its rows ``start:stop`` (the table)."""
     names = _output_names(reader, params)
     point_format = _output_point_format(reader, ctx, source)
-    n_ground = n = 0
+    n_ground = n = set_aside = 0
     with contextlib.ExitStack() as stack:
-        writers = [(stack.enter_context(ctx.write_points(path, names, like=reader)), path, which)
+        writers = [(stack.enter_context(ctx.write_points(path, names, like=reader,
+                                                         crs=output_crs(params, reader, path, ctx))), path, which)
                    for path, which in outputs]
         start = 0
         for table in units.counted(reader.chunks() if chunk is None else reader.chunks(chunk), "classify + write",
                                    reader.count):
             stop = start + len(table)
-            marks, classes = classes_of(table, start, stop)
-            cls = for_point_format(classes, point_format)
-            ground = cls == GROUND
+            marks, found = classes_of(table, start, stop)
+            part = taking_part(table, params)
+            if part is not None:
+                marks = np.where(part, marks, MARK_SET_ASIDE)
+                set_aside += len(table) - int(part.sum())
+            cls = classes_written(found, table, part, params, algorithm, point_format)
+            ground = ground_flags(found, part)
             n_ground += int(ground.sum())
             n += len(table)
             rows = _with_classes(table, reader, params, marks, cls if params.result == "classified" else None)
@@ -291,6 +366,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
     for writer, path, _ in writers:
         ctx.wrote(path, writer.count)
     ctx.tally(points=n, ground=n_ground)
+    _note_set_aside(ctx, params, set_aside, n)
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
     log.info("%s: %d of %d points ground (in chunks)", source, n_ground, n)

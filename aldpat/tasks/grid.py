@@ -11,6 +11,11 @@ shared edges computed alike in every tile (:mod:`aldpat.core.tile_edges`). Other
 :mod:`aldpat.core.interpolate`, :mod:`aldpat.core.kriging`; files: :mod:`aldpat.io.surfer`.
 Output names say the method (``<stem>_<method>.grd``), so grids of one input by two methods sit
 side by side.
+
+Which points are gridded (``classes``, :func:`class_selection`): a list of LAS classes, or all;
+by default a LAS holding ground points (class 2) is gridded from them alone -- a classified file
+from a vendor or from ``aldpat filter`` gives a terrain grid, not one raised by its noise and
+roofs -- and any other LAS from every point but noise (7, 18) and withheld points.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.crs import without_crs
 from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
@@ -43,12 +49,14 @@ from aldpat.io.chunks import (
     spill_chunks,
     too_many_chunks,
 )
+from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, in_classes, parse_classes, product_points, withheld
 from aldpat.io.geotiff import DEFAULT_NODATA, FLOAT32_MAX, geotiff_header, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.surfer import BLANK as SURFER_BLANK
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS
 from aldpat.io.surfer import check_holds, read_surfer, write_surfer
-from aldpat.io.tile_project import TileJob, find_tile_job, tile_points
+from aldpat.io.table import PointTable
+from aldpat.io.tile_project import Keep, TileJob, find_tile_job, tile_points
 from aldpat.io.vrt import TileGrid, write_mosaic
 from aldpat.jobs.context import JobContext, JobResult, Planned
 from aldpat.jobs.registry import Task, register_task
@@ -90,9 +98,13 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
     mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every grid written, so tile "
                                "grids open as one raster (a path like any other: not inside --odir)", path=True,
                                metavar="FILE.vrt")
+    classes: str | None = param(None, "the LAS classes gridded (2, or 2,9) or all; default: class 2 when a LAS "
+                                "holds ground points (the log says so), else every point but noise (7, 18) and "
+                                "withheld points", metavar="LIST|all")
 
     def check(self) -> None:
         super().check()
+        check_classes(self.classes)
         if self.tile_params and self.bounds:
             raise ParamError("bounds: give either --tile-params or --bounds, not both")
         if self.bounds:
@@ -134,6 +146,55 @@ def check_grid_fits(spec: GridSpec, method: str, grid_format: str, folder: Path,
                path=source)
 
 
+def check_classes(value: str | None) -> None:
+    """``--classes``: all, or a list of LAS classes."""
+    if value is not None:
+        try:
+            parse_classes(value)
+        except ValueError as exc:
+            raise ParamError(f"classes: {exc}") from None
+
+
+def _holds_ground(reader) -> bool:
+    """Whether a LAS file holds a point of class 2 (read until the first is found)."""
+    for chunk in reader.chunks():
+        if (chunk["classification"] == GROUND).any():
+            return True
+    return False
+
+
+def _default_points(table: PointTable) -> np.ndarray:
+    """Every point but noise (7, 18) and withheld points."""
+    keep = ~in_classes(table, (LOW_NOISE, HIGH_NOISE))
+    held = withheld(table)
+    return keep if held is None else keep & ~held
+
+
+def class_selection(params: GridParams, reader, ctx: JobContext) -> Keep:
+    """Which points of each chunk are gridded (None: all), said in the job's log."""
+    if params.classes is not None:
+        classes = parse_classes(params.classes)
+        if classes is None:
+            return None
+        ctx.note(f"gridded: the points of class {','.join(map(str, classes))} (--classes)")
+        return lambda table: product_points(table, classes)
+    if reader.format != "las":
+        return None
+    if _holds_ground(reader):
+        ctx.note(f"{reader.path.name} holds ground points (class 2): only they are gridded (--classes all for "
+                 f"every point)")
+        return lambda table: product_points(table, (GROUND,))
+    ctx.note(f"{reader.path.name} holds no ground points (class 2): every point but noise (7, 18) and withheld "
+             f"points is gridded")
+    return _default_points
+
+
+def selected(chunks, keep: Keep):
+    """The chunks with only the points ``keep`` selects."""
+    for chunk in chunks:
+        yield chunk if keep is None else chunk.take(keep(chunk))
+
+
 #: Methods that fit a surface through the points: they need three points not on one line.
 SURFACE_METHODS = ("linear", "kriging")
 
@@ -160,24 +221,25 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     out = ctx.outputs_for(source)[0].path
     spec = grid_spec_for(params)
+    keep = class_selection(params, reader, ctx)
     if params.chunk is not None and params.method not in BINNING:
         if spec is None:
             b = point_bounds(source, format=ctx.input.format if ctx.input is not None else None)
             spec = from_data(np.array([b.minx, b.maxx]), np.array([b.miny, b.maxy]), params.cell,
                              origin=params.origin or (0.0, 0.0))
         check_grid_fits(spec, "mean", params.grid_format, out.parent, source)  # the whole grid, filled by chunks
-        values, count = grid_chunked(reader, spec, params, ctx, out.parent)
+        values, count = grid_chunked(reader, spec, params, ctx, out.parent, keep)
     elif spec is not None and params.method in BINNING:
         check_grid_fits(spec, params.method, params.grid_format, out.parent, source)
         binner = Binner(spec, params.method)  # streams: memory is the grid's, not the points'
         count = 0
-        for chunk in reader.chunks():
+        for chunk in selected(reader.chunks(), keep):
             binner.add(chunk.x, chunk.y, chunk.z)
             count += len(chunk)
         values = binner.result()  # binning streams already: --chunk changes nothing
     else:
         xs, ys, zs = [], [], []
-        for chunk in units.counted(reader.chunks(), "read", reader.count):
+        for chunk in selected(units.counted(reader.chunks(), "read", reader.count), keep):
             xs.append(np.asarray(chunk.x, dtype=np.float64))
             ys.append(np.asarray(chunk.y, dtype=np.float64))
             zs.append(np.asarray(chunk.z, dtype=np.float64))
@@ -211,6 +273,8 @@ def write_grid(out: Path, values: np.ndarray, spec: GridSpec, params, crs, ctx: 
     record it and what made it (``points`` read)."""
     units.stage("write")
     if params.grid_format in GEOTIFF_FORMATS:
+        if crs is None:
+            ctx.warn(without_crs(out))
         write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata, crs=crs,
                       overwrite=ctx.overwrite)
     else:
@@ -254,7 +318,8 @@ def tile_grid(tile: TileJob, x: np.ndarray, y: np.ndarray, z: np.ndarray, params
 def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
     """One tile's grid over its core (see the module docstring)."""
     fmt = ctx.input.format if ctx.input is not None else None
-    parts = tile_points(tile, params.buffer, fmt=fmt, warn=ctx.warn)
+    keep = class_selection(params, ctx.open_input(tile.source), ctx)
+    parts = tile_points(tile, params.buffer, fmt=fmt, keep=keep, warn=ctx.warn)
     x, y, z = (np.concatenate([getattr(p, a) for p in parts]) for a in "xyz")
     ctx.note(f"{len(parts[0].x)} points of {tile.source.name} and {len(x) - len(parts[0].x)} of "
              f"{len(parts) - 1} neighbouring tiles within {params.buffer:g} m of its core")
@@ -278,7 +343,7 @@ def chunk_buffer_for(params: GridParams) -> float:
     return max(params.radius or 0.0, params.max_distance or 0.0, 10.0 * params.cell)
 
 
-def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path
+def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None
                  ) -> tuple[np.ndarray, int]:
     """``--chunk``: the nodes in squares of ``chunk`` (whole cells), each interpolated from the
     points of its square and its buffer only (:mod:`aldpat.io.chunks`); memory is a chunk's points
@@ -297,7 +362,7 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
         raise too_many_chunks(lattice, chunks)
     check_spill(lattice, [reader], Path(params.tmpdir) if params.tmpdir else place, reader.path)
     with scratch_folder(params.tmpdir, place) as scratch, \
-            spill_chunks(reader.chunks(), lattice, tmpdir=scratch) as spilled:
+            spill_chunks(selected(reader.chunks(), keep), lattice, tmpdir=scratch) as spilled:
         jobs = []
         for r in range(0, spec.ny, k):
             for c in range(0, spec.nx, k):

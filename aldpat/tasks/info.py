@@ -1,4 +1,9 @@
-"""``aldpat info``: what a point file holds (like ``lasinfo``), streamed in chunks."""
+"""``aldpat info``: what a point file holds (like ``lasinfo``), streamed in chunks.
+
+A technician's first look: count, bounds, density, fields and CRS; for a LAS its version, point
+format, generating software, class and return histograms and withheld points; and a warning when
+z values lie far outside the bulk of the file (:func:`far_heights`) -- noise a grid or a filter
+would otherwise take for terrain."""
 
 from __future__ import annotations
 
@@ -40,7 +45,44 @@ class InfoRecord(Record):
             ("density", "-" if self["density"] is None else f"{self['density']:.3f} points per unit² (bounding box)"),
             ("crs", self["crs"] or "unknown"),
         ]
+        if self.get("las_version"):
+            rows += [
+                ("las", f"version {self['las_version']}, point format {self['point_format']}"),
+                ("software", self["software"] or "-"),
+                ("classes", histogram_text(self["classes"])),
+                ("returns", histogram_text(self["returns"])),
+                ("withheld", f"{self['withheld']:,}"),
+            ]
         return [self["path"]] + [f"  {k:8} {v}" for k, v in rows]
+
+
+def histogram_text(counts: dict[str, int]) -> str:
+    return ", ".join(f"{k}: {v:,}" for k, v in counts.items()) or "-"
+
+
+#: Heights sampled per chunk to find the bulk of a file's z values (bounded memory on any file).
+Z_SAMPLE = 50_000
+#: The bulk of the heights: between these percentiles.
+BULK = (0.1, 99.9)
+
+
+def far_heights(sample: np.ndarray, zmin: float, zmax: float) -> str | None:
+    """A warning when the lowest or highest z lies far outside the bulk of the heights (the
+    ``BULK`` percentiles of ``sample``): more than half the bulk's range beyond it, and 20 m at
+    least -- FSite5's 899 m over a bulk of 251-389 m, not a hillside's summit."""
+    if len(sample) < 100:
+        return None
+    lo, hi = (float(v) for v in np.percentile(sample, BULK))
+    margin = max(0.5 * (hi - lo), 20.0)
+    far = []
+    if zmax > hi + margin:
+        far.append(f"up to {zmax:.2f} (high noise?)")
+    if zmin < lo - margin:
+        far.append(f"down to {zmin:.2f} (low noise?)")
+    if not far:
+        return None
+    return (f"z values lie far outside the bulk of the file: {BULK[1] - BULK[0]:g} % of the points lie within "
+            f"{lo:.2f} .. {hi:.2f}, yet z goes {' and '.join(far)}")
 
 
 def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
@@ -48,6 +90,11 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
     count = 0
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
+    classes = np.zeros(256, np.int64)
+    returns = np.zeros(256, np.int64)
+    withheld = 0
+    samples = []
+    rng = np.random.default_rng(0)
     for chunk in reader.chunks():
         if len(chunk) == 0:
             continue
@@ -56,7 +103,28 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
             col = chunk[name]
             lo[k] = min(lo[k], float(col.min()))
             hi[k] = max(hi[k], float(col.max()))
+        z = np.asarray(chunk.z)
+        samples.append(z if len(z) <= Z_SAMPLE else rng.choice(z, Z_SAMPLE, replace=False))
+        if reader.format == "las":
+            classes += np.bincount(np.asarray(chunk["classification"]).astype(np.int64), minlength=256)[:256]
+            if "return_number" in chunk:
+                returns += np.bincount(np.asarray(chunk["return_number"]).astype(np.int64), minlength=256)[:256]
+            if chunk.record is not None and "withheld" in chunk.record.point_format.dimension_names:
+                withheld += int(np.count_nonzero(chunk.record["withheld"]))
     area = float((hi[0] - lo[0]) * (hi[1] - lo[1]))
+    if count and (far := far_heights(np.concatenate(samples), float(lo[2]), float(hi[2]))) is not None:
+        ctx.warn(f"{source.name}: {far}")
+    las = {}
+    if reader.format == "las":
+        header = reader.header
+        las = {
+            "las_version": f"{header.version.major}.{header.version.minor}",
+            "point_format": int(header.point_format.id),
+            "software": str(header.generating_software).strip("\x00 ") or None,
+            "classes": {str(c): int(n) for c, n in enumerate(classes) if n},
+            "returns": {str(r): int(n) for r, n in enumerate(returns) if n},
+            "withheld": withheld,
+        }
     ctx.emit(InfoRecord({
         "path": str(source),
         "count": count,
@@ -67,12 +135,14 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
         "format": reader.format if reader.format != "las" else source.suffix.lower().lstrip("."),
         "delimiter": {" ": "space", ",": "comma", "\t": "tab"}.get(getattr(reader, "delimiter", "")),
         "crs": crs_text(reader.crs),
+        **las,
     }))
 
 
 register_task(Task(
     name="info",
-    summary="Count, bounds, z range, density, fields, format and CRS of point files (like lasinfo).",
+    summary="Count, bounds, z range, density, fields, format and CRS of point files; LAS version, software, "
+            "class and return histograms; a warning for far heights (like lasinfo).",
     params=InfoParams,
     run_one=info_one,
     writes_outputs=False,

@@ -112,9 +112,5 @@ def test_outlier_noise_classes_in_text(tmp_path):
     cls = np.loadtxt(tmp_path / "out" / "s_outlier.txt")[:, 3]
     assert cls[high] == 18 and cls[low] == 7
     assert set(np.flatnonzero(np.isin(cls, (7, 18)))) == {high, low}
-    # evaluate finds the class column (codes 1, 2, 7, 18) and scores noise as object
-    labels = np.loadtxt(tmp_path / "out" / "s_outlier.txt")
-    labels[:, 3] = cls != 2  # ISPRS labels: 0 bare earth, 1 object
-    np.savetxt(tmp_path / "ref.txt", labels, fmt="%.3f %.3f %.3f %d")
-    ev = get_task("evaluate")([tmp_path / "out" / "s_outlier.txt"], reference=str(tmp_path / "ref.txt"))
-    assert ev.exit_code == 0 and ev.results[0].records[0]["total"] == 0.0
+    # the outlier filter finds noise, not ground: every other point is unclassified, none class 2
+    assert set(np.unique(cls)) == {1, 7, 18}

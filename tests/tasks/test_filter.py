@@ -84,7 +84,7 @@ def test_las_keeps_attributes_and_gets_classes_and_marks(runner, cli, samp24, tm
     assert {1, 2} <= set(np.unique(classes)) <= {1, 2, 7}
     assert np.array_equal(classes == 2, marks == 0) and np.array_equal(classes == 7, marks == -9000)
     # terrain output of a LAS is LAS with the same attributes
-    assert runner.invoke(cli, ["filter", "pmcircle", str(src), "--suffix", "_g"]).exit_code == 0
+    assert runner.invoke(cli, ["filter", "pmcircle", str(src), "--suffix", "_g", "--result", "terrain"]).exit_code == 0
     g = laspy.read(tmp_path / "samp24_g.laz")
     assert len(g.points) == int((classes == 2).sum())
 

