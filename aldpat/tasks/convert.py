@@ -10,7 +10,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.core.crs import parse_crs, without_crs
-from aldpat.errors import UsageError
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, FieldsOption, point_names
