@@ -150,12 +150,15 @@ def filter_outputs(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     """Every output, its role the points it holds: ``all``, ``ground`` or ``object``."""
     terrain_path = ctx.output_path(source, f"_{algorithm}")
     nonterrain_path = terrain_path.with_name(terrain_path.stem + "_nt" + terrain_path.suffix)
-    if params.result == "classified":
+    result = params.result  # not given: decided by the output's format, as with_result does
+    if result is None:
+        result = "classified" if terrain_path.suffix.lower() in (".las", ".laz") else "terrain"
+    if result == "classified":
         return [Planned(terrain_path, source, "all")]
     outputs = []
-    if params.result in ("terrain", "both"):
+    if result in ("terrain", "both"):
         outputs.append(Planned(terrain_path, source, "ground"))
-    if params.result in ("nonterrain", "both"):
+    if result in ("nonterrain", "both"):
         outputs.append(Planned(nonterrain_path, source, "object"))
     return outputs
 
