@@ -189,7 +189,8 @@ def lowest_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell: float, *,
     return LowestGrid(spec, zmin.reshape(spec.shape), lowest.reshape(spec.shape), flat)
 
 
-def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndarray | None = None) -> np.ndarray:
+def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndarray | None = None,
+                 spacing: np.ndarray | None = None) -> np.ndarray:
     """Fill empty cells with the value of the nearest non-empty cell.
 
     Dissertation §4.2.1 "Grid-Based Nearest Neighbor Interpolation" (the layer-by-layer
@@ -203,6 +204,10 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
         cells to fill; default: the NaN cells of ``z``.
     out : array, optional
         where the result goes; ``out=z`` fills in place (no second grid).
+    spacing : uint8 array of the grid's shape, optional
+        receives every cell's distance (cells, rounded up, at most 255) from the cell it was
+        filled from: 0 where the cell holds a value. How far apart the points behind two
+        neighbouring cells are (:mod:`aldpat.core.segments`).
 
     Returns
     -------
@@ -223,8 +228,12 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
     elif out is not z:
         np.copyto(out, z)
     if not empty.any() or empty.all():
+        if spacing is not None:
+            spacing[...] = 0
         return out
     idx = nearest_indices(empty)
+    if spacing is not None:
+        _distances(idx, spacing)
     # one flat gather is about twice as fast as indexing with the two index planes; the flat
     # index is built in place in the row plane (MAX_CELLS keeps it within int32)
     flat = idx[0]
@@ -239,6 +248,21 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
     for a in range(0, z.shape[0], step):
         np.take(source, flat[a:a + step], out=out[a:a + step])
     return out
+
+
+def _distances(idx: np.ndarray, out: np.ndarray) -> None:
+    """Distance (cells, rounded up, at most 255) of every cell from the cell ``idx`` (a feature
+    transform, :func:`nearest_indices`) gives it, into ``out``: a block of rows at a time."""
+    rows, cols = out.shape
+    col = np.arange(cols, dtype=np.int32)
+    step = rows_per_block(cols, 1 << 20)
+    for a in range(0, rows, step):
+        b = min(rows, a + step)
+        dr = (idx[0][a:b] - np.arange(a, b, dtype=np.int32)[:, None]).astype(np.float32)
+        dc = (idx[1][a:b] - col[None, :]).astype(np.float32)
+        d = np.ceil(np.hypot(dr, dc, out=dr), out=dr)
+        np.minimum(d, 255, out=d)
+        out[a:b] = d
 
 
 def nearest_indices(empty: np.ndarray) -> np.ndarray:

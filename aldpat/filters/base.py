@@ -112,6 +112,13 @@ class RaisedSegmentOption(SharedOption):
         0.6, "share of a segment's perimeter steps that must go down from it for it to be an object",
         ge=0, le=1, level="advanced",
     )
+    object_span: float = param(
+        0.0,
+        "with the raised-segment test: a level run of cells along a row or column, bounded at both "
+        "ends by steps down from it and at most this long, is an object (a bridge deck across its "
+        "width, joined to the ramps at its ends); 0: off",
+        unit="m", ge=0,
+    )
 
 
 @dataclass(frozen=True)
@@ -462,12 +469,12 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | Non
     filled = cells.codes if cells.owned else cells.codes.copy()
     low = find_low_outliers(cells, ~empty, params, spacing)  # on the cells as gridded
     empty.ravel()[low.cells] = True  # filled from their neighbours, as an empty cell is
-    fill_nearest(filled, empty, out=filled)
+    filled_from = np.empty(filled.shape, np.uint8) if params.object_step > 0 else None
+    fill_nearest(filled, empty, out=filled, spacing=filled_from)
     raised = None
-    if params.object_step > 0:
-        from aldpat.core.segments import raised_segments
-
-        raised = raised_segments(filled, params.object_step, params.object_share, decode=cells.heights.decode)
+    if filled_from is not None:
+        raised = raised_cells(filled, params, cells.spec.cell, filled_from, decode=cells.heights.decode)
+        del filled_from
         release_free_memory()
     read_only = empty.view()
     read_only.flags.writeable = False
@@ -492,6 +499,26 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | Non
         marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
     marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
     return marks, low
+
+
+def raised_cells(filled: np.ndarray, params, cell: float, filled_from: np.ndarray | None = None, *,
+                 decode: Callable[[np.ndarray], np.ndarray] | None = None, levels: bool = True) -> np.ndarray:
+    """The cells of objects found by the steps around them (``object_step``): raised segments
+    (:mod:`aldpat.core.segments`, with a building's levels unless ``levels`` is false) and, with
+    ``object_span``, raised spans (:mod:`aldpat.core.spans`). ``filled``: the lowest-point grid
+    with its empty cells filled (heights, or codes ``decode`` turns into heights); ``filled_from``:
+    each cell's distance from the cell it was filled from (``fill_nearest(..., spacing=)``)."""
+    from aldpat.core.segments import raised_segments
+
+    raised = raised_segments(filled, params.object_step, params.object_share, decode=decode, spacing=filled_from,
+                             cell=cell, levels=levels)
+    span = getattr(params, "object_span", 0.0)
+    if span > 0:
+        from aldpat.core.spans import raised_spans
+
+        raised |= raised_spans(filled, params.object_step, int(span / cell), decode=decode, spacing=filled_from,
+                               cell=cell)
+    return raised
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params, spacing: float | None) -> LowPoints:

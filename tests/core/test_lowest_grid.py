@@ -131,3 +131,26 @@ def test_fill_nearest_in_place_on_height_codes():
     filled = fill_nearest(codes, empty, out=codes)
     assert filled is codes and filled.dtype == np.int32
     assert np.array_equal(codes * 0.01, expected)
+
+
+def test_fill_nearest_reports_each_cells_distance_from_its_point():
+    """``spacing``: 0 where a cell holds a value, else the distance to the cell it was filled
+    from, in cells rounded up (scipy's distance transform), at most 255."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(5)
+    z = rng.uniform(0, 10, (60, 80))
+    empty = rng.random(z.shape) < 0.9
+    spacing = np.full(z.shape, 99, np.uint8)
+    fill_nearest(z, empty, spacing=spacing)
+    expected = np.ceil(ndimage.distance_transform_edt(empty) - 1e-9)
+    assert np.array_equal(spacing, expected)
+    assert (spacing[~empty] == 0).all()
+    far = np.ones((3, 600), bool)
+    far[1, 0] = False
+    capped = np.empty(far.shape, np.uint8)
+    fill_nearest(np.zeros(far.shape), far, spacing=capped)
+    assert capped[1, 100] == 100 and capped[1, 599] == 255
+    full = np.empty((2, 2), np.uint8)
+    fill_nearest(np.ones((2, 2)), spacing=full)
+    assert (full == 0).all()

@@ -105,3 +105,75 @@ def test_equal_largest_segments_keep_the_first_as_terrain():
     for rows in (1, 3, 5, 12):
         raised = raised_segments(z, 1.0, 0.1, strip_rows=rows)
         assert not raised[:6].any() and raised[6:].all()
+
+
+def test_a_building_is_removed_level_by_level():
+    """A 60 x 80 hall around a 40 x 50 tower: the hall steps down on its 280 outer cells and up on
+    its 180 inner ones (280 / 460 = 0.61 < 0.7). Once the tower (all down-steps) is raised, the
+    steps up into it no longer count and the hall is raised too; counting every step, it is not."""
+    z = sloped()
+    z[30:90, 40:120] += 6.0
+    z[40:80, 50:100] += 8.0
+    expected = np.zeros(z.shape, bool)
+    expected[30:90, 40:120] = True
+    np.testing.assert_array_equal(raised_segments(z, step=2.0, down_share=0.7), expected)
+    plain = raised_segments(z, step=2.0, down_share=0.7, levels=False)
+    assert plain[40:80, 50:100].all() and not plain[30:40].any()
+
+
+def test_a_lower_building_in_a_courtyard_corner_is_raised():
+    """A ring (15 cells wide) round a courtyard; a lower building fills its north-west corner:
+    up to the ring on two sides, down to the courtyard on two (a share of 0.5). Once the ring is
+    raised the building is; the courtyard, stepping only up, stays terrain."""
+    z = sloped()
+    z[20:100, 30:130] += 20.0  # the ring
+    z[35:85, 45:115] -= 20.0  # the courtyard, back at ground level
+    z[35:60, 45:85] += 8.0  # the lower building against the ring's inner corner
+    raised = raised_segments(z, step=2.0, down_share=0.55)
+    assert raised[35:60, 45:85].all()
+    assert not raised[60:85, 45:115].any() and not raised[35:60, 85:115].any()
+    assert not raised_segments(z, step=2.0, down_share=0.55, levels=False)[35:60, 45:85].any()
+
+
+def test_a_level_sunk_into_a_roof_is_raised_and_a_sunken_courtyard_is_not():
+    """A roof level 4 m below the roof around it, 10 m above the ground: stepping only up, into
+    the raised roof, yet standing above the ground the roof steps down to -- raised. The same
+    hollow sunk to the ground is a courtyard (terrain)."""
+    z = sloped()
+    z[30:90, 40:120] += 14.0
+    z[45:75, 60:100] -= 4.0
+    raised = raised_segments(z, step=2.0, down_share=0.55)
+    assert raised[30:90, 40:120].all() and raised.sum() == 60 * 80
+    z[45:75, 60:100] -= 10.0
+    raised = raised_segments(z, step=2.0, down_share=0.55)
+    assert not raised[45:75, 60:100].any() and raised[30:45, 40:120].all()
+
+
+def test_a_terrace_below_a_house_and_the_next_terrace_is_terrain():
+    """A terrace stepping down to the one below, up to the next one and, along part of that side,
+    up into a house: once the house is raised, the steps up into the next terrace still hold it."""
+    _, c = np.mgrid[0:120, 0:160]
+    z = 100.0 + 4.0 * (c // 40) + 0.01 * c
+    z[40:80, 72:80] += 7.0  # a house against the terrace wall above (columns 72-79)
+    raised = raised_segments(z, step=2.0, down_share=0.55)
+    assert raised[40:80, 72:80].all() and raised.sum() == 40 * 8
+
+
+def test_sparse_points_on_a_steep_hill_are_one_segment():
+    """Points 5.5 m apart on a hill with 45 % slopes, filled by their nearest: neighbouring cells
+    of different points differ by up to 2.5 m, more than the step, so the hilltop stands above
+    steps down all round. Told how far apart the points are, the test reads those differences as
+    the slope's; a 6 m wall between points is still a step."""
+    from aldpat.core.lowest_grid import fill_nearest
+
+    r, c = np.mgrid[0:176, 0:176].astype(float)
+    hill = 130 - 0.45 * 0.5 * np.hypot(r - 88, c - 88)  # 0.5 m cells
+    holders = (r % 11 == 5) & (c % 11 == 5)
+    spacing = np.empty(hill.shape, np.uint8)
+    filled = fill_nearest(np.where(holders, hill, np.nan), ~holders, spacing=spacing)
+    assert raised_segments(filled, 2.0, 0.55).any()  # the hilltop, split off by the filled cells' steps
+    assert not raised_segments(filled, 2.0, 0.55, spacing=spacing, cell=0.5).any()
+    block = hill + np.where((r >= 55) & (r < 121) & (c >= 55) & (c < 121), 6.0, 0.0)
+    filled = fill_nearest(np.where(holders, block, np.nan), ~holders, spacing=spacing)
+    roof = raised_segments(filled, 2.0, 0.55, spacing=spacing, cell=0.5)
+    assert roof[60:116, 60:116].all() and not roof[:50].any()

@@ -1,0 +1,86 @@
+"""Raised spans: bridge decks and other flat objects spanning lower ground.
+
+A bridge deck joins the ramps at both of its ends without a step, so the raised-segment test
+(:mod:`aldpat.core.segments`) finds it one segment with the terrain; a morphological window
+removes it only when wider than the deck. Across its width, though, a deck is a *run* of cells
+joined without a step and bounded at both ends by steps down to the road or river under it. A
+ramp is not: its sides slope down without a step, and a terrace steps up on one side.
+
+:func:`raised_spans` marks the cells of every run along a row or a column of the lowest-point
+grid that is bounded at both ends by steps *down* from it, at most ``max_cells`` long and level
+(its heights within ``SPAN_LEVEL``): a deck is level across its width, while the crest of a
+ridge or an embankment between two steep flanks rises and falls (the steps are counted as the
+raised-segment test counts them, with the points' spacing of sparse data). Buildings and trees
+are spans too where they are level; they are objects either way.
+
+Rows are taken a block at a time and columns a block of them transposed, so that the grid is
+never copied whole; each block is a few vectorised passes over its cells.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from aldpat.core.segments import step_limits
+
+#: A span's heights lie within this range (m): a deck is level across its width.
+SPAN_LEVEL = 1.0
+#: Lines of the grid taken at a time.
+BLOCK_LINES = 64
+
+
+def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
+                 decode: Callable[[np.ndarray], np.ndarray] | None = None,
+                 spacing: np.ndarray | None = None, cell: float = 1.0) -> np.ndarray:
+    """Cells of level runs along rows or columns, bounded at both ends by steps down from them
+    and at most ``max_cells`` long (bool, the shape of ``z``).
+
+    ``z`` holds the filled lowest-point grid as heights, or codes that ``decode`` turns into
+    heights; ``spacing`` and ``cell`` as for :func:`aldpat.core.segments.raised_segments`.
+    """
+    rows, cols = z.shape
+    out = np.zeros((rows, cols), bool)
+    if max_cells < 1 or min(rows, cols) < 3:
+        return out
+
+    def heights(block: np.ndarray) -> np.ndarray:
+        return decode(block) if decode is not None else np.asarray(block, dtype=np.float64)
+
+    for a in range(0, rows, BLOCK_LINES):
+        b = min(rows, a + BLOCK_LINES)
+        out[a:b] |= _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell)
+    for a in range(0, cols, BLOCK_LINES):
+        b = min(cols, a + BLOCK_LINES)
+        lines = np.ascontiguousarray(heights(z[:, a:b]).T)
+        spaced = None if spacing is None else np.ascontiguousarray(spacing[:, a:b].T)
+        out[:, a:b] |= _spans(lines, spaced, step, max_cells, cell).T
+    return out
+
+
+def _spans(z: np.ndarray, spacing: np.ndarray | None, step: float, max_cells: int, cell: float) -> np.ndarray:
+    """:func:`raised_spans` along the rows of ``z`` only."""
+    lines, n = z.shape
+    rise = np.diff(z, axis=1)  # from each cell to the next
+    apart = None if spacing is None else spacing[:, 1:].astype(np.uint16) + spacing[:, :-1]
+    cut = np.abs(rise) > step_limits(apart, step, cell)
+    # runs: the cells between two cuts; every line starts a run
+    starts = np.zeros((lines, n), bool)
+    starts[:, 0] = True
+    starts[:, 1:] = cut
+    first = np.flatnonzero(starts.ravel())
+    last = np.append(first[1:], lines * n) - 1
+    flat = z.ravel()
+    length = last - first + 1
+    col_first, col_last = first % n, last % n
+    # a step down from the run on either side: the neighbour before / after it is lower
+    before = col_first > 0
+    after = col_last < n - 1
+    down_before = before & (flat[np.maximum(first - 1, 0)] < flat[first])
+    down_after = after & (flat[np.minimum(last + 1, flat.size - 1)] < flat[last])
+    keep = down_before & down_after & (length <= max_cells)
+    if keep.any():
+        level = np.maximum.reduceat(flat, first) - np.minimum.reduceat(flat, first)
+        keep &= level <= SPAN_LEVEL
+    return np.repeat(keep, length).reshape(lines, n)

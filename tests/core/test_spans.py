@@ -1,0 +1,52 @@
+"""Raised spans: a bridge deck across its width, not a ramp, a ridge or a terrace."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aldpat.core.spans import raised_spans
+
+
+def flyover(rows=80, cols=200):
+    """A deck 12 cells wide at 7 m from column 80 to 120, joined to earth ramps rising to it
+    from columns 20 and 180 (sides sloping 1:1.5), over ground at 0."""
+    r, c = np.mgrid[0:rows, 0:cols].astype(float)
+    crest = np.interp(c, [20, 80, 120, 180], [0, 7, 7, 0])
+    off = np.abs(r - 40)
+    ramp = np.clip(crest - np.clip(off - 6, 0, None) / 1.5, 0, None)
+    deck = (c >= 80) & (c < 120) & (off < 6)
+    z = np.where((c >= 80) & (c < 120), 0.0, ramp)
+    z[deck] = 7.0
+    return z, deck
+
+
+def test_a_deck_is_a_span_and_its_ramps_are_not():
+    z, deck = flyover()
+    spans = raised_spans(z, 2.0, 40)
+    np.testing.assert_array_equal(spans, deck)
+    assert not raised_spans(z, 2.0, 8).any()  # wider than the longest span allowed
+
+
+def test_a_ridge_and_terraces_are_not_spans():
+    """A ridge between two flanks that drop in steps rises and falls across its crest (not
+    level); a terrace steps down on one side only; a wall-bounded level strip is a span."""
+    _, c = np.mgrid[0:30, 0:120].astype(float)
+    ridge = 10.0 - 0.8 * np.abs(c - 60)
+    ridge[:, :55] -= 3.0
+    ridge[:, 66:] -= 3.0
+    assert not raised_spans(ridge, 2.0, 40).any()
+    terraces = 3.0 * (c // 30)
+    assert not raised_spans(terraces, 2.0, 40).any()
+    strip = np.where((c >= 50) & (c < 70), 5.0, 0.0)
+    assert raised_spans(strip, 2.0, 40)[:, 50:70].all()
+
+
+def test_codes_and_blocks_give_the_heights_result(monkeypatch):
+    """Height codes (decoded block by block) and any block size: the same spans."""
+    from aldpat.core import spans as module
+
+    z, deck = flyover()
+    codes = np.rint(z * 100).astype(np.int32)
+    assert np.array_equal(raised_spans(codes, 2.0, 40, decode=lambda a: a * 0.01), deck)
+    monkeypatch.setattr(module, "BLOCK_LINES", 7)
+    assert np.array_equal(raised_spans(z, 2.0, 40), deck)
