@@ -153,3 +153,43 @@ def closing(z: np.ndarray, k: int, *, window: str = "square", axis: int = 1) -> 
     window (dissertation §4.1.1, extremely low outliers)."""
     z = _check(z, k, window, axis)
     return _running(_running(z, int(k), window, axis, True), int(k), window, axis, False)
+
+
+def opening_along_trend(z: np.ndarray, k: int) -> np.ndarray:
+    """Opening of every row of ``z`` (float64 heights) with a line window of half size ``k``,
+    each row continued ``k`` cells past both of its ends along the trend of its lower envelope.
+
+    At the end of a row the window reaches past the data. Repeating the end cell there (the
+    ``nearest`` border of :func:`opening`) makes a slope rising to the edge of the data look like
+    a bump: its last ``k`` cells are opened down to the height ``k`` cells in. Here each end is
+    continued along the line through the lowest of the row's last ``k`` cells and the lowest of
+    the ``k`` before them: a slope rising to the edge goes on rising, while a roof at the edge
+    narrower than ``k`` is continued at the height of the ground beside it and opened away as
+    before. Rows shorter than four cells, or ``k`` 0, are
+    opened as :func:`opening` opens them. Only cells within ``2 k`` of an end can differ from
+    :func:`opening`, and only there can a value be one of the continuation's.
+    """
+    z = np.asarray(_check(z, k, "line", 1), dtype=np.float64)
+    rows, n = z.shape
+    k = int(k)
+    if k == 0 or n < 4:
+        return opening(z, k, window="line", axis=1)
+    span = min(k, n // 2)
+    cols = np.arange(n)
+    line = np.arange(rows)
+
+    def lowest(first: int, last: int) -> tuple[np.ndarray, np.ndarray]:
+        at = first + z[:, first:last].argmin(axis=1)
+        return z[line, at], cols[at]
+
+    def continued(outer, inner, edge: int, outward: np.ndarray) -> np.ndarray:
+        (z_out, c_out), (z_in, c_in) = outer, inner
+        slope = (z_out - z_in) / np.abs(c_out - c_in)  # per cell, outwards
+        at_edge = z_out + slope * np.abs(edge - c_out)
+        return at_edge[:, None] + slope[:, None] * outward[None, :]
+
+    steps = np.arange(1, k + 1)
+    right = continued(lowest(n - span, n), lowest(n - 2 * span, n - span), n - 1, steps)
+    left = continued(lowest(0, span), lowest(span, 2 * span), 0, steps[::-1])
+    padded = np.concatenate([left, z, right], axis=1)
+    return np.ascontiguousarray(opening(padded, k, window="line", axis=1)[:, k:k + n])

@@ -117,7 +117,7 @@ class RaisedSegmentOption(SharedOption):
         "with the raised-segment test: a level run of cells along a row or column, bounded at both "
         "ends by steps down from it and at most this long, is an object (a bridge deck across its "
         "width, joined to the ramps at its ends); 0: off",
-        unit="m", ge=0,
+        unit="m", ge=0, level="advanced",
     )
 
 

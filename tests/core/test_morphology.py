@@ -118,3 +118,26 @@ def test_out_and_work_buffers_give_the_same_answer(window):
     z32 = z.astype(np.float32)
     assert erosion(z32, 2, window=window).dtype == np.float32
     assert np.array_equal(erosion(z32, 2, window=window), erosion(z, 2, window=window).astype(np.float32))
+
+
+def test_opening_along_trend_keeps_a_slope_rising_to_the_edge():
+    """The edge cell repeated makes the last k cells of a rising slope a bump (the nearest
+    opening cuts them); continued along the trend they stay, and a plane is its own opening."""
+    from aldpat.core.morphology import opening_along_trend
+
+    c = np.arange(60, dtype=float)
+    rising = np.vstack([0.4 * c, -0.3 * c + 5.0, np.full(60, 2.0)])
+    assert np.allclose(opening_along_trend(rising, 8), rising)
+    nearest = opening(rising, 8, window="line", axis=1)
+    assert nearest[0, -1] == pytest.approx(0.4 * (59 - 8))  # what the nearest border does
+    # a roof at the edge, narrower than the window, is continued at the ground's height beside
+    # it and opened away, as it is with the edge cell repeated
+    roof = np.zeros((1, 60))
+    roof[0, 53:] = 6.0
+    assert np.allclose(opening_along_trend(roof, 8), 0.0)
+    # away from the ends (2 k cells) it is the plain opening
+    rng = np.random.default_rng(1)
+    z = rng.normal(size=(5, 70))
+    assert np.array_equal(opening_along_trend(z, 6)[:, 12:-12], opening(z, 6, window="line", axis=1)[:, 12:-12])
+    short = rng.normal(size=(2, 3))
+    assert np.array_equal(opening_along_trend(short, 2), opening(short, 2, window="line", axis=1))

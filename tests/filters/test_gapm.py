@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from terrain_scenes import errors, scene, walled_terraces
+from terrain_scenes import FAILURE_SCENES, SCENE_SHARES, errors, scene, walled_terraces
 
 from aldpat.errors import ParamError
 from aldpat.filters import ground_filter
@@ -202,6 +202,41 @@ def test_defaults_keep_terraces_behind_retaining_walls():
         type1 = 100 * (~res.is_ground[truth]).mean()
         type2 = 100 * res.is_ground[~truth].mean()
         assert type1 < 1.0 and type2 < 1.0, (p.cell, type1, type2)
+
+
+#: The scenes the defaults pass today (the gaps-and-low-outliers scene needs the low-outlier test)
+PASSED = sorted(set(SCENE_SHARES) - {"gaps and low outliers", "walled terraces"})
+
+
+@pytest.mark.parametrize("name", PASSED)
+def test_defaults_and_auto_call_the_ground_and_objects_of_each_failure_scene(name):
+    """The scenes of tests/filters/terrain_scenes.py (the terrain types the ISPRS samples used to
+    choose the defaults lack): a lower building in a ring's courtyard, a terraced built-up
+    hillside running out of the data, a bridge deck joined to its ramps, a large building with a
+    lower level in its elbow and data gaps."""
+    x, y, z, truth = FAILURE_SCENES[name]()
+    kept, removed = SCENE_SHARES[name]
+    for label, p in (("defaults", GapmParams()), ("--auto", auto_params(x, y, z))):
+        ground = ground_filter(x, y, z, "gapm", p).is_ground
+        shares = 100 * ground[truth].mean(), 100 * (~ground[~truth]).mean()
+        assert shares[0] >= kept and shares[1] >= removed, (label, shares)
+
+
+def test_edges_follow_the_trend_and_the_set_files_repeat_the_edge():
+    """A slope of 25 % rising to the edge of the data, with a 2.5 m retaining wall 10 m from it:
+    repeating the edge cell (the dissertation's filter, ``edges = "nearest"``, as the set files
+    do) makes the terrace above the wall a bump the openings remove; continued along the trend,
+    little of it is lost."""
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(0, 120, 12_000), rng.uniform(0, 100, 12_000)
+    z = 50 + 0.25 * y + 2.5 * (y >= 90) + rng.normal(0, 0.03, len(x))
+    top = y >= 90
+    trend = ground_filter(x, y, z, "gapm", GapmParams())
+    nearest = ground_filter(x, y, z, "gapm", GapmParams(edges="nearest"))
+    assert (~trend.is_ground[top]).mean() < 0.1 and trend.is_ground[~top].mean() > 0.99
+    assert (~nearest.is_ground[top]).mean() > 0.5
+    with open(PARAMS / "gapm-isprs-set01.toml", "rb") as fh:
+        assert resolve(GapmParams, [("params file", tomllib.load(fh))]).values.edges == "nearest"
 
 
 def test_auto_derives_the_cell_from_density_and_the_largest_window_from_the_largest_object():
