@@ -8,6 +8,7 @@
     python bench/bench_auto.py planted      # single low points planted under the raw sites: found?
     python bench/bench_auto.py terraces     # walled terraces: the defaults against the former ones
     python bench/bench_auto.py scenes       # the known-answer scenes of each terrain type
+    python bench/bench_auto.py sites        # the raw sites CSite1, FSite5 whole, scored where samples lie
 
 Reads the seven ISPRS reference samples (``bench/data_paths.py`` says where). ``sweep`` scores every combination of the candidate
 constants below with the package's own filter (``aldpat.filters.base.ground_filter``) and
@@ -301,19 +302,61 @@ def scenes(_samples) -> None:
         print(f"| {name} | {len(z):,} | " + " | ".join(cells) + " |")
 
 
+#: The raw sites and the reference samples cut from them (their points are among the site's).
+SITE_SAMPLES = {"CSite1_red2-utm": ("samp12",), "FSite5_orig-utm": ("samp51", "samp53")}
+
+
+def site_labels(name: str):
+    """A raw site's points and, where a point is one of a reference sample's (within 5 cm across
+    and 10 cm in height), that point's label: 0 bare earth, 1 object, -1 not in a sample."""
+    import laspy
+    from data_paths import ISPRS_SITES
+    from isprs import load_sample
+    from scipy.spatial import cKDTree
+
+    las = laspy.read(ISPRS_SITES / f"{name}.laz")
+    x, y, z = np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)
+    label = np.full(len(x), -1, np.int8)
+    for sample in SITE_SAMPLES[name]:
+        s = load_sample(sample)
+        distance, nearest = cKDTree(np.c_[s.x, s.y]).query(np.c_[x, y], distance_upper_bound=0.05)
+        hit = np.flatnonzero(np.isfinite(distance))
+        hit = hit[np.abs(z[hit] - s.z[nearest[hit]]) < 0.1]
+        label[hit] = np.where(s.ground[nearest[hit]], 0, 1)
+    return x, y, z, label
+
+
+def sites(_samples) -> None:
+    """The raw sites filtered whole (as a survey is, not cut to a sample), scored on their points
+    that are reference samples' points: CSite1 (0.11 points/m2, reduced) where samp12 lies,
+    FSite5 where samp51 and samp53 lie. The sparse site CSite1 shows the defaults at the density
+    of the sparser samples kept aside, on a built-up site."""
+    print("| site (labelled points) | setting | type I | type II | total | site's points called ground |")
+    print("|---|---|---|---|---|---|")
+    for name, cut in SITE_SAMPLES.items():
+        x, y, z, label = site_labels(name)
+        known = label >= 0
+        for mode, p in (("defaults", GapmParams()), ("--auto", auto_params(x, y, z))):
+            ground = ground_filter(x, y, z, "gapm", p).is_ground
+            sc = score(label[known] == 0, ground[known])
+            print(f"| {name} ({known.sum():,}: {', '.join(cut)}) | {mode} | {sc.type1:.2f} | "
+                  f"{sc.type2:.2f} | {sc.total:.2f} | {100 * ground.mean():.1f} % |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "planted", "terraces", "scenes"))
+    ap.add_argument("what", choices=("sweep", "report", "others", "lowout", "planted", "terraces", "scenes",
+                                     "sites"))
     ap.add_argument("--auto", action="store_true", help="sweep: every combination with --auto")
     ap.add_argument("--waive", nargs="*", default=(), metavar="SCENE",
                     help="sweep: scenes whose shares do not constrain the choice (say so when reporting)")
     args = ap.parse_args()
-    samples = load_samples() if args.what not in ("terraces", "scenes", "planted") else []
+    samples = load_samples() if args.what not in ("terraces", "scenes", "planted", "sites") else []
     if args.what == "sweep":
         sweep(samples, auto=args.auto, waive=tuple(args.waive))
     else:
         {"report": report, "others": others, "lowout": lowout, "planted": planted, "terraces": terraces,
-         "scenes": scenes}[args.what](samples)
+         "scenes": scenes, "sites": sites}[args.what](samples)
 
 
 if __name__ == "__main__":
