@@ -171,7 +171,8 @@ def test_a_worker_killed_mid_run_changes_nothing(tmp_path, cluster):
 
 def test_chunks_of_one_file_are_units_of_the_cluster(tmp_path):
     sample = DATA / "samp24.txt"
-    small = ["--window-series", "1,2,4,8", "--result", "classified"]
+    # small windows and a short low-outlier reach: 20 m chunks within the bound on copies per point
+    small = ["--window-series", "1,2,4,8", "--low-outlier-reach", "4", "--result", "classified"]
     aldpat("filter", "pm", sample, *small, "--odir", tmp_path / "one").ok()
     aldpat("filter", "pm", sample, *small, "--chunk", "20", "--scheduler", "local:2", "--odir", tmp_path / "dask").ok()
     assert filecmp.cmp(tmp_path / "one" / "samp24_pm.txt", tmp_path / "dask" / "samp24_pm.txt", shallow=False)
@@ -186,7 +187,8 @@ def test_the_progress_counts_the_chunks_finished_on_the_cluster(tmp_path):
     from tests.filters.test_chunked import Recorder
 
     progress = Recorder()
-    options = {"odir": str(tmp_path), "chunk": 20.0, "window_series": (1, 2, 4, 8), "scheduler": "local:2"}
+    options = {"odir": str(tmp_path), "chunk": 20.0, "window_series": (1, 2, 4, 8), "low_outlier_reach": 4.0,
+               "scheduler": "local:2"}
     report = run_task(get_task("filter", "pm"), [DATA / "samp24.txt"], [("python", options)], progress=progress)
     assert report.exit_code == 0
     assert (progress.jobs, progress.done) == (1, 1)

@@ -31,7 +31,7 @@ def in_a_terminal(*args, cwd) -> tuple[int, str]:
 
 def test_the_bar_counts_the_chunks_of_one_file(tmp_path):
     code, drawn = in_a_terminal("filter", "pm", DATA / "samp24.txt", "--chunk", "20", "--window-series", "1,2,4,8",
-                                "--odir", tmp_path, cwd=tmp_path)
+                                "--low-outlier-reach", "4", "--odir", tmp_path, cwd=tmp_path)
     assert code == 0, drawn
     counts = set(re.findall(r"(\d+)/(\d+)", drawn))
     assert ("29", "29") in counts  # 28 chunks and their job: the bar's last refresh
