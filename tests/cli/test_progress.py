@@ -42,7 +42,7 @@ def test_the_bar_counts_the_chunks_of_one_file(tmp_path):
 def test_a_worksheet_shows_each_jobs_bar(tmp_path):
     sheet = tmp_path / "chunks.toml"
     sheet.write_text(f'[[job]]\ntask = "filter"\nalgorithm = "pm"\ninputs = ["{DATA / "samp24.txt"}"]\n'
-                     f'odir = "out"\nchunk = 20.0\nwindow_series = [1, 2, 4, 8]\n')
+                     f'odir = "out"\nchunk = 20.0\nwindow_series = [1, 2, 4, 8]\nlow_outlier_reach = 4.0\n')
     code, drawn = in_a_terminal("run", sheet, cwd=tmp_path)
     assert code == 0, drawn
     assert ("29", "29") in set(re.findall(r"(\d+)/(\d+)", drawn))  # the job's 28 chunks and the job
