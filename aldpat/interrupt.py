@@ -9,10 +9,11 @@ exactly as for Ctrl-C.
 What is running is kept by :func:`doing` (a stack of short descriptions: the worksheet job, the
 task and its input) so that the command can say what was interrupted.
 
-Worker processes of a pool ignore SIGINT and SIGHUP (the parent decides, and ends them with
-SIGTERM), and ask the kernel for SIGTERM when their parent dies, with a watchdog thread where the
-kernel cannot or did not: a parent killed outright (SIGKILL) leaves no worker behind, writing
-outputs under a resumed run or blocked on a pipe (:mod:`aldpat.core.workers`).
+Worker processes of a pool ignore SIGINT and SIGHUP (the run's process decides, and ends them
+with SIGTERM), and ask the kernel for SIGTERM when their parent (the fork server, which ends with
+the run's process) dies, with a watchdog thread where the kernel cannot or did not: a run killed
+outright (SIGKILL) leaves no worker behind, writing outputs under a resumed run or blocked on a
+pipe (:mod:`aldpat.core.workers`).
 """
 
 from __future__ import annotations
@@ -41,12 +42,35 @@ class Interrupted(KeyboardInterrupt):
         return signal.Signals(self.signum).name
 
 
+#: the signal that asked this process to stop, once one has
+_requested: int | None = None
+
+
 def _raise(signum, frame) -> None:
+    global _requested
+    _requested = signum
     raise Interrupted(signum)
+
+
+def stop_requested() -> int | None:
+    """The signal that asked this process to stop, if one has."""
+    return _requested
+
+
+def reraise_if_stopping() -> None:
+    """Raise :class:`Interrupted` again if a signal asked this process to stop. A library that
+    calls back into Python may turn the :class:`Interrupted` raised in the callback into an error
+    of its own -- lazrs writes a LAZ file through the file object's ``write`` and reports a
+    failed write as an ``OSError`` -- and that error must not pass for a failure of the job:
+    the job stops, and so does the run."""
+    if _requested is not None:
+        raise Interrupted(_requested)
 
 
 def install() -> None:
     """Make SIGINT, SIGTERM and SIGHUP raise :class:`Interrupted` in this process."""
+    global _requested
+    _requested = None
     for sig in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)):
         if sig is not None:
             signal.signal(sig, _raise)
@@ -56,7 +80,8 @@ _stopping = False
 
 
 def _raise_in_worker(signum, frame) -> None:
-    global _stopping
+    global _stopping, _requested
+    _requested = signum
     if not _activity:  # between jobs (idle, or sending a result): nothing to clean up, nothing to say
         os._exit(128 + signum)
     if _stopping:  # told twice (the parent and the kernel): the first is being honoured
@@ -65,19 +90,21 @@ def _raise_in_worker(signum, frame) -> None:
     raise Interrupted(signum)
 
 
-def install_in_worker(parent: int) -> None:
-    """Signal handling of a pool worker of process ``parent``: stop on SIGTERM (from the parent,
-    or the kernel when the parent dies); leave SIGINT and SIGHUP, which a terminal sends to every
-    process of the command, to the parent; end with the parent however it ends."""
-    global _interrupted_during, _stopping
+def install_in_worker(run: int) -> None:
+    """Signal handling of a pool worker of the run's process ``run``: stop on SIGTERM (from the
+    run, or the kernel when the worker's parent dies); leave SIGINT and SIGHUP, which a terminal
+    sends to every process of the command, to the run; end with the run however it ends."""
+    global _interrupted_during, _stopping, _requested
     _activity.clear()  # a forked worker starts with a copy of what its parent was doing
     _interrupted_during = None
     _stopping = False
+    _requested = None
     signal.signal(signal.SIGTERM, _raise_in_worker)
     for sig in TERMINAL:
         signal.signal(sig, signal.SIG_IGN)
     _die_with_parent()
-    threading.Thread(target=_watch_parent, args=(parent,), name="aldpat-parent-watch", daemon=True).start()
+    threading.Thread(target=_watch_parent, args=(os.getppid(), run), name="aldpat-parent-watch",
+                     daemon=True).start()
     if hasattr(signal, "pthread_sigmask"):  # held back while the pool started this worker
         signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPPING)
 
@@ -99,13 +126,35 @@ WATCH_EVERY = 0.5
 WATCH_GRACE = 20.0
 
 
-def _watch_parent(parent: int, every: float = WATCH_EVERY, grace: float = WATCH_GRACE) -> None:
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # there, though not ours to signal
+        return True
+    return True
+
+
+def _watch_parent(parent: int, run: int, every: float = WATCH_EVERY, grace: float = WATCH_GRACE) -> None:
     """Where the kernel sends no signal (or it was missed): once the parent is gone (this process
-    was handed to another), stop as SIGTERM stops a worker, and exit after ``grace`` seconds
-    whatever the job is doing."""
-    while os.getppid() == parent:
+    was handed to another) or the run's process is, stop as SIGTERM stops a worker, and exit after
+    ``grace`` seconds whatever the job is doing. The parent is the run itself when the worker was
+    forked from it, or the fork server, which ends when the run does.
+
+    The signal goes to the main thread: Python runs handlers there only, and a main thread blocked
+    in a read (an idle worker waiting for its next job) wakes only for a signal delivered to it.
+    For the same reason this thread refuses the stopping signals, so that the kernel's
+    (``PR_SET_PDEATHSIG``) reaches the main thread rather than this one."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, STOPPING)
+    while os.getppid() == parent and _alive(run):
         time.sleep(every)
-    os.kill(os.getpid(), signal.SIGTERM)
+    main = threading.main_thread().ident
+    if hasattr(signal, "pthread_kill") and main is not None:
+        signal.pthread_kill(main, signal.SIGTERM)
+    else:
+        os.kill(os.getpid(), signal.SIGTERM)
     time.sleep(grace)
     os._exit(128 + signal.SIGTERM)
 
@@ -117,9 +166,12 @@ def run_job(fn: Callable, *args):
     worker that was ended the same way."""
     try:
         with doing("job"):
-            return fn(*args)
+            result = fn(*args)
     except Interrupted as exc:
         os._exit(128 + exc.signum)
+    if _requested is not None:  # told to stop, and the job ended another way (see reraise_if_stopping)
+        os._exit(128 + _requested)
+    return result
 
 
 #: the signals that stop aldpat (:func:`install`)

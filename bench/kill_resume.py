@@ -124,7 +124,7 @@ class Instant:
     identical: bool
     leftovers: list[str]
     problem: str = ""
-    orphans: list[int] = field(default_factory=list)  # processes of the killed run alive 10 s after it
+    orphans: list[str] = field(default_factory=list)  # processes of the killed run alive 10 s after it
 
     @property
     def ok(self) -> bool:
@@ -140,6 +140,14 @@ def same_bytes(a: Path, a_root: Path, b: Path, b_root: Path) -> bool:
     if a.name != "tile_parameter.txt":
         return False
     return a.read_text().replace(str(a_root.resolve()), "ROOT") == b.read_text().replace(str(b_root.resolve()), "ROOT")
+
+
+def describe(p: psutil.Process) -> str:
+    """``pid status: command`` of a process, for a report of those left behind."""
+    try:
+        return f"{p.pid} {p.status()}: {' '.join(p.cmdline())[-120:]}"
+    except psutil.Error:
+        return str(p.pid)
 
 
 def kill_and_resume(template: Path, reference: dict[str, Path], workdir: Path, delay: float) -> Instant:
@@ -161,7 +169,7 @@ def kill_and_resume(template: Path, reference: dict[str, Path], workdir: Path, d
     proc.wait()
     # workers notice their parent's death (SIGTERM from the kernel, or their watchdog) and clean up
     _, alive = psutil.wait_procs(family, timeout=10)
-    orphans = [p.pid for p in alive if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+    orphans = [describe(p) for p in alive if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
     for p in alive:
         with contextlib.suppress(psutil.Error):
             p.kill()

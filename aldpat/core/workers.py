@@ -1,15 +1,22 @@
 """Worker processes of a run (``-j N``, a file's chunks in processes): a pool whose workers share
 the cores, stop when told, and never outlive the process that started them.
 
-A worker must not outlive its run however the run ends. Told to stop (SIGTERM from the parent, or
-from the kernel when the parent dies), a worker running a job stops it so that its writers remove
-their temporary files, and a worker between jobs -- idle, or sending a result -- exits at once,
-printing nothing (:func:`aldpat.interrupt.install_in_worker`). The kernel's signal needs Linux
-(``PR_SET_PDEATHSIG``); everywhere a watchdog thread also looks for the parent twice a second.
+Workers are forked from a fork server (``forkserver``; ``spawn`` on macOS and Windows), never
+from the running process itself. The running process has threads by then -- lazrs decompresses
+a LAZ file on a thread pool, and a worksheet reads or writes LAZ in the parent before a ``-j 2``
+job -- and a process forked from a threaded one inherits locks held by threads it does not have:
+its first LAZ read waited for ever. The server is a fresh process that has read nothing; it
+imports aldpat once, so workers start without importing it again. As with ``spawn``, a script
+that starts a pool (a task run from Python with ``jobs=2``) needs the ``if __name__ ==
+"__main__":`` guard, since each worker imports the script's main module.
 
-Signals are blocked while the pool starts its workers, so that none arrives between the fork
-and the worker's own handlers: the worker would otherwise die in multiprocessing's start-up and
-print a traceback (``Process ForkProcess-3: ... Interrupted: SIGTERM``).
+A worker must not outlive its run however the run ends. Told to stop (SIGTERM from the parent, or
+from the kernel when its own parent, the fork server, ends -- which it does as soon as the run's
+process is gone), a worker running a job stops it so that its writers remove their temporary
+files, and a worker between jobs -- idle, or sending a result -- exits at once, printing nothing
+(:func:`aldpat.interrupt.install_in_worker`). The kernel's signal needs Linux
+(``PR_SET_PDEATHSIG``); everywhere a watchdog thread also looks for the parent and the run's
+process twice a second.
 """
 
 from __future__ import annotations
@@ -17,7 +24,6 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
-import sys
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 
@@ -28,17 +34,29 @@ from aldpat.core.threads import set_budget, share_for
 GRACE = 30.0
 
 
-def _start(threads: int, parent: int) -> None:
-    interrupt.install_in_worker(parent)
+def _start(threads: int, run: int) -> None:
+    interrupt.install_in_worker(run)
     set_budget(threads)  # the workers share the cores: each takes its part of them
+
+
+#: imported once by the fork server, so that its workers start with them loaded
+PRELOADED = ["aldpat.interrupt", "aldpat.jobs.execute", "aldpat.tasks"]
+
+
+def start_method() -> multiprocessing.context.BaseContext:
+    """The fork server where there is one (Linux), else ``spawn``: never a fork of this process."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOADED)
+    return context
 
 
 class WorkerPool:
     """``workers`` processes running submitted calls; :meth:`stop` ends them all."""
 
     def __init__(self, workers: int):
-        method = "spawn" if sys.platform == "darwin" else "fork"
-        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method),
+        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=start_method(),
                                          initializer=_start, initargs=(share_for(workers), os.getpid()))
 
     def submit_all(self, fn: Callable, jobs: list[tuple]) -> list[Future]:

@@ -57,7 +57,11 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
     start = time.perf_counter()
     try:
         with interrupt.doing(f"running: {job_names(sources)}"):
-            body(ctx)
+            try:
+                body(ctx)
+            except Exception:
+                interrupt.reraise_if_stopping()  # an interrupt a library reported as its own error
+                raise
     except OutputExistsError as exc:
         named = exc.path is not None and exc.path.startswith(tuple(ctx.named_after_inputs))
         result.error = str(exc.named_after_input() if named else exc)

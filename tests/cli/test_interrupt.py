@@ -6,6 +6,7 @@ user would.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -18,6 +19,7 @@ import numpy as np
 import psutil
 import pytest
 
+from aldpat import interrupt
 from tests.cli.fresh import REPO, aldpat_command, leftovers
 
 sys.path.insert(0, str(REPO / "bench"))
@@ -207,21 +209,24 @@ def test_sigkill_of_the_parent_leaves_no_worker_busy_or_idle(two_big, tmp_path, 
 
 
 BLOCKED_SENDER = """
-import os, signal, sys, time
+import ctypes, os, signal, sys, time
 from aldpat import interrupt
 from aldpat.core.workers import WorkerPool
 
-def big(n):
+def big(n, how):
+    if how == "no-pdeathsig":  # as where the kernel has no such signal: the watchdog alone
+        ctypes.CDLL(None).prctl(1, 0, 0, 0, 0)  # PR_SET_PDEATHSIG, none
     time.sleep(0.5)
     return b"x" * n
 
-if sys.argv[1] == "no-pdeathsig":
-    interrupt._die_with_parent = lambda: None  # as where the kernel has no such signal
-with interrupt.doing("a worksheet job"):  # what the parent was doing when its workers forked
-    pool = WorkerPool(2)
-    futures = pool.submit_all(big, [(64 << 20,), (1,)])
-    print(" ".join(str(p.pid) for p in pool._pool._processes.values()), flush=True)
-    os.kill(os.getpid(), signal.SIGSTOP)  # the parent stops reading: the first worker blocks on the pipe
+if __name__ == "__main__":  # the workers import this script
+    with interrupt.doing("a worksheet job"):  # what the parent was doing when its workers started
+        pool = WorkerPool(2)
+        futures = pool.submit_all(big, [(64 << 20, sys.argv[1]), (1, sys.argv[1])])
+        while len(pool._pool._processes) < 2:
+            time.sleep(0.01)
+        print(" ".join(str(p.pid) for p in pool._pool._processes.values()), flush=True)
+        os.kill(os.getpid(), signal.SIGSTOP)  # the parent stops reading: the first worker blocks on the pipe
 """
 
 
@@ -242,3 +247,48 @@ def test_a_worker_blocked_sending_its_result_ends_with_its_killed_parent(tmp_pat
     proc.wait()
     assert gone_within(workers, 10) == []
     assert "Traceback" not in proc.stderr.read()
+
+
+def test_a_stop_a_library_reported_as_its_own_error_still_stops(monkeypatch):
+    """lazrs writes a LAZ file through the file object's ``write``: a signal handled there raises
+    in the callback, and the library may hand the job an error of its own instead. The job must
+    stop (the run with it), not pass for a job that failed while the run goes on."""
+    from aldpat.jobs.execute import _guarded
+    from aldpat.jobs.resolve import resolve_run
+    from aldpat.tasks import get_task
+
+    task = get_task("convert")
+    run = resolve_run(task, [])
+    monkeypatch.setattr(interrupt, "_requested", None)
+
+    def broken_write(ctx):
+        raise OSError(5, "Input/output error")
+
+    failed = _guarded(task, ["a.txt"], run, "aldpat convert a.txt", broken_write)
+    assert failed.error == "a.txt: input/output error"  # no signal: the job's own error
+
+    def interrupted_write(ctx):
+        with contextlib.suppress(interrupt.Interrupted):  # what the library made of it
+            interrupt._raise(signal.SIGTERM, None)
+        raise OSError(5, "Input/output error")
+
+    with pytest.raises(interrupt.Interrupted):
+        _guarded(task, ["a.txt"], run, "aldpat convert a.txt", interrupted_write)
+
+
+def test_workers_after_the_run_read_laz_itself(tmp_path):
+    """A worksheet whose first job reads a LAZ file in the run's process (one input: no pool),
+    then runs -j 2 over LAZ files. lazrs reads LAZ on a thread pool; workers forked from a process
+    holding one waited for ever on their first LAZ read. Workers come from a fork server now."""
+    slice_laz = REPO / "tests" / "data" / "csite1_slice.laz"
+    for name in ("a.laz", "b.laz"):
+        (tmp_path / name).write_bytes(slice_laz.read_bytes())
+    ws = tmp_path / "ws.toml"
+    ws.write_text('[settings]\njobs = 2\n\n'
+                  '[[job]]\ntask = "convert"\ninputs = ["a.laz"]\nout_format = "text"\nodir = "text"\n\n'
+                  '[[job]]\ntask = "filter"\nalgorithm = "pm"\ninputs = ["a.laz", "b.laz"]\nodir = "ground"\n')
+    done = subprocess.run(aldpat_command() + ["run", str(ws)], check=False, capture_output=True, text=True,
+                          timeout=240, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "ground").glob("*.laz")) == ["a_pm.laz", "b_pm.laz"]
+    assert "Traceback" not in done.stderr
