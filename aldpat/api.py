@@ -28,7 +28,7 @@ from aldpat.io.table import PointTable
 from aldpat.io.toml import load_toml
 from aldpat.options import ChunkOption
 from aldpat.params import resolve, spec_map, unknown_key_error
-from aldpat.tasks.dtm import DtmParams, filtered_ground, terrain_raster
+from aldpat.tasks.dtm import LOW_OUTLIER_KEYS, DtmParams, filtered_ground, terrain_raster
 from aldpat.tasks.filter import classify_points
 from aldpat.tasks.grid import grid_spec_for
 
@@ -85,7 +85,7 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     rest: dict[str, Any] = {}
     for key, value in params.items():
         name = key.replace("-", "_")
-        if name in spec_map(DtmParams) and name not in DTM_KEYS:
+        if name in spec_map(DtmParams) and name not in DTM_KEYS and name not in LOW_OUTLIER_KEYS:
             raise ParamError(f"dtm: {key}: an option of the command 'aldpat dtm' (tiles, its files); a call "
                              "returns one Raster")
         (own if name in DTM_KEYS else rest)[key] = value

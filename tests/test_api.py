@@ -147,3 +147,15 @@ def test_the_documented_examples_run(tmp_path, monkeypatch):
     (tmp_path / "strip_dtm.tif").unlink()
     readme = doctest.testfile(str(REPO / "README.md"), module_relative=False, optionflags=flags)  # "From Python"
     assert readme.attempted >= 5 and readme.failed == 0
+
+
+def test_dtm_takes_the_low_outlier_options_as_the_command_does():
+    """``aldpat dtm --low-outliers``, ``--low-outlier-window``...: keywords of :func:`aldpat.dtm`
+    too. Off, the DTM of a file holding one point 106 m under the ground has the pit."""
+    pit = "tests/data/fsite5_pit.laz"
+    default = aldpat.dtm(pit, cell=1.0)
+    same = aldpat.dtm(pit, cell=1.0, low_outlier_window=3)  # gapm's own window
+    off = aldpat.dtm(pit, cell=1.0, low_outliers=None)
+    assert np.array_equal(default.array, same.array)
+    lowest = {name: r.array[r.array != r.nodata].min() for name, r in (("default", default), ("off", off))}
+    assert lowest["off"] < lowest["default"] - 100.0, lowest
