@@ -28,7 +28,7 @@ from aldpat.io.table import PointTable
 from aldpat.io.toml import load_toml
 from aldpat.options import ChunkOption
 from aldpat.params import resolve, spec_map, unknown_key_error
-from aldpat.tasks.dtm import LOW_OUTLIER_KEYS, DtmParams, filtered_ground, terrain_raster
+from aldpat.tasks.dtm import LOW_OUTLIER_KEYS, DtmParams, filtered_ground, occupancy_over, terrain_raster
 from aldpat.tasks.filter import classify_points
 from aldpat.tasks.grid import grid_spec_for
 
@@ -45,7 +45,7 @@ COMMAND_ONLY = frozenset(
 #: ``aldpat dtm``'s own parameters a call takes (beside ``cell`` and ``algorithm``): the others
 #: name files (tiles, a mosaic) or say how the command writes (``grid_format``: see
 #: :meth:`Raster.write`), and ``buffer`` reaches into other inputs, of which a call has none.
-DTM_KEYS = ("origin", "crs", "nodata", "max_distance", "auto", "filter_params")
+DTM_KEYS = ("origin", "crs", "nodata", "max_distance", "max_gap", "auto", "filter_params")
 
 Points = Any  # a path, a laspy.LasData, an (N, 3) array or an (x, y, z) tuple
 
@@ -73,7 +73,9 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     ``cell`` metres apart, as ``aldpat dtm --cell CELL`` makes it from the same points.
 
     ``points`` as for :func:`ground`. ``params`` are ``aldpat dtm``'s ``origin``, ``crs``
-    (default: a LAS input's own), ``nodata`` (-9999), ``max_distance`` and ``auto``, and the
+    (default: a LAS input's own), ``nodata`` (-9999), ``max_distance``, ``max_gap`` (nodes with
+    no point of any class within it are blank: ``"auto"``, the default, metres, or ``"none"``)
+    and ``auto``, and the
     filter's own parameters, either as keywords (``slope_threshold=0.4``) or, for the filter's
     ``cell`` too, as ``filter_params`` -- a mapping or the TOML file ``aldpat dtm
     --filter-params`` takes.
@@ -105,8 +107,10 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     spec = grid_spec_for(dtm_params, xy=(table.x, table.y))
     assert spec is not None  # from the points
     ground = filtered_ground(table.x, table.y, table.z, dtm_params, ground_params)
+    occupancy = occupancy_over(spec, 0.0)
+    occupancy.add(table.x, table.y)
     raster, _ = terrain_raster(table.x[ground], table.y[ground], table.z[ground], spec, dtm_params,
-                               crs=dtm_params.crs or crs)
+                               crs=dtm_params.crs or crs, occupancy=occupancy)
     return raster
 
 

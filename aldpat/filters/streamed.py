@@ -107,7 +107,7 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
     return cell_classes(spec, cells, params, origin=params.origin, spacing=cells.spacing)
 
 
-def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None
+def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None, seen=None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, Extent] | None:
     """The ground points of a LAS/LAZ file in two passes (what ``aldpat dtm`` triangulates): x, y
     and z of the ground points, the file's point count and its points' extent; the points
@@ -116,7 +116,8 @@ def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None
     ``None`` when the file cannot go this way (:func:`stream_classes`; the reason is logged): the
     caller reads it whole. The classes are those of :func:`aldpat.filters.base.ground_filter`.
     ``used(table) -> mask`` selects the points taking part (withheld and ignored classes do not);
-    the extent is every point's.
+    the extent is every point's. ``seen(table)`` is shown every chunk of the first pass, every
+    point of the file (a DTM's occupancy grid: :mod:`aldpat.core.data_gaps`).
     """
     from aldpat.io.las import z_codes
 
@@ -127,6 +128,8 @@ def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None
 
     def coded_chunks() -> Iterator[CodedChunk]:
         for table in units.counted(reader.chunks(chunk), "read + grid", reader.count):
+            if seen is not None:
+                seen(table)
             if used is None:
                 yield table.x, table.y, z_codes(table)
             else:

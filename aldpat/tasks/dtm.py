@@ -33,8 +33,10 @@ file's own classes (``2``, ``2,9``) without filtering it again.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
+import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -45,6 +47,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.crs import without_crs
+from aldpat.core.data_gaps import GAP_CELLS, GAP_SPACINGS, Occupancy, blank_gaps, default_gap, mean_spacing
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
@@ -56,6 +59,7 @@ from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.classified import parse_classes, product_points
 from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
+from aldpat.io.registry import open_points
 from aldpat.io.table import PointTable
 from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
@@ -105,8 +109,13 @@ class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption
                              choices=tuple(GEOTIFF_FORMATS), level="advanced")
     nodata: float | None = param(None, "value of nodes outside the ground points' triangles; none: -9999",
                                  ge=-FLOAT32_MAX, le=FLOAT32_MAX, level="advanced")
-    max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this",
+    max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this "
+                                       "(building footprints too: --max-gap is the DTM's test)",
                                        unit="m", gt=0, level="advanced")
+    max_gap: str = param("auto", "leave nodes blank with no input point of any class within this distance "
+                         "(water, gaps between strips; roofs keep building footprints bridged); auto: "
+                         f"{GAP_SPACINGS:g} x the mean point spacing (point count over the area the points "
+                         f"cover), at least {GAP_CELLS:g} cells; none or 0: never", metavar="M|auto|none")
     mosaic: str | None = param(None, "also write a GDAL virtual raster (.vrt) over every DTM written (a path "
                                "like any other: not inside --odir)", path=True, metavar="FILE.vrt")
 
@@ -115,7 +124,23 @@ class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption
         if self.auto and self.algorithm != "gapm":
             raise ParamError(f"auto: derives gapm's parameters; --algorithm is {self.algorithm}")
         check_classes(self.classes)
+        self.gap_setting()
         self.ground_params()  # a bad filter parameter file fails before any point is read
+
+    def gap_setting(self) -> float | str | None:
+        """``max_gap`` as metres, ``"auto"``, or None (no gap test)."""
+        text = str(self.max_gap).strip().lower()
+        if text == "auto":
+            return "auto"
+        if text == "none":
+            return None
+        try:
+            metres = float(text)
+        except ValueError:
+            raise ParamError(f"max_gap: expected metres, auto or none, got {self.max_gap!r}") from None
+        if not (math.isfinite(metres) and metres >= 0):
+            raise ParamError(f"max_gap: expected metres >= 0, auto or none, got {self.max_gap!r}")
+        return metres or None
 
     def ground_params(self) -> Any:
         """The filter's parameters: its defaults, then ``filter_params``, then the low-outlier
@@ -171,12 +196,16 @@ def points_used(params: DtmParams):
     return used
 
 
-def _buffer_points(ctx: JobContext, region: Bounds, used) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """x, y, z of the neighbours' points inside ``region`` that ``used`` selects, read chunk by chunk."""
+def _buffer_points(ctx: JobContext, region: Bounds, used, occupancy: Occupancy
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x, y, z of the neighbours' points inside ``region`` that ``used`` selects, read chunk by
+    chunk; every point inside ``region`` marks ``occupancy``."""
     xs, ys, zs = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
     for path in ctx.neighbours:
         for chunk in units.counted(ctx.open_input(path).chunks(), f"read {path.name} (buffer)"):
-            inside = region.holds(chunk.x, chunk.y) & used(chunk)
+            near = region.holds(chunk.x, chunk.y)
+            occupancy.add(chunk.x[near], chunk.y[near])
+            inside = near & used(chunk)
             xs.append(np.asarray(chunk.x[inside], np.float64))
             ys.append(np.asarray(chunk.y[inside], np.float64))
             zs.append(np.asarray(chunk.z[inside], np.float64))
@@ -192,10 +221,11 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     made = _streamed_ground(reader, params, ctx)
     if made is None:
         made = _ground_in_memory(source, reader, params, ctx)
-    x, y, z, spec, count, own_ground = made
+    x, y, z, spec, count, own_ground, occupancy = made
     ctx.note(f"{own_ground} ground ({_how(params)})")
     out = ctx.outputs_for(source)[0].path
-    raster, blank = terrain_raster(x, y, z, spec, params, crs=dtm_crs(params, reader, out, ctx), where=source)
+    raster, blank = terrain_raster(x, y, z, spec, params, crs=dtm_crs(params, reader, out, ctx), where=source,
+                                   occupancy=occupancy, note=ctx.note)
     del x, y, z
     units.stage("write")
     raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
@@ -204,9 +234,9 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     ctx.tally(points=count, ground=own_ground, nodes=spec.nx * spec.ny, blank=blank)
 
 
-#: A DTM's ground points: x, y, z (the buffer's included), the nodes, the input's point count and
-#: its own ground points' count.
-GroundPoints = tuple[np.ndarray, np.ndarray, np.ndarray, GridSpec, int, int]
+#: A DTM's ground points: x, y, z (the buffer's included), the nodes, the input's point count,
+#: its own ground points' count and the occupancy of every point read (its data gaps).
+GroundPoints = tuple[np.ndarray, np.ndarray, np.ndarray, GridSpec, int, int, Occupancy]
 
 
 def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints | None:
@@ -217,7 +247,18 @@ def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints
     fparams = params.ground_params()
     if ctx.neighbours or reader.format != "las" or reader.count == 0 or not streamable(params.algorithm, fparams):
         return None
-    made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK, used=points_used(params))
+    # the header's extent holds every point (a point outside it ends the streaming), so the
+    # DTM's nodes, from the points' own extent, are a window of this lattice
+    hx0, hy0, hx1, hy1 = reader.bounds
+    outer = grid_spec_for(params, xy=(np.array([hx0, hx1]), np.array([hy0, hy1])))
+    assert outer is not None  # from the points
+    try:
+        outer.check_fits(1, path=reader.path)
+    except AldpatError:
+        return None  # a header far wider than its points: read whole, on the points' own extent
+    occupancy = Occupancy(outer)
+    made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK, used=points_used(params),
+                         seen=lambda table: occupancy.add(table.x, table.y))
     if made is None:
         return None
     x, y, z, count, (xmin, ymin, xmax, ymax) = made
@@ -225,7 +266,7 @@ def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints
     assert spec is not None  # from the points
     check_grid_fits(spec, "linear", params.grid_format, ctx.output_dir(reader.path), reader.path)
     ctx.note(f"{count} points of {reader.path.name}, filtered in two passes")
-    return x, y, z, spec, count, len(x)
+    return x, y, z, spec, count, len(x), occupancy
 
 
 def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) -> GroundPoints:
@@ -237,9 +278,11 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
     assert spec is not None  # from the points
     check_grid_fits(spec, "linear", params.grid_format, ctx.output_dir(source), source)
     region = Bounds(spec.xmin, spec.ymin, spec.xmax, spec.ymax).grown(params.buffer)
+    occupancy = occupancy_over(spec, params.buffer if ctx.neighbours else 0.0)
+    occupancy.add(table.x, table.y)
     used = points_used(params)
     own = table.take(used(table))
-    bx, by, bz = _buffer_points(ctx, region, used)
+    bx, by, bz = _buffer_points(ctx, region, used, occupancy)
     x = np.concatenate([np.asarray(own.x, np.float64), bx])
     y = np.concatenate([np.asarray(own.y, np.float64), by])
     z = np.concatenate([np.asarray(own.z, np.float64), bz])
@@ -251,7 +294,16 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
              f"inputs within {params.buffer:g} m")
     if len(own) < len(table):
         ctx.note(f"{len(table) - len(own)} points of {source.name} took no part ({_set_aside(params)})")
-    return x[ground], y[ground], z[ground], spec, len(table), int(ground[:len(own)].sum())
+    return x[ground], y[ground], z[ground], spec, len(table), int(ground[:len(own)].sum()), occupancy
+
+
+def occupancy_over(spec: GridSpec, reach: float) -> Occupancy:
+    """An empty occupancy grid on the lattice of ``spec``, ``reach`` wider on every side."""
+    k = math.ceil(reach / spec.dx) if reach > 0 else 0
+    outer = GridSpec(spec.xmin - k * spec.dx, spec.ymin - k * spec.dy, spec.dx, spec.dy, spec.nx + 2 * k,
+                     spec.ny + 2 * k)
+    outer.check_fits(1, change="use a larger --cell or a smaller --buffer")
+    return Occupancy(outer)
 
 
 def _how(params: DtmParams) -> str:
@@ -284,19 +336,41 @@ def filtered_ground(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: DtmPara
 
 
 def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, params: DtmParams, *, crs=None,
-                   where: Path | None = None) -> tuple[Raster, int]:
+                   where: Path | None = None, occupancy: Occupancy | None = None,
+                   note: Callable[[str], None] | None = None) -> tuple[Raster, int]:
     """The DTM of ground points on the nodes of ``spec``, triangulated, linear inside each
     triangle (manual task 9's TIN), and its count of blank nodes. What ``aldpat dtm`` writes and
-    :func:`aldpat.dtm` returns; errors name ``where``."""
+    :func:`aldpat.dtm` returns; errors name ``where``. Nodes with no point of ``occupancy`` (every
+    point read, of any class) within ``max_gap`` are blank (:mod:`aldpat.core.data_gaps`)."""
     if len(x) == 0:
         raise DataError(f"no ground point found by {_how(params)}: no terrain to grid", path=where)
     check_spread(x, y, "linear", where)
     units.stage("triangulate")
     values = interpolate(x, y, z, spec, method="linear", max_distance=params.max_distance)
+    if occupancy is not None:
+        gap, how = gap_distance(params, lambda: mean_spacing(occupancy))
+        if gap is not None:
+            blanked = blank_gaps(values, occupancy.on(spec), gap, spec.dx)
+            if note is not None:
+                note(f"data gaps: {blanked} nodes with no point within {gap:.3g} m ({how}) left blank")
     blank = int(np.isnan(values).sum())
     if blank == values.size:
         raise DataError("every node is blank: the ground points lie outside the DTM's extent", path=where)
     return Raster.from_nodes(values, spec, crs=crs, nodata=params.nodata, path=where), blank
+
+
+def gap_distance(params: DtmParams, spacing: Callable[[], float | None]) -> tuple[float | None, str]:
+    """The gap distance of ``max_gap`` (None: no test) and how it was chosen, for the log;
+    ``spacing()`` gives the mean point spacing for ``auto``."""
+    setting = params.gap_setting()
+    if setting is None:
+        return None, "--max-gap none"
+    if setting != "auto":
+        return float(setting), "--max-gap"
+    mean = spacing()
+    gap = default_gap(mean, params.cell)
+    where = f"mean point spacing {mean:.3g} m" if mean else "no spacing"
+    return gap, f"auto: {GAP_SPACINGS:g} x {where}, at least {GAP_CELLS:g} cells"
 
 
 def _tile_or_none(source: Path, params: DtmParams) -> TileJob | None:
@@ -390,12 +464,71 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
         ctx.tally(points=own, ground=own_ground)
         return
     values, spec = made
+    if params.gap_setting() is not None:
+        every = parts if params.classes is None else tile_points(tile, params.buffer, fmt=fmt)
+        _blank_tile_gaps(values, spec, every, tile, params, ctx, fmt)
     out = ctx.outputs_for(tile.source)[0].path
     units.stage("write")
     write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
                   crs=dtm_crs(params, ctx.open_input(tile.source), out, ctx), overwrite=ctx.overwrite)
     ctx.wrote(out)
     ctx.tally(points=own, ground=own_ground, nodes=values.size, blank=int(np.isnan(values).sum()))
+
+
+def _blank_tile_gaps(values: np.ndarray, spec: GridSpec, parts: list[OwnedPoints], tile: TileJob,
+                     params: DtmParams, ctx: JobContext, fmt: str | None) -> None:
+    """A tile's data gaps, decided alike in every tile holding a node: from every point within
+    ``buffer`` of its core, at one gap for the whole project (the mean spacing of all its tiles'
+    files, :func:`project_spacing`), at most ``buffer`` less a cell -- what each of two tiles
+    sees around a node on their shared edge."""
+    gap, how = gap_distance(params, lambda: project_spacing(tile, fmt))
+    assert gap is not None  # the caller checked
+    reach = max(params.buffer - params.cell, 0.0)
+    if gap > reach:
+        ctx.warn(f"{tile.source.name}: a data gap of {gap:.3g} m ({how}) is judged within --buffer "
+                 f"{params.buffer:g} m less a cell: gaps are {reach:.3g} m")
+        gap, how = reach, "--buffer less a cell"
+    occupancy = occupancy_over(spec, params.buffer)
+    for part in parts:
+        occupancy.add(part.x, part.y)
+    blanked = blank_gaps(values, occupancy.on(spec), gap, spec.dx)
+    ctx.note(f"data gaps: {blanked} nodes with no point within {gap:.3g} m ({how}) left blank")
+
+
+def project_spacing(tile: TileJob, fmt: str | None) -> float | None:
+    """The mean point spacing of a project in tiles: sqrt(the area of every tile file's extent
+    over its point count), the same in every job of the project."""
+    area = count = 0.0
+    for row in tile.rows:
+        path = tile.file_of(row)
+        if path.is_file():
+            stat = path.stat()
+            n, a = _file_density(str(path.resolve()), stat.st_mtime_ns, stat.st_size, fmt)
+            count, area = count + n, area + a
+    return math.sqrt(area / count) if count else None
+
+
+@functools.lru_cache(maxsize=4096)
+def _file_density(path: str, mtime: int, size: int, fmt: str | None) -> tuple[int, float]:
+    """A point file's point count and the area of its extent (a LAS header's; a text file read once)."""
+    try:
+        reader = open_points(Path(path), format=fmt)
+        if reader.count is not None:
+            box = point_bounds(path, format=fmt)
+            count = int(reader.count)
+        else:
+            lo, hi, count = np.array([np.inf, np.inf]), np.array([-np.inf, -np.inf]), 0
+            for chunk in reader.chunks():
+                if len(chunk):
+                    lo = np.minimum(lo, [chunk.x.min(), chunk.y.min()])
+                    hi = np.maximum(hi, [chunk.x.max(), chunk.y.max()])
+                    count += len(chunk)
+            box = Bounds(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    except AldpatError:
+        return 0, 0.0  # its own job says why
+    if count == 0:
+        return 0, 0.0
+    return count, max(box.maxx - box.minx, 0.0) * max(box.maxy - box.miny, 0.0)
 
 
 def dtm_outputs(source: Path, params: DtmParams, ctx: JobContext) -> list[Planned]:

@@ -1,0 +1,128 @@
+"""Where a terrain model has no data: nodes farther than a gap distance from every point.
+
+A TIN stretches its triangles over any area without ground points -- a lake, a strip gap, a
+building's footprint. Under a building there are points (the roof's), none of them ground, and
+the TIN's bridge is what a DTM should show; over a lake or a gap between strips there is no point
+of any class, and a bridge there is invented terrain. The two are told apart by every point of the
+input, whatever its class: a node with no point within ``gap`` of it is blank.
+
+The test is made on the DTM's own lattice: an occupancy grid (a node is occupied when a point lies
+in its cell, half a cell either side) is filled chunk by chunk as points are read -- a byte a node,
+whatever the point count -- and ``scipy.ndimage.distance_transform_edt`` gives every node its
+distance to the nearest occupied one (exact Euclidean distance between node centres; a point lies
+at most half a cell diagonal from its node's centre).
+
+The default gap is :data:`GAP_SPACINGS` mean point spacings (the spacing from the point count and
+the area the points actually cover, :func:`mean_spacing`), and at least :data:`GAP_CELLS` cells.
+The peers leave this to the user: LAStools' blast2dem rasterizes every triangle unless ``-kill``
+names a longest edge in metres, WhiteboxTools' ``lidar_tin_gridding`` takes an optional
+``max_triangle_edge_length``, and lidR's ``rasterize_terrain`` clips the ground TIN to the
+convex (by default) or concave hull of the whole point cloud -- every class, as here -- which
+blanks the outside of the survey but not a lake inside it. An edge-length test (``max_distance``)
+blanks building footprints too; a distance to points of any class does not.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aldpat.core.grid_extent import GridSpec
+
+#: The default gap in mean point spacings. In points spread at random with that mean spacing s,
+#: a disc of radius 5 s is empty with probability exp(-25 pi), i.e. never by chance; scan lines
+#: two or three spacings apart, dropouts on dark roofs and the occlusion beside a building (its
+#: roof points on one side, ground on the other) stay well inside it.
+GAP_SPACINGS = 5.0
+
+#: The least default gap, in DTM cells: at a cell much larger than the spacing, a node whose own
+#: cell and its neighbours' are empty is a gap.
+GAP_CELLS = 2.0
+
+#: Covered area is counted in blocks of this many mean spacings (from the bounding box): wide
+#: enough that a block inside the survey is never empty by chance, narrow enough to see a lake.
+COVER_BLOCK_SPACINGS = 3.0
+
+
+@dataclass
+class Occupancy:
+    """Which nodes of ``spec`` have a point in their cell, and how many points were added."""
+
+    spec: GridSpec
+    cells: np.ndarray = field(init=False)
+    count: int = 0
+
+    def __post_init__(self) -> None:
+        self.cells = np.zeros(self.spec.shape, bool)
+
+    def add(self, x: np.ndarray, y: np.ndarray) -> None:
+        """Mark the cells of points ``x``, ``y`` (points outside the lattice are counted, not marked)."""
+        s = self.spec
+        self.count += len(x)
+        col = np.floor((np.asarray(x, np.float64) - s.xmin) / s.dx + 0.5)
+        row = np.floor((np.asarray(y, np.float64) - s.ymin) / s.dy + 0.5)
+        inside = (col >= 0) & (col < s.nx) & (row >= 0) & (row < s.ny)
+        self.cells[row[inside].astype(np.intp), col[inside].astype(np.intp)] = True
+
+    def on(self, spec: GridSpec) -> np.ndarray:
+        """The occupancy at the nodes of ``spec``, a window of the same lattice (nodes outside
+        this grid are empty)."""
+        s = self.spec
+        c0 = round((spec.xmin - s.xmin) / s.dx)
+        r0 = round((spec.ymin - s.ymin) / s.dy)
+        out = np.zeros(spec.shape, bool)
+        rs, re = max(r0, 0), min(r0 + spec.ny, s.ny)
+        cs, ce = max(c0, 0), min(c0 + spec.nx, s.nx)
+        if rs < re and cs < ce:
+            out[rs - r0:re - r0, cs - c0:ce - c0] = self.cells[rs:re, cs:ce]
+        return out
+
+
+def mean_spacing(occupancy: Occupancy) -> float | None:
+    """The mean point spacing sqrt(covered area / points): the area is that of the blocks of
+    :data:`COVER_BLOCK_SPACINGS` spacings (from the bounding box's density) holding a point, so a
+    lake or a gap between strips does not thin the estimate. None without points."""
+    s = occupancy.spec
+    count = occupancy.count
+    if count == 0:
+        return None
+    occupied = occupancy.cells
+    rows = np.flatnonzero(occupied.any(axis=1))
+    cols = np.flatnonzero(occupied.any(axis=0))
+    if len(rows) == 0:
+        return None
+    box = (rows[-1] - rows[0] + 1) * (cols[-1] - cols[0] + 1) * s.dx * s.dy
+    k = max(1, math.ceil(COVER_BLOCK_SPACINGS * math.sqrt(box / count) / s.dx))
+    part = occupied[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
+    ny, nx = -(-part.shape[0] // k), -(-part.shape[1] // k)
+    padded = np.zeros((ny * k, nx * k), bool)
+    padded[:part.shape[0], :part.shape[1]] = part
+    blocks = int(padded.reshape(ny, k, nx, k).any(axis=(1, 3)).sum())
+    return math.sqrt(blocks * (k * s.dx) * (k * s.dy) / count)
+
+
+def default_gap(spacing: float | None, cell: float) -> float:
+    """:data:`GAP_SPACINGS` mean spacings, at least :data:`GAP_CELLS` cells."""
+    return max(GAP_SPACINGS * (spacing or 0.0), GAP_CELLS * cell)
+
+
+def gap_nodes(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
+    """The nodes farther than ``gap`` (metres) from every occupied node of ``occupied`` (all of
+    them when none is occupied)."""
+    from scipy.ndimage import distance_transform_edt
+
+    if not occupied.any():
+        return np.ones(occupied.shape, bool)
+    distance = distance_transform_edt(~occupied, sampling=cell).astype(np.float32)
+    return distance > np.float32(gap)
+
+
+def blank_gaps(values: np.ndarray, occupied: np.ndarray, gap: float, cell: float) -> int:
+    """Set to NaN the nodes of ``values`` (the lattice of ``occupied``) farther than ``gap``
+    from every point; the count of nodes it blanked that had a value."""
+    far = gap_nodes(occupied, gap, cell)
+    blanked = int((far & ~np.isnan(values)).sum())
+    values[far] = np.nan
+    return blanked
