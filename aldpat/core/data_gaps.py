@@ -66,9 +66,10 @@ class Occupancy:
         inside = (col >= 0) & (col < s.nx) & (row >= 0) & (row < s.ny)
         self.cells[row[inside].astype(np.intp), col[inside].astype(np.intp)] = True
 
-    def on(self, spec: GridSpec) -> np.ndarray:
-        """The occupancy at the nodes of ``spec``, a window of the same lattice (nodes outside
-        this grid are empty)."""
+    def on(self, spec: GridSpec, cells: np.ndarray | None = None) -> np.ndarray:
+        """``cells`` (default: the occupancy) at the nodes of ``spec``, a window of the same
+        lattice (nodes outside this grid are False)."""
+        cells = self.cells if cells is None else cells
         s = self.spec
         c0 = round((spec.xmin - s.xmin) / s.dx)
         r0 = round((spec.ymin - s.ymin) / s.dy)
@@ -76,7 +77,7 @@ class Occupancy:
         rs, re = max(r0, 0), min(r0 + spec.ny, s.ny)
         cs, ce = max(c0, 0), min(c0 + spec.nx, s.nx)
         if rs < re and cs < ce:
-            out[rs - r0:re - r0, cs - c0:ce - c0] = self.cells[rs:re, cs:ce]
+            out[rs - r0:re - r0, cs - c0:ce - c0] = cells[rs:re, cs:ce]
         return out
 
 
@@ -119,10 +120,13 @@ def gap_nodes(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
     return distance > np.float32(gap)
 
 
-def blank_gaps(values: np.ndarray, occupied: np.ndarray, gap: float, cell: float) -> int:
-    """Set to NaN the nodes of ``values`` (the lattice of ``occupied``) farther than ``gap``
-    from every point; the count of nodes it blanked that had a value."""
-    far = gap_nodes(occupied, gap, cell)
+def blank_gaps(values: np.ndarray, spec: GridSpec, occupancy: Occupancy, gap: float) -> int:
+    """Set to NaN the nodes of ``values`` (on ``spec``, a window of the occupancy's lattice)
+    farther than ``gap`` from every point of ``occupancy`` -- the distances taken over the whole
+    occupancy grid, so that points beyond the window's edge count; the count of nodes it blanked
+    that had a value."""
+    far = occupancy.on(spec, gap_nodes(occupancy.cells, gap, occupancy.spec.dx))
+    far |= ~occupancy.on(spec, np.ones(occupancy.spec.shape, bool))  # nodes outside the occupancy's grid
     blanked = int((far & ~np.isnan(values)).sum())
     values[far] = np.nan
     return blanked

@@ -350,7 +350,7 @@ def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, 
     if occupancy is not None:
         gap, how = gap_distance(params, lambda: mean_spacing(occupancy))
         if gap is not None:
-            blanked = blank_gaps(values, occupancy.on(spec), gap, spec.dx)
+            blanked = blank_gaps(values, spec, occupancy, gap)
             if note is not None:
                 note(f"data gaps: {blanked} nodes with no point within {gap:.3g} m ({how}) left blank")
     blank = int(np.isnan(values).sum())
@@ -491,7 +491,7 @@ def _blank_tile_gaps(values: np.ndarray, spec: GridSpec, parts: list[OwnedPoints
     occupancy = occupancy_over(spec, params.buffer)
     for part in parts:
         occupancy.add(part.x, part.y)
-    blanked = blank_gaps(values, occupancy.on(spec), gap, spec.dx)
+    blanked = blank_gaps(values, spec, occupancy, gap)
     ctx.note(f"data gaps: {blanked} nodes with no point within {gap:.3g} m ({how}) left blank")
 
 
