@@ -112,7 +112,7 @@ class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption
     max_distance: float | None = param(None, "leave nodes blank inside triangles with an edge longer than this "
                                        "(building footprints too: --max-gap is the DTM's test)",
                                        unit="m", gt=0, level="advanced")
-    max_gap: str = param("auto", "leave nodes blank with no input point of any class within this distance "
+    max_gap: str = param("auto", "leave nodes blank with no input point of any class within M metres "
                          "(water, gaps between strips; roofs keep building footprints bridged); auto: "
                          f"{GAP_SPACINGS:g} x the mean point spacing (point count over the area the points "
                          f"cover), at least {GAP_CELLS:g} cells; none or 0: never", metavar="M|auto|none")
