@@ -3,7 +3,8 @@
     python bench/make_geoid_windows.py [EGM96_15.gtx]   # default: data_paths.EGM96
 
 Tests may only read files inside the repository, so each NGA EGM96 test point checked by the tests gets a
-4 x 4 node window (0.75 degree a side) of the real 15-minute grid: a few hundred bytes each.
+4 x 4 node window (0.75 degree a side) of the real 15-minute grid: a few hundred bytes each; so does
+the middle of the ISPRS sites of the LAZ slices in tests/data (``egm96_15_isprs.gtx``, UTM 32N).
 GTX layout: big-endian float64 lower-left latitude, lower-left longitude, dlat, dlon, big-endian
 int32 rows, cols, then big-endian float32 rows from the south.
 """
@@ -23,6 +24,9 @@ REPO = Path(__file__).resolve().parents[1]
 SOURCE = EGM96
 #: (latitude, longitude 0..360, N in metres): the NGA's EGM96 test values, shared with the tests
 NGA_POINTS = [tuple(row) for row in np.loadtxt(REPO / "tests" / "data" / "egm96_nga_values.txt")]
+#: window name -> (latitude, longitude) of its middle: CSite1 (48.785 N, 9.17 E) and FSite5
+#: (48.937 N, 8.92 E), both inside one window
+SITE_WINDOWS = {"isprs": (48.86, 9.04)}
 
 
 def read_gtx(path: Path) -> tuple[tuple[float, float, float, float], np.ndarray]:
@@ -59,6 +63,11 @@ def main(source: Path = SOURCE) -> None:
     for k, (lat, lon, _) in enumerate(NGA_POINTS, start=1):
         lat0, lon0, window = cut(head, values, lat, lon)
         target = out / f"egm96_15_nga{k}.gtx"
+        write_gtx(target, lat0, lon0, head[2], head[3], window)
+        print(target.relative_to(REPO), f"{target.stat().st_size} bytes", f"lower-left {lat0:g}, {lon0:g}")
+    for name, (lat, lon) in SITE_WINDOWS.items():
+        lat0, lon0, window = cut(head, values, lat, lon)
+        target = out / f"egm96_15_{name}.gtx"
         write_gtx(target, lat0, lon0, head[2], head[3], window)
         print(target.relative_to(REPO), f"{target.stat().st_size} bytes", f"lower-left {lat0:g}, {lon0:g}")
 
