@@ -5,7 +5,9 @@ everywhere: an EPSG code (``EPSG:26917`` or ``26917``), a WGS 84 UTM zone (``17N
 ``UTM zone 17``; north when no hemisphere is given) or anything PROJ accepts (PROJ string,
 WKT, authority code). :func:`prj_wkt` is the text of every ``.prj`` aldpat writes (shapefiles
 and ArcGIS grids): ESRI WKT1, what ArcGIS and GDAL expect, or OGC WKT1 for a CRS ESRI WKT1
-cannot express.
+cannot express. :func:`horizontal_part`, :func:`vertical_part` and :func:`compound` take a
+compound CRS (horizontal + vertical, ISO 19111 / OGC WKT ``COMPD_CS``, EPSG codes such as
+``EPSG:32632+5773``) apart and put one together.
 """
 
 from __future__ import annotations
@@ -60,3 +62,33 @@ def without_crs(out: Any) -> str:
     none was given and the input names none."""
     name = getattr(out, "name", str(out))
     return f"{name}: written without a CRS (none given with --crs, none in the input)"
+
+
+def horizontal_part(crs: Any) -> Any:
+    """The 2D horizontal CRS of ``crs``: itself when horizontal, the horizontal component of a
+    compound CRS, the 2D form of a 3D one (EPSG:4979 -> EPSG:4326); None for a vertical CRS."""
+    crs = parse_crs(crs)
+    if crs.is_compound:
+        parts = [c for c in crs.sub_crs_list if not c.is_vertical]
+        if not parts:
+            return None
+        crs = parts[0]
+    if crs.is_vertical:
+        return None
+    return crs.to_2d() if len(crs.axis_info) > 2 else crs
+
+
+def vertical_part(crs: Any) -> Any:
+    """The vertical CRS of ``crs`` (itself, or a compound CRS's vertical component); None when
+    it names no height (a horizontal or 3D ellipsoidal CRS)."""
+    crs = parse_crs(crs)
+    if crs.is_compound:  # before is_vertical: pyproj calls a compound with a height vertical too
+        return next((c for c in crs.sub_crs_list if c.is_vertical), None)
+    return crs if crs.is_vertical else None
+
+
+def compound(horizontal: Any, vertical: Any) -> Any:
+    """The compound CRS ``horizontal + vertical``, named as EPSG names its compounds
+    ("WGS 84 / UTM zone 32N + EGM96 height")."""
+    horizontal, vertical = parse_crs(horizontal), parse_crs(vertical)
+    return pyproj.crs.CompoundCRS(name=f"{horizontal.name} + {vertical.name}", components=[horizontal, vertical])

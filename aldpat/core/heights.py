@@ -11,6 +11,13 @@ Plane. Here PROJ does both through pyproj:
   anything pyproj accepts), located in geographic coordinates for the geoid, and optionally
   re-projected to ``to_crs`` (x is always easting / longitude: pyproj ``always_xy``).
 
+The heights written say their datum (:func:`output_crs`): orthometric heights are recorded as a
+compound CRS, the horizontal CRS + EGM96 height (EPSG:5773, the datum of the NGA geoid grid
+ALDPAT's users take), or the vertical CRS the user names in a compound ``to_crs`` (a national
+geoid's heights: ``EPSG:25832+7837``); ellipsoidal heights (``reverse``) are recorded with the
+horizontal CRS alone, whose datum's ellipsoid they refer to. A compound or vertical input CRS
+locates points by its horizontal part.
+
 A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` naming it; PROJ's
 ``inf`` never reaches an output. Work is per array, so a task converts a file chunk by chunk.
 """
@@ -24,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aldpat._lazy import lazy_import
-from aldpat.core.crs import parse_crs
+from aldpat.core.crs import compound, horizontal_part, parse_crs, vertical_part
 from aldpat.errors import DataError, InputMissingError, UsageError
 
 if TYPE_CHECKING:
@@ -36,6 +43,55 @@ log = logging.getLogger(__name__)
 
 #: metres in one unit of z (``z_unit``); the geoid grid is in metres
 Z_UNITS = {"m": 1.0, "ft": 0.3048, "us-ft": 1200.0 / 3937.0}
+#: the EPSG vertical CRS of heights above the EGM96 geoid, in metres
+EGM96_HEIGHT = 5773
+#: z unit -> the unit's name in a vertical CRS (PROJ's unit names)
+_UNIT_NAMES = {"m": "metre", "ft": "foot", "us-ft": "US survey foot"}
+
+
+def egm96_height(z_unit: str = "m") -> pyproj.CRS:
+    """EGM96 height (EPSG:5773) in ``z_unit``: the EPSG CRS itself in metres, the same datum
+    with a foot axis otherwise."""
+    crs = pyproj.CRS.from_epsg(EGM96_HEIGHT)
+    if z_unit == "m":
+        return crs
+    spec = crs.to_json_dict()
+    spec.pop("id", None)  # no longer EPSG:5773
+    spec["name"] = f"EGM96 height ({z_unit})"
+    spec["coordinate_system"]["axis"][0]["unit"] = {"type": "LinearUnit", "name": _UNIT_NAMES[z_unit],
+                                                    "conversion_factor": Z_UNITS[z_unit]}
+    return pyproj.CRS.from_json_dict(spec)
+
+
+def check_to_crs(to_crs, *, reverse: bool = False, z_unit: str = "m") -> None:
+    """Refuse, naming ``--to-crs``, a target CRS the conversion cannot honour: a height datum
+    for ellipsoidal output (``reverse``), or one whose height unit is not ``z_unit``."""
+    if to_crs is None:
+        return
+    vertical = vertical_part(to_crs)
+    if vertical is None:
+        return
+    if reverse:
+        raise UsageError(f"--to-crs: {parse_crs(to_crs).name!r} names a height datum ({vertical.name}), but "
+                         "--reverse writes ellipsoidal heights: give a horizontal CRS")
+    factor = vertical.axis_info[0].unit_conversion_factor if vertical.axis_info else 1.0
+    if abs(factor - Z_UNITS[z_unit]) > 1e-9:
+        raise UsageError(f"--to-crs: {vertical.name!r} is in {vertical.axis_info[0].unit_name}, the heights "
+                         f"in {z_unit} (--z-unit)")
+
+
+def output_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = "m") -> pyproj.CRS:
+    """The CRS recorded with converted points (see the module docstring): ``to_crs``'s
+    horizontal part (else ``horizontal``), + its vertical part or EGM96 height unless ``reverse``."""
+    target = horizontal_part(to_crs) if to_crs is not None else None
+    target = target if target is not None else horizontal_part(horizontal)
+    if reverse:
+        return target
+    to_crs = parse_crs(to_crs) if to_crs is not None else None
+    if to_crs is not None and to_crs.is_compound and len(to_crs.sub_crs_list[0].axis_info) == 2:
+        return to_crs  # the user's compound, EPSG code and name kept
+    vertical = vertical_part(to_crs) if to_crs is not None else None
+    return compound(target, vertical if vertical is not None else egm96_height(z_unit))
 
 def _vgridshift(grids: str) -> pyproj.Transformer:
     """lon, lat in degrees, z = 0 -> z = N (metres) from the grid(s)."""
@@ -78,8 +134,13 @@ class HeightConverter:
     def __init__(self, crs, geoid: str | Path, *, to_crs=None, reverse: bool = False, z_unit: str = "m"):
         if z_unit not in Z_UNITS:
             raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
-        self.crs = parse_crs(crs)
-        self.to_crs = parse_crs(to_crs, key="to_crs") if to_crs is not None else None
+        check_to_crs(to_crs, reverse=reverse, z_unit=z_unit)
+        self.crs = horizontal_part(crs)
+        if self.crs is None:
+            raise UsageError(f"--crs: {parse_crs(crs).name!r} is a height datum alone: give the CRS of x, y")
+        self.to_crs = horizontal_part(parse_crs(to_crs, key="to_crs")) if to_crs is not None else None
+        #: the CRS of the converted points' x, y and z, recorded in their file (:func:`output_crs`)
+        self.output_crs = output_crs(self.crs, to_crs, reverse=reverse, z_unit=z_unit)
         self.reverse = reverse
         self.factor = 1.0 / Z_UNITS[z_unit]
         self._geoid, self.geoid_name = geoid_transformer(geoid)

@@ -3,6 +3,12 @@
 Reading streams with laspy's ``chunk_iterator``. Each chunk carries its laspy point record, so a
 task that keeps, drops or reclassifies points writes every other attribute back untouched, with
 the source's point format, scale, offset and VLRs (CRS included).
+
+A CRS goes into a header as the LAS 1.4 specification (R15, section 2.5 and 2.6) has it: OGC WKT
+(WKT1, the WKT VLR and the global-encoding WKT bit) for point formats 6-10, GeoTIFF keys for
+formats 0-5. GeoTIFF keys as laspy writes them hold an EPSG-coded horizontal CRS only, so a CRS
+with a vertical datum (a compound CRS) needs WKT, hence LAS 1.4 and formats 6-10
+(:func:`as_las14`); a CRS neither can hold is refused in one line (:func:`set_crs`).
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.resources import check_memory, count_text
-from aldpat.errors import InputFormatError, InputMissingError
+from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.table import PointTable
 from aldpat.io.text import MAX_COORDINATE
 
@@ -42,6 +48,11 @@ BUFFER_DIMENSION = "tile_buffer"
 EXTRA_DESCRIPTIONS = {BUFFER_DIMENSION: "1: buffer, a neighbour's point"}
 #: The return columns of a point table and the LAS dimensions they set.
 RETURN_DIMENSIONS = ("return_number", "number_of_returns")
+#: LAS 1.2 point format -> the LAS 1.4 format with the same attributes (LAS 1.4 R15, section 2.6:
+#: 6 adds the time 0 lacks, 7 is 3's colour, 9 and 10 are 4's and 5's wave packets)
+FORMAT_14 = {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}
+#: degrees of one unit of a LAS 1.4 scan angle (formats 6-10); formats 0-5 store whole degrees
+SCAN_ANGLE_UNIT = 0.006
 
 
 def generating_software() -> str:
@@ -231,11 +242,65 @@ def new_point_format(names) -> int:
     return 6 if "t" in names or "gps_time" in names else 0
 
 
+def needs_wkt(crs) -> bool:
+    """Whether ``crs`` can be recorded as WKT only (LAS 1.4, formats 6-10): a CRS with a vertical
+    part, or one without the EPSG code laspy's GeoTIFF keys hold."""
+    from laspy.vlrs.geotiff import create_geotiff_projection_vlrs
+
+    if crs.is_compound or crs.is_vertical:
+        return True
+    try:
+        create_geotiff_projection_vlrs(crs)
+    except RuntimeError:  # laspy: "Projected CRS without epsg is not supported"...
+        return True
+    return False
+
+
+def set_crs(header: laspy.LasHeader, crs) -> None:
+    """Record ``crs`` in ``header`` in place of any CRS record: OGC WKT1 for point formats 6-10
+    (PDAL and GDAL write WKT1, what LAS 1.4 readers parse), GeoTIFF keys for formats 0-5.
+
+    Raises :class:`UsageError` when a format 0-5 header cannot hold ``crs`` (:func:`needs_wkt`).
+    """
+    import pyproj
+    from laspy.vlrs.known import WktCoordinateSystemVlr
+
+    if header.point_format.id < 6:
+        if needs_wkt(crs):
+            raise UsageError(f"CRS {crs.name!r} cannot be written in a LAS {header.version} point format "
+                             f"{header.point_format.id} header (GeoTIFF keys hold an EPSG-coded horizontal CRS "
+                             "only): give an EPSG code, or write LAS 1.4 point format 6-10")
+        header.add_crs(crs)
+        return
+    header.add_crs(crs)  # removes every CRS record, then writes WKT2: replaced by WKT1 below
+    header.vlrs.extract("WktCoordinateSystemVlr")
+    header.vlrs.append(WktCoordinateSystemVlr(crs.to_wkt(pyproj.enums.WktVersion.WKT1_GDAL)))
+    header.global_encoding.wkt = True
+
+
+def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
+    """A copy of ``header`` as LAS 1.4 with the point format of the same attributes
+    (:data:`FORMAT_14`; formats 6-10 kept), extra-byte dimensions and VLRs kept: the LAS
+    :class:`LasWriter` writes a format 0-5 source's points into converts each attribute."""
+    import laspy
+
+    header = copy.deepcopy(header)
+    old = header.point_format
+    point_format = laspy.PointFormat(FORMAT_14.get(old.id, old.id))
+    for dim in old.extra_dimensions:
+        point_format.dimensions.append(dim)
+    header.set_version_and_point_format(laspy.header.Version(1, 4), point_format)
+    return header
+
+
 def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> laspy.LasHeader:
-    """A LAS 1.4 header for points that did not come from LAS (format 6 when a time exists)."""
+    """A header for points that did not come from LAS: LAS 1.2 format 0, or LAS 1.4 format 6
+    when a time exists or the CRS needs WKT (:func:`needs_wkt`)."""
     import laspy
 
     point_format = new_point_format(table.names)
+    if crs is not None and needs_wkt(crs):
+        point_format = 6
     header = laspy.LasHeader(point_format=point_format, version="1.4" if point_format >= 6 else "1.2")
     decimals = decimals or table.meta.get("decimals", {})
     scales = [10.0 ** -min(max(decimals.get(n, 3), 0), 6) for n in "xyz"]
@@ -243,7 +308,7 @@ def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> 
     header.offsets = np.array([np.floor(np.min(table.columns[n]) / 1000.0) * 1000.0 if len(table) else 0.0
                                for n in "xyz"])
     if crs is not None:
-        header.add_crs(crs)
+        set_crs(header, crs)
     return header
 
 
@@ -322,6 +387,10 @@ class LasWriter:
                     for dim in table.record.point_format.dimension_names:
                         if dim in points.point_format.dimension_names:
                             points[dim] = table.record[dim]
+                    if "scan_angle_rank" in table.record.point_format.dimension_names \
+                            and "scan_angle" in points.point_format.dimension_names:  # 1.2 -> 1.4
+                        degrees = np.asarray(table.record["scan_angle_rank"], dtype=np.float64)
+                        points["scan_angle"] = np.round(degrees / SCAN_ANGLE_UNIT).astype(np.int16)
         if table.record is None:
             # a point from text is one return of its pulse unless a column says otherwise (ASPRS:
             # return numbers start at 1; lidR's las_check calls 0 invalid)

@@ -5,6 +5,20 @@ ALDPAT 1.0 user manual (2007), task 3 "Convert ellipsoid to orthometric heights"
 datums, UTM zones or State Plane (``--to-crs``). Streams chunk by chunk in bounded memory; a
 point outside the geoid grid stops that file with a message naming it (no silent 0 or NaN).
 Conversion: :mod:`aldpat.core.heights`.
+
+The output says its vertical datum (:func:`~aldpat.core.heights.output_crs`): orthometric heights
+as a compound CRS, horizontal + EGM96 height (EPSG:5773) or the vertical CRS of a compound
+``--to-crs`` (``EPSG:32632+5783``); ``--reverse`` output as the horizontal CRS alone. A compound
+CRS is OGC WKT in a LAS 1.4 header, so a LAS 1.2 input (formats 0-5) is written as LAS 1.4 in
+the format of the same attributes (0, 1 -> 6; 2, 3 -> 7; 4 -> 9; 5 -> 10), every attribute kept;
+an output whose CRS GeoTIFF keys hold (``--reverse`` to an EPSG-coded CRS) keeps the input's
+version and format. Why upgrade rather than keep 1.2 with the horizontal CRS: most delivered
+LAS is 1.2 and laspy's GeoTIFF keys hold no vertical datum, so keeping 1.2 would leave most
+outputs without the one thing this command changes. The LAS 1.4 specification (R15, section
+2.5) makes OGC WKT the CRS of formats 6-10; PDAL's writers.las writes a compound ``a_srs`` as
+WKT with ``minor_version=4``, and LAStools converts with ``las2las -set_version 1.4
+-set_point_type 6``. Text outputs carry no CRS, as no text point file aldpat writes does (no
+``.prj`` beside point files).
 """
 
 from __future__ import annotations
@@ -17,8 +31,9 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.crs import parse_crs
-from aldpat.core.heights import Z_UNITS, HeightConverter, geoid_transformer
+from aldpat.core.heights import Z_UNITS, HeightConverter, check_to_crs, geoid_transformer
 from aldpat.errors import AldpatError, ParamError, UsageError
+from aldpat.io.las import as_las14, needs_wkt, set_crs
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption
@@ -29,8 +44,11 @@ from aldpat.params import param
 class OrthoHeightParams(CrsOption):
     geoid: str | None = param(None, "geoid grid: a GTX or GeoTIFF file (such as egm96_15.gtx) or a grid name "
                               "PROJ knows", path=True, metavar="GRID", required=True)
-    to_crs: str | None = param(None, "re-project x, y to this CRS (datum, UTM zone, State Plane...)")
-    reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N)", level="advanced")
+    to_crs: str | None = param(None, "re-project x, y to this CRS (datum, UTM zone, State Plane...); a "
+                               "compound CRS (EPSG:32632+5783) also names the output's height datum "
+                               "(default: EGM96 height, EPSG:5773)")
+    reverse: bool = param(False, "orthometric -> ellipsoidal heights (h = H + N); the output records the "
+                          "horizontal CRS alone", level="advanced")
     z_unit: str = param("m", "unit of the input and output heights (the geoid is in metres)",
                         choices=tuple(Z_UNITS), level="advanced")
 
@@ -44,6 +62,7 @@ class OrthoHeightParams(CrsOption):
             raise ParamError(f"geoid: {exc}") from None
         if self.to_crs is not None:
             parse_crs(self.to_crs, key="to_crs")
+            check_to_crs(self.to_crs, reverse=self.reverse, z_unit=self.z_unit)
 
 
 def ortho_height_outputs(source: Path, params: OrthoHeightParams, ctx: JobContext) -> list[Planned]:
@@ -65,10 +84,11 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
         if convert.to_crs.is_geographic:
             dec.update(x=9, y=9)  # degrees need more decimals than metres
         decimals = dec or None
-        if reader.format == "las":
-            like = _reprojected_template(reader, convert)
-    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=convert.to_crs or convert.crs) \
-            as writer:
+    if reader.format == "las":
+        like = _las_template(reader, convert)
+    if out.suffix.lower() in (".las", ".laz"):
+        ctx.note(f"{out.name}: CRS recorded: {convert.output_crs.name}")
+    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=convert.output_crs) as writer:
         done = 0
         for chunk in reader.chunks():
             x, y, z = convert(chunk.x, chunk.y, chunk.z, first=done, path=source)
@@ -87,20 +107,21 @@ class _LasTemplate:
     decimals: dict[str, int] | None = None
 
 
-def _reprojected_template(reader, convert: HeightConverter) -> _LasTemplate:
-    """The LAS source's header (point format, VLRs, every attribute kept) with the target CRS
-    and an x, y scale and offset that suit the new coordinates (1e-7 for degrees)."""
-    header = copy.deepcopy(reader.header)
-    assert convert.to_crs is not None  # called only when re-projecting
-    x0, y0 = (float(v[0]) for v in convert.horizontal([header.mins[0]], [header.mins[1]], path=reader.path))
-    if convert.to_crs.is_geographic:
-        header.scales = np.array([1e-7, 1e-7, header.scales[2]])
-        header.offsets = np.array([np.floor(x0), np.floor(y0), header.offsets[2]])
-    else:
-        header.offsets = np.array([np.floor(x0 / 1000.0) * 1000.0, np.floor(y0 / 1000.0) * 1000.0,
-                                   header.offsets[2]])
-    header.add_crs(convert.to_crs)
-    return _LasTemplate(header, convert.to_crs)
+def _las_template(reader, convert: HeightConverter) -> _LasTemplate:
+    """The LAS source's header, as LAS 1.4 when the output's CRS needs WKT
+    (:func:`~aldpat.io.las.as_las14`: VLRs and every attribute kept), with the output's CRS as WKT and, when re-projecting, an x, y scale and offset
+    that suit the new coordinates (1e-7 for degrees)."""
+    header = as_las14(reader.header) if needs_wkt(convert.output_crs) else copy.deepcopy(reader.header)
+    if convert.to_crs is not None:
+        x0, y0 = (float(v[0]) for v in convert.horizontal([header.mins[0]], [header.mins[1]], path=reader.path))
+        if convert.to_crs.is_geographic:
+            header.scales = np.array([1e-7, 1e-7, header.scales[2]])
+            header.offsets = np.array([np.floor(x0), np.floor(y0), header.offsets[2]])
+        else:
+            header.offsets = np.array([np.floor(x0 / 1000.0) * 1000.0, np.floor(y0 / 1000.0) * 1000.0,
+                                       header.offsets[2]])
+    set_crs(header, convert.output_crs)
+    return _LasTemplate(header, convert.output_crs)
 
 
 register_task(Task(
@@ -113,7 +134,9 @@ register_task(Task(
         ("aldpat ortho-height strips/*.txt --geoid egm96_15.gtx --crs EPSG:4979",
          "orthometric heights, H = h - N, from an EGM96 grid"),
         ("aldpat ortho-height site.laz --geoid egm96_15.gtx --to-crs EPSG:32617",
-         "and x, y re-projected to UTM 17N"),
+         "and x, y re-projected to UTM 17N; the output (LAS 1.4) records UTM 17N + EGM96 height"),
+        ("aldpat ortho-height site.laz --geoid gcg2016.tif --to-crs EPSG:25832+7837",
+         "heights above a national geoid, recorded as ETRS89 / UTM 32N + DHHN2016 height"),
     ),
     outputs=ortho_height_outputs,
 ))

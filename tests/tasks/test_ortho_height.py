@@ -102,7 +102,7 @@ def test_missing_crs_or_geoid_is_reported(tmp_path, runner, cli):
     assert res.exit_code != 0 and "g.gtx" in res.output
 
 
-def test_las_reprojected_keeps_its_point_format_and_gets_the_new_crs(tmp_path):
+def test_las_reprojected_gets_the_format_6_of_its_format_1_and_the_new_crs(tmp_path):
     las, e, n = utm15_las()
     las.x = np.array([e, e + 5.0])
     las.y = np.array([n, n - 3.0])
@@ -112,7 +112,8 @@ def test_las_reprojected_keeps_its_point_format_and_gets_the_new_crs(tmp_path):
     report = get_task("ortho-height")([tmp_path / "s.las"], geoid=str(GEOID), to_crs="EPSG:4326")
     assert report.exit_code == 0, report.results[0].error
     out = laspy.read(tmp_path / "s_Ortho.las")
-    assert out.header.point_format.id == 1 and out.header.parse_crs().to_epsg() == 4326
+    crs = out.header.parse_crs()  # LAS 1.4 for the WKT of WGS 84 + EGM96 height (EPSG:4326+5773)
+    assert out.header.point_format.id == 6 and [c.to_epsg() for c in crs.sub_crs_list] == [4326, 5773]
     assert (out.x[0], out.y[0]) == pytest.approx((LON, LAT), abs=2e-7)
     np.testing.assert_array_equal(out.gps_time, [1.5, 2.5])
     assert out.z[0] == pytest.approx(150.0 - N, abs=0.1)
