@@ -128,6 +128,9 @@ register_task(Task(
     name="ortho-height",
     summary="Ellipsoidal -> orthometric heights with a geoid grid (H = h - N), optionally re-projecting x, y "
             "(manual task 3, Corpscon's job).",
+    epilog="A LAS/LAZ output records its height datum: horizontal CRS + EGM96 height (EPSG:5773), or the "
+           "vertical CRS of a compound --to-crs, as WKT in LAS 1.4 (a LAS 1.2 input is written as LAS 1.4, "
+           "every attribute kept); --reverse records the horizontal CRS alone. Text outputs carry no CRS.",
     params=OrthoHeightParams,
     run_one=ortho_height_one,
     examples=(

@@ -174,3 +174,9 @@ def test_convert_with_a_compound_or_custom_crs_writes_wkt(tmp_path):
     assert header.global_encoding.wkt and crs.to_epsg() is None
     origin = {p.name: p.value for p in crs.coordinate_operation.params}["Longitude of natural origin"]
     assert origin == 9.5
+
+
+def test_help_says_what_is_recorded():
+    text = " ".join(aldpat("ortho-height", "--help").ok().stdout.split())
+    assert "horizontal CRS + EGM96 height (EPSG:5773)" in text and "compound --to-crs" in text
+    assert "LAS 1.4" in text and "--reverse records the horizontal CRS alone" in text
