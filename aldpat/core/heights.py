@@ -68,6 +68,7 @@ def check_to_crs(to_crs, *, reverse: bool = False, z_unit: str = "m") -> None:
     for ellipsoidal output (``reverse``), or one whose height unit is not ``z_unit``."""
     if to_crs is None:
         return
+    _check_not_geocentric(to_crs, "--to-crs")
     vertical = vertical_part(to_crs)
     if vertical is None:
         return
@@ -78,6 +79,14 @@ def check_to_crs(to_crs, *, reverse: bool = False, z_unit: str = "m") -> None:
     if abs(factor - Z_UNITS[z_unit]) > 1e-9:
         raise UsageError(f"--to-crs: {vertical.name!r} is in {vertical.axis_info[0].unit_name}, the heights "
                          f"in {z_unit} (--z-unit)")
+
+
+def _check_not_geocentric(crs, option: str) -> None:
+    """Geocentric x, y, z (EPSG:4978) have no horizontal part and no height to convert."""
+    crs = parse_crs(crs)
+    if crs.is_geocentric:
+        raise UsageError(f"{option}: {crs.name!r} is geocentric (x, y, z from the Earth's centre): give a "
+                         "horizontal or compound CRS")
 
 
 def output_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = "m") -> pyproj.CRS:
@@ -135,21 +144,29 @@ class HeightConverter:
         if z_unit not in Z_UNITS:
             raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
         check_to_crs(to_crs, reverse=reverse, z_unit=z_unit)
+        _check_not_geocentric(crs, "--crs")
         self.crs = horizontal_part(crs)
         if self.crs is None:
             raise UsageError(f"--crs: {parse_crs(crs).name!r} is a height datum alone: give the CRS of x, y")
         self.to_crs = horizontal_part(parse_crs(to_crs, key="to_crs")) if to_crs is not None else None
-        #: the CRS of the converted points' x, y and z, recorded in their file (:func:`output_crs`)
-        self.output_crs = output_crs(self.crs, to_crs, reverse=reverse, z_unit=z_unit)
         self.reverse = reverse
         self.factor = 1.0 / Z_UNITS[z_unit]
         self._geoid, self.geoid_name = geoid_transformer(geoid)
         geographic = self.crs.geodetic_crs
         if geographic is None:
             raise UsageError(f"CRS {self.crs.name!r} has no geographic datum to locate points on the geoid")
-        self._to_geo = pyproj.Transformer.from_crs(self.crs, geographic, always_xy=True)
-        self._xy = (pyproj.Transformer.from_crs(self.crs, self.to_crs, always_xy=True)
-                    if self.to_crs is not None and self.to_crs != self.crs else None)
+        try:
+            #: the CRS of the converted points' x, y and z, recorded in their file (:func:`output_crs`)
+            self.output_crs = output_crs(self.crs, to_crs, reverse=reverse, z_unit=z_unit)
+            self._to_geo = pyproj.Transformer.from_crs(self.crs, geographic, always_xy=True)
+            self._xy = (pyproj.Transformer.from_crs(self.crs, self.to_crs, always_xy=True)
+                        if self.to_crs is not None and self.to_crs != self.crs else None)
+        except (pyproj.exceptions.CRSError, pyproj.exceptions.ProjError) as exc:
+            # an engineering CRS, another celestial body...: PROJ knows no way there
+            why = str(exc).rsplit("proj_create_operations: ", 1)[-1].rsplit("proj_create: ", 1)[-1].split(". ")[0]
+            target = parse_crs(to_crs).name if to_crs is not None else "EGM96 height"
+            raise UsageError(f"--to-crs: no transformation from {self.crs.name!r} to {target!r} "
+                             f"({why.strip().rstrip(')')[:160]})") from None
 
     def __repr__(self) -> str:
         return (f"HeightConverter(crs={self.crs.to_string()!r}, geoid={self.geoid_name!r}, "

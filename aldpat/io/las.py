@@ -274,7 +274,12 @@ def set_crs(header: laspy.LasHeader, crs) -> None:
         return
     header.add_crs(crs)  # removes every CRS record, then writes WKT2: replaced by WKT1 below
     header.vlrs.extract("WktCoordinateSystemVlr")
-    header.vlrs.append(WktCoordinateSystemVlr(crs.to_wkt(pyproj.enums.WktVersion.WKT1_GDAL)))
+    try:
+        wkt = crs.to_wkt(pyproj.enums.WktVersion.WKT1_GDAL)
+    except pyproj.exceptions.CRSError:
+        wkt = None
+    # WKT2 for a CRS WKT1 cannot express (a dynamic datum's epoch...): what laspy writes
+    header.vlrs.append(WktCoordinateSystemVlr(wkt or crs.to_wkt()))
     header.global_encoding.wkt = True
 
 

@@ -140,7 +140,10 @@ def test_feet_record_egm96_height_in_feet(tmp_path):
 
 @pytest.mark.parametrize("args", [("--reverse", "--to-crs", "EPSG:32632+5773"),
                                   ("--reverse", "--to-crs", "EPSG:5773"),
-                                  ("--z-unit", "ft", "--to-crs", "EPSG:32632+5783")])
+                                  ("--z-unit", "ft", "--to-crs", "EPSG:32632+5783"),
+                                  ("--to-crs", "EPSG:4978"),  # geocentric
+                                  ("--to-crs", 'LOCAL_CS["site grid",UNIT["metre",1]]'),
+                                  ("--to-crs", "IAU_2015:30100")])  # the Moon
 def test_a_target_that_cannot_be_honoured_is_a_usage_error(tmp_path, args):
     done = aldpat("ortho-height", CSITE1, "--geoid", GEOID, *args, "--odir", tmp_path)
     assert done.returncode == 2
