@@ -44,7 +44,8 @@ class OriginOption(SharedOption):
 class CrsOption(SharedOption, Checked):
     crs: str | None = param(
         None, "CRS of the x, y coordinates: an EPSG code (EPSG:32617 or 32617), a UTM zone such as 17N, or "
-        "WKT; written into LAS/LAZ headers and .prj files (default: a LAS input's own CRS)")
+        "WKT; written into LAS/LAZ headers, GeoTIFFs and .prj files (default: a LAS input's own CRS; given, it "
+        "replaces a LAS input's, with a warning, without re-projecting)")
 
     def check(self) -> None:
         super().check()

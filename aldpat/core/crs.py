@@ -13,6 +13,7 @@ compound CRS (horizontal + vertical, ISO 19111 / OGC WKT ``COMPD_CS``, EPSG code
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Any
 
 from aldpat._lazy import lazy_import
@@ -57,9 +58,19 @@ def prj_wkt(crs: Any) -> str:
     return wkt or crs.to_wkt(pyproj.enums.WktVersion.WKT1_GDAL)  # a CRS ESRI WKT1 cannot express
 
 
+#: Output suffixes that can carry a CRS: LAS/LAZ headers, GeoTIFF keys, a VRT's SRS, and the
+#: ``.prj`` beside a shapefile or an ArcGIS grid. Text points and Surfer grids cannot.
+CRS_CARRIERS = (".las", ".laz", ".tif", ".tiff", ".vrt", ".shp", ".flt", ".asc")
+
+
+def carries_crs(out: Any) -> bool:
+    """Whether an output of this name can carry a CRS (:data:`CRS_CARRIERS`)."""
+    return str(out).lower().endswith(CRS_CARRIERS)
+
+
 def without_crs(out: Any) -> str:
-    """The one warning line of an output that can carry a CRS (LAS/LAZ, GeoTIFF) and will not:
-    none was given and the input names none."""
+    """The one warning line of an output that can carry a CRS (LAS/LAZ, GeoTIFF, a shapefile's or
+    ArcGIS grid's ``.prj``) and will not: none was given and the input names none."""
     name = getattr(out, "name", str(out))
     return f"{name}: written without a CRS (none given with --crs, none in the input)"
 
@@ -92,3 +103,31 @@ def compound(horizontal: Any, vertical: Any) -> Any:
     ("WGS 84 / UTM zone 32N + EGM96 height")."""
     horizontal, vertical = parse_crs(horizontal), parse_crs(vertical)
     return pyproj.crs.CompoundCRS(name=f"{horizontal.name} + {vertical.name}", components=[horizontal, vertical])
+
+
+def crs_label(crs: Any) -> str:
+    """A CRS in a few words: ``EPSG:32632``, else its name."""
+    crs = parse_crs(crs)
+    code = crs.to_authority()
+    return ":".join(code) if code else crs.name
+
+
+def output_crs(given: Any, source: Any, out: Any, warn: Callable[[str], None]) -> Any:
+    """The CRS an output carries, for every task that writes one: ``given`` (``--crs``), else the
+    input's own (``source``, a LAS header's), else none.
+
+    ``--crs`` overrides an input's different CRS, with a warning line, as PDAL's LAS reader does
+    with ``override_srs``: a header naming the wrong CRS is a common vendor slip, and the
+    coordinates are kept as they are (``ortho-height --to-crs`` re-projects). An output of a
+    format that can carry a CRS (:func:`carries_crs`) and gets none says so in one line
+    (:func:`without_crs`).
+    """
+    crs = parse_crs(given) if given is not None else None
+    known = parse_crs(source) if source is not None else None
+    if crs is not None and known is not None and not crs.equals(known, ignore_axis_order=True):
+        warn(f"{getattr(out, 'name', out)}: --crs {crs_label(crs)} replaces the input's CRS "
+             f"{crs_label(known)} (x, y are kept as they are, not re-projected)")
+    crs = crs if crs is not None else known
+    if crs is None and carries_crs(out):
+        warn(without_crs(out))
+    return crs

@@ -317,6 +317,15 @@ def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> 
     return header
 
 
+def _names_crs(header: laspy.LasHeader, crs) -> bool:
+    """Whether a header already names ``crs`` (a header whose CRS records do not parse does not)."""
+    try:
+        known = header.parse_crs()
+    except Exception:  # noqa: BLE001  (laspy raises several kinds for malformed GeoTIFF keys or WKT)
+        return False
+    return known is not None and known.equals(crs, ignore_axis_order=True)
+
+
 class LasWriter:
     """Writes chunks to a LAS/LAZ file opened for writing (the caller renames it into place).
 
@@ -340,6 +349,8 @@ class LasWriter:
         import laspy
 
         header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
+        if self.template is not None and self.crs is not None and not _names_crs(header, self.crs):
+            header.add_crs(self.crs)  # --crs over the source's own (aldpat.core.crs.output_crs)
         known = set(header.point_format.dimension_names)
         self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
         # extra-byte dimensions the template already has and the table sets (a tile of a tile)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from aldpat.core.crs import parse_crs, without_crs
+from aldpat.core.crs import output_crs
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
 from aldpat.options import CrsOption, FieldsOption, point_names
@@ -27,9 +27,7 @@ def convert_outputs(source: Path, params: ConvertParams, ctx: JobContext) -> lis
 def convert_one(source: Path, params: ConvertParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     out = ctx.outputs_for(source)[0].path
-    crs = parse_crs(params.crs) if params.crs else None
-    if crs is None and reader.crs is None and out.suffix.lower() in (".las", ".laz"):
-        ctx.warn(without_crs(out))
+    crs = output_crs(params.crs, reader.crs, out, ctx.warn)
     names = reader.names if reader.format == "las" and out.suffix in (".las", ".laz") else point_names(reader, params.fields)
     with ctx.write_points(out, names, like=reader, crs=crs) as writer:
         for chunk in reader.chunks():

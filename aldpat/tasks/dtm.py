@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import without_crs
+from aldpat.core.crs import output_crs
 from aldpat.core.data_gaps import GAP_CELLS, GAP_SPACINGS, Occupancy, blank_gaps, default_gap, mean_spacing
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import interpolate
@@ -224,8 +224,8 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     x, y, z, spec, count, own_ground, occupancy = made
     ctx.note(f"{own_ground} ground ({_how(params)})")
     out = ctx.outputs_for(source)[0].path
-    raster, blank = terrain_raster(x, y, z, spec, params, crs=dtm_crs(params, reader, out, ctx), where=source,
-                                   occupancy=occupancy, note=ctx.note)
+    raster, blank = terrain_raster(x, y, z, spec, params, crs=output_crs(params.crs, reader.crs, out, ctx.warn),
+                                   where=source, occupancy=occupancy, note=ctx.note)
     del x, y, z
     units.stage("write")
     raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
@@ -317,14 +317,6 @@ def _set_aside(params: DtmParams) -> str:
         return f"withheld, not of class {params.classes}"
     ignored = ",".join(map(str, params.ignore_classes or ())) or "none"
     return f"withheld, classes {ignored}, returns {params.returns}"
-
-
-def dtm_crs(params: DtmParams, reader, out: Path, ctx: JobContext):
-    """``--crs``, else the input's; one warning line when the DTM will carry none."""
-    crs = params.crs or reader.crs
-    if crs is None:
-        ctx.warn(without_crs(out))
-    return crs
 
 
 def filtered_ground(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: DtmParams, ground_params,
@@ -470,7 +462,7 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
     out = ctx.outputs_for(tile.source)[0].path
     units.stage("write")
     write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata,
-                  crs=dtm_crs(params, ctx.open_input(tile.source), out, ctx), overwrite=ctx.overwrite)
+                  crs=output_crs(params.crs, ctx.open_input(tile.source).crs, out, ctx.warn), overwrite=ctx.overwrite)
     ctx.wrote(out)
     ctx.tally(points=own, ground=own_ground, nodes=values.size, blank=int(np.isnan(values).sum()))
 

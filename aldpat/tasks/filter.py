@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import parse_crs, without_crs
+from aldpat.core.crs import output_crs
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.base import MARK_LOW_OUTLIER
@@ -118,15 +118,6 @@ def with_result(params, source: Path, ctx: JobContext, reader):
     return dataclasses.replace(params, result="classified" if las else "terrain")
 
 
-def output_crs(params, reader, path: Path, ctx: JobContext):
-    """The CRS of a point output: ``--crs``, else the input's (a LAS output of a LAS input keeps
-    its header's); one warning line when a LAS/LAZ output will carry none."""
-    crs = parse_crs(params.crs) if params.crs else getattr(reader, "crs", None)
-    if crs is None and path.suffix.lower() in (".las", ".laz"):
-        ctx.warn(without_crs(path))
-    return crs
-
-
 def _output_names(reader, params) -> tuple[str, ...]:
     """The columns of the outputs: the input's, then ``mark`` and the class where asked."""
     names = tuple(reader.names)
@@ -202,7 +193,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     _note_set_aside(ctx, params, len(table) - (len(table) if part is None else int(part.sum())), len(table))
     units.stage("write", len(rows))
     for path, which in _outputs(source, params, ctx, reader, algorithm):
-        with ctx.write_points(path, names, like=reader, crs=output_crs(params, reader, path, ctx)) as writer:
+        with ctx.write_points(path, names, like=reader, crs=output_crs(params.crs, reader.crs, path, ctx.warn)) as writer:
             writer.write(_part(rows, which, ground))
         ctx.wrote(path, writer.count)
     units.advance(len(rows))
@@ -347,7 +338,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
     n_ground = n = set_aside = 0
     with contextlib.ExitStack() as stack:
         writers = [(stack.enter_context(ctx.write_points(path, names, like=reader,
-                                                         crs=output_crs(params, reader, path, ctx))), path, which)
+                                                         crs=output_crs(params.crs, reader.crs, path, ctx.warn))), path, which)
                    for path, which in outputs]
         start = 0
         for table in units.counted(reader.chunks() if chunk is None else reader.chunks(chunk), "classify + write",

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from aldpat.core.crs import output_crs
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
 from aldpat.io.geotiff import FLOAT32_MAX, write_geotiff
 from aldpat.io.surfer import read_surfer
@@ -39,12 +40,13 @@ def grd2bin_outputs(source: Path, params: Grd2BinParams, ctx: JobContext) -> lis
 def grd2bin_one(source: Path, params: Grd2BinParams, ctx: JobContext) -> None:
     values, spec = read_surfer(source)
     out = ctx.outputs_for(source)[0].path
+    crs = output_crs(params.crs, None, out, ctx.warn)  # a Surfer grid names no CRS
     if params.to in ("tif", "cog"):
-        ctx.wrote(write_geotiff(out, values, spec, cog=params.to == "cog", nodata=params.nodata, crs=params.crs,
+        ctx.wrote(write_geotiff(out, values, spec, cog=params.to == "cog", nodata=params.nodata, crs=crs,
                                 overwrite=ctx.overwrite))
         return
     writer = write_float_grid if params.to == "flt" else write_ascii_grid
-    for path in writer(out, values, spec, nodata=params.nodata, crs=params.crs, overwrite=ctx.overwrite):
+    for path in writer(out, values, spec, nodata=params.nodata, crs=crs, overwrite=ctx.overwrite):
         ctx.wrote(path)
 
 

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import without_crs
+from aldpat.core.crs import output_crs
 from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
@@ -258,7 +258,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     if np.isnan(values).all():
         raise DataError(f"every node is blank: none of the {count} points lies near the grid range "
                         f"{spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g}", path=source)
-    write_grid(out, values, spec, params, params.crs or reader.crs, ctx, count)
+    write_grid(out, values, spec, params, reader.crs, ctx, count)
     log.info("%s: %d points -> %d x %d nodes", source, count, spec.nx, spec.ny)
 
 
@@ -268,13 +268,13 @@ def interpolation_options(params: GridParams) -> dict:
             "drift": params.drift}
 
 
-def write_grid(out: Path, values: np.ndarray, spec: GridSpec, params, crs, ctx: JobContext, points: int) -> None:
-    """Write a grid as ``params.grid_format`` says (a GeoTIFF takes ``crs``), warn of blank nodes,
-    record it and what made it (``points`` read)."""
+def write_grid(out: Path, values: np.ndarray, spec: GridSpec, params, source_crs, ctx: JobContext,
+               points: int) -> None:
+    """Write a grid as ``params.grid_format`` says (a GeoTIFF takes ``--crs``, else the input's
+    ``source_crs``), warn of blank nodes, record it and what made it (``points`` read)."""
     units.stage("write")
+    crs = output_crs(params.crs, source_crs, out, ctx.warn)
     if params.grid_format in GEOTIFF_FORMATS:
-        if crs is None:
-            ctx.warn(without_crs(out))
         write_geotiff(out, values, spec, cog=params.grid_format == "cog", nodata=params.nodata, crs=crs,
                       overwrite=ctx.overwrite)
     else:
@@ -332,7 +332,7 @@ def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
         return
     values, spec = made
     out = ctx.outputs_for(tile.source)[0].path
-    write_grid(out, values, spec, params, params.crs or ctx.open_input(tile.source).crs, ctx, len(parts[0].x))
+    write_grid(out, values, spec, params, ctx.open_input(tile.source).crs, ctx, len(parts[0].x))
 
 
 def chunk_buffer_for(params: GridParams) -> float:

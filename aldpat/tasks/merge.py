@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.crs import output_crs
 from aldpat.errors import DataError
 from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
 from aldpat.io.registry import detect_format
@@ -92,7 +93,7 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
             raise DataError(f"its CRS differs from {known[0].path.name}'s: merge inputs of one CRS", path=reader.path)
     kept = copies = 0
     rescaled = []
-    with ctx.write_points(out, names, like=readers[0], crs=params.crs or (known[0].crs if known else None),
+    with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, known[0].crs if known else None, out, ctx.warn),
                           template=template) as writer:
         for reader in readers:
             marked = reader.format == "las" and BUFFER_DIMENSION in reader.header.point_format.dimension_names

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.crs import output_crs
 from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError, shown
 from aldpat.io.atomic import atomic_output
@@ -24,7 +25,7 @@ from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.toml import MAX_SIDE_FILE_BYTES, read_limited
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import kept_names
+from aldpat.options import CrsOption, kept_names
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
@@ -33,7 +34,7 @@ _SPLIT = re.compile(r"[,\s;]+")
 
 
 @dataclass(frozen=True)
-class PolygonExtractParams:
+class PolygonExtractParams(CrsOption):
     polygon: str | None = param(None, "polygon: a text file of x,y vertices (one a line) or a polygon shapefile",
                                 path=True, metavar="FILE", required=True)
     outside: bool = param(False, "keep the points outside the polygon instead")
@@ -104,7 +105,8 @@ def polygon_extract_one(source: Path, params: PolygonExtractParams, ctx: JobCont
         log.info("%s: %d of %d points %s the polygon", source, count, total,
                  "outside" if params.outside else "inside")
         return
-    with ctx.write_points(out, kept_names(reader, out), like=reader) as writer:
+    crs = output_crs(params.crs, reader.crs, out, ctx.warn)
+    with ctx.write_points(out, kept_names(reader, out), like=reader, crs=crs) as writer:
         for chunk in reader.chunks():
             inside = points_in_polygons(chunk.x, chunk.y, polygons)
             writer.write(chunk.take(~inside if params.outside else inside))

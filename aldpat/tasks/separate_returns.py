@@ -16,19 +16,21 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.crs import output_crs
 from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 from aldpat.errors import DataError, ParamError
+from aldpat.io.las import RETURN_DIMENSIONS
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import FieldsOption, OrderOption
+from aldpat.options import CrsOption, FieldsOption, OrderOption
 from aldpat.params import Checked, param
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class SeparateReturnsParams(FieldsOption, OrderOption, Checked):
+class SeparateReturnsParams(FieldsOption, OrderOption, CrsOption, Checked):
     utm_zone: str = param("auto", "UTM zone prefixed to x and y: auto (detect by digit count), none, or the "
                           "zone number to strip", manual="UTM Zone", metavar="auto|none|N")
     stop_gap: float = param(5.0, "where first minus last return elevation is below this, the last return is "
@@ -88,6 +90,24 @@ class ZoneStripper:
         raise DataError(message, path=self.source, line=self.first_line + row)
 
 
+def las_returns(out: Path) -> tuple[str, ...]:
+    """The return columns a LAS/LAZ output of a tape carries (a text output keeps the manual's
+    x y z [i])."""
+    return RETURN_DIMENSIONS if out.suffix.lower() in (".las", ".laz") else ()
+
+
+def pulse_returns(out: Path, number: int, n: int) -> dict[str, np.ndarray]:
+    """Return ``number`` of 2 for ``n`` points of a LAS/LAZ output: an ALTM tape records two
+    returns of every pulse, first and last (ALDPAT 1.0 user manual (2007), task 1: "t, x2, y2,
+    z2, i2, x1, y1, z1, i1"), so the first is return 1 of 2 and the last 2 of 2, as LAS readers
+    (lidR's ``las_check``, LAStools) expect of a file of several returns. A last return replaced
+    by the first within the stop gap stays 2 of 2: it is the pulse's last return as the manual
+    defines it."""
+    if not las_returns(out):
+        return {}
+    return {"return_number": np.full(n, number, np.uint8), "number_of_returns": np.full(n, 2, np.uint8)}
+
+
 def separate_returns_outputs(source: Path, params: SeparateReturnsParams, ctx: JobContext) -> list[Planned]:
     """``<stem>_1`` (first returns) and ``<stem>_2`` (last returns, in ``--last-odir`` if given)."""
     suffix = ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_"
@@ -107,10 +127,13 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
     z_decimals = max(dec.get("z1", -1), dec.get("z2", -1)) if "z1" in dec and "z2" in dec else None
     # a stripped zone leaves as many decimals as before
     strip = ZoneStripper(parse_zone(params.utm_zone), source, reader.first_data_line)
+    crs = output_crs(params.crs, None, first_out, ctx.warn)  # a tape names no CRS; one line for both files
     replaced = total = 0
     with contextlib.ExitStack() as stack:
-        w1 = stack.enter_context(ctx.write_points(first_out, names, decimals=decimals))
-        w2 = stack.enter_context(ctx.write_points(last_out, names, decimals=decimals))
+        w1 = stack.enter_context(ctx.write_points(first_out, names + las_returns(first_out), decimals=decimals,
+                                                  crs=crs))
+        w2 = stack.enter_context(ctx.write_points(last_out, names + las_returns(last_out), decimals=decimals,
+                                                  crs=crs))
         for chunk in reader.chunks():
             x1, y1 = strip(chunk["x1"], chunk["y1"], total)
             x2, y2 = strip(chunk["x2"], chunk["y2"], total)
@@ -120,8 +143,10 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
             first = {"x": x1, "y": y1, "z": z1, "intensity": i1}
             last = {"x": np.where(swap, x1, x2), "y": np.where(swap, y1, y2), "z": np.where(swap, z1, z2),
                     "intensity": np.where(swap, i1, i2)}
-            w1.write(PointTable({n: first[n] for n in names}, meta={"decimals": decimals}))
-            w2.write(PointTable({n: last[n] for n in names}, meta={"decimals": decimals}))
+            w1.write(PointTable({n: first[n] for n in names} | pulse_returns(first_out, 1, len(chunk)),
+                                meta={"decimals": decimals}))
+            w2.write(PointTable({n: last[n] for n in names} | pulse_returns(last_out, 2, len(chunk)),
+                                meta={"decimals": decimals}))
             replaced += int(swap.sum())
             total += len(chunk)
     ctx.wrote(first_out, w1.count)

@@ -13,6 +13,7 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
+from aldpat.core.crs import output_crs
 from aldpat.errors import UsageError
 from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import PARTS as SHAPEFILE_PARTS
@@ -60,7 +61,8 @@ def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext)
             polygons.append(Polygon([strip.xyz[:, :2]], (strip.index, strip.name)))
     if not polygons:
         raise UsageError("no strip with a usable boundary", path=sources[0])
-    files = write_polygons(out, polygons, FIELDS, crs=params.crs, overwrite=ctx.overwrite)
+    crs = output_crs(params.crs, None, out, ctx.warn)  # a merged boundary file names no CRS
+    files = write_polygons(out, polygons, FIELDS, crs=crs, overwrite=ctx.overwrite)
     for f in files:
         ctx.wrote(f)
     log.info("%s: %d polygons", files[0], len(polygons))

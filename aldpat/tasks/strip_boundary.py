@@ -15,18 +15,19 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.boundary import BoundaryScan
+from aldpat.core.crs import output_crs
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import CellHeightOption, OriginOption
+from aldpat.options import CellHeightOption, CrsOption, OriginOption
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class StripBoundaryParams(CellHeightOption, OriginOption):
+class StripBoundaryParams(CellHeightOption, OriginOption, CrsOption):
     cell: float = param(5.0, "cell width of the min-z mesh, and height unless cell_height is given", unit="m",
                         gt=0, manual="Width", renamed_from=("cell_width",))
     scan: str = param("auto", "scan rows for min and max x (x), columns for min and max y (y), or rows when the "
@@ -56,7 +57,8 @@ def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContex
     names = ("x", "y", "z", "intensity")
     ring["intensity"] = np.rint(ring["intensity"]).astype(np.int64)
     out = ctx.outputs_for(source)[0].path
-    with ctx.write_points(out, names, like=reader) as writer:
+    crs = output_crs(params.crs, reader.crs, out, ctx.warn)
+    with ctx.write_points(out, names, like=reader, crs=crs) as writer:
         writer.write(PointTable(ring, meta={"decimals": reader.decimals}))
     ctx.wrote(out, writer.count)
     log.info("%s: %d boundary points (scan %s)", source, writer.count - 1, direction)

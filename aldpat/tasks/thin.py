@@ -22,17 +22,18 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
+from aldpat.core.crs import output_crs
 from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import CellHeightOption, OriginOption, kept_names
+from aldpat.options import CellHeightOption, CrsOption, OriginOption, kept_names
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ThinParams(CellHeightOption, OriginOption):
+class ThinParams(CellHeightOption, OriginOption, CrsOption):
     cell: float = param(1.0, "cell (window) width, and height unless cell_height is given", unit="m", gt=0,
                         manual="Width", renamed_from=("cell_width",))
     method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
@@ -68,7 +69,8 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
         decimals.update(x=0, y=0)
     k = bucket_count(estimate_points(reader))
     total = 0
-    with ctx.write_points(out, kept_names(reader, out), like=reader, decimals=decimals) as writer:
+    crs = output_crs(params.crs, reader.crs, out, ctx.warn)
+    with ctx.write_points(out, kept_names(reader, out), like=reader, decimals=decimals, crs=crs) as writer:
         if k == 1:
             from aldpat.io.table import PointTable
 

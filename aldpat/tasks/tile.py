@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.crs import output_crs
 from aldpat.core.tiles import DIRECTIONS, TileLayout
 from aldpat.errors import DataError, ParamError, UsageError
 from aldpat.io.atomic import (
@@ -53,13 +54,13 @@ from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
 from aldpat.jobs.context import JobContext, Planned
 from aldpat.jobs.registry import Task, register_task
-from aldpat.options import FieldsOption, OriginOption, point_names
+from aldpat.options import CrsOption, FieldsOption, OriginOption, point_names
 from aldpat.params import Checked, format_value, param
 
 log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
-class TileParams(FieldsOption, OriginOption, Checked):
+class TileParams(FieldsOption, OriginOption, CrsOption, Checked):
     width: float = param(2000.0, "tile width along x (ignored with --direction y)", unit="m", gt=0, manual="Width")
     height: float = param(2000.0, "tile height along y (ignored with --direction x)", unit="m", gt=0,
                           manual="Height")
@@ -250,7 +251,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     template = first.header if first.format == "las" else None
     sink = TileSink(folder, ext, names + ((BUFFER_DIMENSION,) if ext in (".las", ".laz") else ()),
                     delimiter=ctx.delimiter, overwrite=ctx.overwrite, append=params.append, template=template,
-                    crs=first.crs)
+                    crs=output_crs(params.crs, first.crs, folder / f"tile_*{ext}", ctx.warn))
     total = outside = copies = 0
     try:
         for reader in readers:
