@@ -350,7 +350,11 @@ class LasWriter:
 
         header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
         if self.template is not None and self.crs is not None and not _names_crs(header, self.crs):
-            header.add_crs(self.crs)  # --crs over the source's own (aldpat.core.crs.output_crs)
+            # --crs over the source's own (aldpat.core.crs.output_crs); a CRS GeoTIFF keys cannot
+            # hold makes a format 0-5 source's file LAS 1.4, whose WKT record can
+            if header.point_format.id < 6 and needs_wkt(self.crs):
+                header = as_las14(header)
+            set_crs(header, self.crs)
         known = set(header.point_format.dimension_names)
         self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
         # extra-byte dimensions the template already has and the table sets (a tile of a tile)

@@ -140,6 +140,11 @@ def test_grid_of_text_to_geotiff_takes_crs_or_says_it_has_none(tmp_path):
     assert without.stderr.count(WITHOUT) == 1
     surfer = aldpat("grid", source, "--cell", "5", "--odir", tmp_path / "c").ok()  # Surfer grids carry none
     assert WITHOUT not in surfer.stderr
+    (grd,) = (tmp_path / "c").glob("*.grd")
+    flt = aldpat("grd2bin", grd, "--odir", tmp_path / "d").ok()  # an ArcGIS grid without .prj says so
+    assert flt.stderr.count(WITHOUT) == 1 and not list((tmp_path / "d").glob("*.prj"))
+    aldpat("grd2bin", grd, "--crs", "17N", "--odir", tmp_path / "e").ok()
+    assert pyproj.CRS.from_wkt(next((tmp_path / "e").glob("*.prj")).read_text()).to_epsg() == 32617
 
 
 def test_a_shapefile_without_prj_says_so(tmp_path):
@@ -167,3 +172,20 @@ def test_crs_on_a_las_input_replaces_its_own_with_a_warning(tmp_path):
     out = tmp_path / "other" / "csite1_slice_thin.laz"
     assert las_epsg(out) == 25832
     assert np.allclose(laspy.read(out).x, laspy.read(tmp_path / "kept" / "csite1_slice_thin.laz").x)  # not moved
+
+
+def test_crs_on_a_las_12_input_that_geotiff_keys_cannot_hold_makes_it_las_14(tmp_path):
+    compound = aldpat("thin", SLICE, "--cell", "10", "--crs", "EPSG:32632+5783", "--odir", tmp_path).ok()
+    assert compound.stderr.count("replaces the input's CRS") == 1
+    header = laspy.read(tmp_path / "csite1_slice_thin.laz").header
+    assert (header.version.major, header.version.minor) == (1, 4)
+    assert header.point_format.id >= 6 and header.global_encoding.wkt  # WKT: LAS 1.4 formats 6-10
+    assert header.parse_crs().equals(pyproj.CRS("EPSG:32632+5783"))
+
+
+def test_dtm_of_a_las_with_another_crs_writes_it_and_says_so(tmp_path):
+    rasterio = pytest.importorskip("rasterio")
+    done = aldpat("dtm", SLICE, "--cell", "5", "--crs", "EPSG:25832", "--odir", tmp_path).ok()
+    assert done.stderr.count("replaces the input's CRS EPSG:32632") == 1
+    with rasterio.open(tmp_path / "csite1_slice_dtm.tif") as ds:
+        assert ds.crs.to_epsg() == 25832
