@@ -18,6 +18,11 @@ geoid's heights: ``EPSG:25832+7837``); ellipsoidal heights (``reverse``) are rec
 horizontal CRS alone, whose datum's ellipsoid they refer to. A compound or vertical input CRS
 locates points by its horizontal part.
 
+PROJ reads grids from the local disk only (:func:`local_grids_only`), whatever ``PROJ_NETWORK``
+says: a CRS string or a LAS header can name a grid by URL (``+nadgrids=https://...``, a WKT
+``PARAMETERFILE``), and with PROJ's network on, a worksheet or a vendor's file would make aldpat
+fetch it. A grid PROJ knows by name must be installed (``projsync``).
+
 A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` naming it; PROJ's
 ``inf`` never reaches an output. Work is per array, so a task converts a file chunk by chunk.
 """
@@ -102,6 +107,12 @@ def output_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = 
     vertical = vertical_part(to_crs) if to_crs is not None else None
     return compound(target, vertical if vertical is not None else egm96_height(z_unit))
 
+def local_grids_only() -> None:
+    """Turn PROJ's network access off in this process (and its threads), before any transformer
+    is made: see the module docstring."""
+    pyproj.network.set_network_enabled(active=False)
+
+
 def _vgridshift(grids: str) -> pyproj.Transformer:
     """lon, lat in degrees, z = 0 -> z = N (metres) from the grid(s)."""
     return pyproj.Transformer.from_pipeline(
@@ -117,6 +128,7 @@ def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
     take file parameters relative to their folder and a grid name such as ``us_nga_egm96_15.tif``
     arrives there as a path.
     """
+    local_grids_only()
     text = str(geoid)
     path = Path(text).expanduser()
     if path.is_file():
@@ -143,6 +155,7 @@ class HeightConverter:
     def __init__(self, crs, geoid: str | Path, *, to_crs=None, reverse: bool = False, z_unit: str = "m"):
         if z_unit not in Z_UNITS:
             raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
+        local_grids_only()
         check_to_crs(to_crs, reverse=reverse, z_unit=z_unit)
         _check_not_geocentric(crs, "--crs")
         self.crs = horizontal_part(crs)

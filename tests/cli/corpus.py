@@ -366,6 +366,20 @@ def security_cases(root: Path, port: int) -> list[Hostile]:
         return None
     cases.append(Hostile("security", "an input name that would inject a job into the worksheet log", ["run", ws],
                          root, 0, holds=log_replays))
+
+    # a CRS may name a grid by URL; with PROJ's network on (PROJ_NETWORK=ON in the user's
+    # environment) PROJ would fetch it: aldpat reads local grids only
+    geoid = Path(__file__).resolve().parents[1] / "data" / "egm96_15_isprs.gtx"
+    grid_url = f"+proj=longlat +ellps=WGS84 +nadgrids=http://127.0.0.1:{port}/g.tif +type=crs"
+    cases.append(Hostile("security", "ortho-height --to-crs naming a grid by URL, PROJ_NETWORK=ON",
+                         ["ortho-height", points, "--crs", "32632", "--geoid", geoid, "--to-crs", grid_url,
+                          "--odir", root / "proj-url"], root, 2, r"--to-crs: no transformation",
+                         _none_of(root / "proj-url"), env={"PROJ_NETWORK": "ON"}))
+    ws = _worksheet(root / "proj-url-ws" / "w.toml", [{"task": "ortho-height", "inputs": [str(points)], "crs": "32632",
+                                                       "geoid": str(geoid), "to_crs": grid_url, "odir": "out"}])
+    cases.append(Hostile("security", "a worksheet's to_crs naming a grid by URL, PROJ_NETWORK=ON", ["run", ws], root,
+                         1, r"^aldpat: .*--to-crs: no transformation", _none_of(root / "proj-url-ws" / "out"),
+                         env={"PROJ_NETWORK": "ON"}))
     return cases
 
 
