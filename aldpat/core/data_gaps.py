@@ -109,9 +109,31 @@ def default_gap(spacing: float | None, cell: float) -> float:
     return max(GAP_SPACINGS * (spacing or 0.0), GAP_CELLS * cell)
 
 
+#: Rows of the occupancy grid whose distances are found at once: the distance transform needs
+#: about 33 bytes a node (its distances and feature indices), so a band, not the whole grid, is
+#: held -- 8.5 MB per 1,000 nodes of width, and the halo -- however large the DTM.
+BAND_ROWS = 256
+
+
 def gap_nodes(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
     """The nodes farther than ``gap`` (metres) from every occupied node of ``occupied`` (all of
-    them when none is occupied)."""
+    them when none is occupied).
+
+    Found band by band (:data:`BAND_ROWS`), each with a halo of ``gap`` on either side: an
+    occupied node that decides whether a node lies within ``gap`` is less than ``gap`` away, so
+    it lies in the band or its halo, and a band's answer is the whole grid's."""
+    far = np.ones(occupied.shape, bool)
+    rows = occupied.shape[0]
+    halo = min(rows, math.ceil(gap / cell) + 1)
+    for start in range(0, rows, BAND_ROWS):
+        stop = min(start + BAND_ROWS, rows)
+        lo, hi = max(start - halo, 0), min(stop + halo, rows)
+        far[start:stop] = _far_from(occupied[lo:hi], gap, cell)[start - lo:stop - lo]
+    return far
+
+
+def _far_from(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
+    """:func:`gap_nodes` of one band, by a Euclidean distance transform."""
     from scipy.ndimage import distance_transform_edt
 
     if not occupied.any():

@@ -172,3 +172,20 @@ def test_max_gap_is_checked_when_given():
     for bad in ("-1", "nan", "inf", "wide"):
         with pytest.raises(ParamError, match="max_gap"):
             DtmParams(max_gap=bad)
+
+
+@pytest.mark.parametrize("gap", [0.5, 4.0, 30.0])
+def test_gaps_found_band_by_band_are_the_whole_grids(monkeypatch, gap):
+    """The distance transform runs over bands of rows with a halo of the gap (memory bounded by a
+    band, whatever the DTM's size); every node's answer is that of one transform of the grid."""
+    from scipy.ndimage import distance_transform_edt
+
+    from aldpat.core import data_gaps
+
+    rng = np.random.default_rng(5)
+    occupied = rng.random((203, 57)) < 0.02
+    occupied[40:90] = False  # a band of rows without a point, wider than a band
+    whole = distance_transform_edt(~occupied, sampling=1.5).astype(np.float32) > np.float32(gap)
+    monkeypatch.setattr(data_gaps, "BAND_ROWS", 16)
+    np.testing.assert_array_equal(data_gaps.gap_nodes(occupied, gap, 1.5), whole)
+    assert data_gaps.gap_nodes(np.zeros((40, 5), bool), gap, 1.5).all()  # no point: every node
