@@ -2,7 +2,7 @@
 
 Every option carries the level its parameter declares (:data:`aldpat.params.LEVELS`): the
 common options are listed first, then the advanced ones, then the published method's internals.
-The examples are the task's own (:attr:`aldpat.jobs.registry.Task.examples`).
+The examples are the task's own (:attr:`aldpat.jobs.task.Task.examples`).
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ class Guided(click.Command):
 
 
 class GuidedCommand(Guided):
-    """A command with its examples (:attr:`aldpat.jobs.registry.Task.examples`)."""
+    """A command with its examples (:attr:`aldpat.jobs.task.Task.examples`)."""
 
     def __init__(self, *args, examples: tuple[tuple[str, str], ...] = (), **kwargs):
         super().__init__(*args, **kwargs)

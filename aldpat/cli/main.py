@@ -23,8 +23,8 @@ from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.io.toml import load_toml
-from aldpat.jobs.registry import Task
 from aldpat.jobs.run import run_task
+from aldpat.jobs.task import Task
 from aldpat.params import renamed_keys, spec_map
 from aldpat.tasks import TASKS
 

@@ -9,8 +9,8 @@ import json
 import click
 
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.registry import Task
 from aldpat.jobs.run import RunReport
+from aldpat.jobs.task import Task
 
 
 def show(report: RunReport, as_json: bool) -> None:

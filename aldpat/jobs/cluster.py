@@ -34,7 +34,7 @@ import os
 import threading
 import uuid
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from aldpat import interrupt
 from aldpat.core.threads import ENV as THREADS_ENV
@@ -44,11 +44,9 @@ from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import Progress, execute, job_names, report_result
+from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.task import Task
 from aldpat.options import LOCAL_SCHEDULER, NO_SCHEDULER, check_scheduler
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
-    from aldpat.jobs.resolve import ResolvedRun
 
 log = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 where to record outputs, warnings and results) and what one job gives back (:class:`JobResult`).
 
 Every output a job writes is :class:`Planned` before anything runs, by the task's one
-``outputs`` hook (:attr:`aldpat.jobs.registry.Task.outputs`): the run refuses outputs that would
+``outputs`` hook (:attr:`aldpat.jobs.task.Task.outputs`): the run refuses outputs that would
 replace an input or each other before any job starts (:mod:`aldpat.jobs.outputs`), and a task
 takes the names it writes from the same hook (:meth:`JobContext.outputs_for`), so what was
 checked is what is written; :meth:`JobContext.wrote` holds every output to the plan.
@@ -10,18 +10,14 @@ checked is what is written; :meth:`JobContext.wrote` holds every output to the p
 
 from __future__ import annotations
 
-import fnmatch
 import logging
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from aldpat.errors import one_line
 from aldpat.io.registry import output_extension, write_points
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
+from aldpat.jobs.task import Planned, Task
 
 log = logging.getLogger(__name__)
 
@@ -41,30 +37,6 @@ def _text(v: Any) -> str:
     if isinstance(v, list):
         return "  ".join(_text(x) for x in v)
     return "-" if v is None else str(v)
-
-
-@dataclass(frozen=True)
-class Planned:
-    """An output a job will write, known before it runs: a file, or (``family``) the files of a
-    folder whose names match a pattern (``*``, ``?``, ``[...]`` in the name only), as many as
-    the data make (split-tape's strips, tile's tiles)."""
-
-    path: Path
-    source: Path | None = None  # the input it is made from; None: made from every input (a mosaic)
-    role: str = ""  # what the task calls it (filter: "ground", "object", "all")
-    family: bool = False
-    #: how a user gives it another name, said when it clashes
-    rename: str = "give --odir or another --suffix"
-    #: the path parameter that names it (``mosaic``, ``map``, ``output``): that one is not an input
-    named_by: str | None = None
-
-    def matches(self, path: str | Path) -> bool:
-        """Whether ``path`` is this output (or one of this family)."""
-        path = Path(path)
-        if self.family:
-            return (os.path.abspath(path.parent) == os.path.abspath(self.path.parent)
-                    and fnmatch.fnmatchcase(path.name, self.path.name))
-        return os.path.abspath(path) == os.path.abspath(self.path)
 
 
 @dataclass

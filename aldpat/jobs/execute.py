@@ -8,16 +8,14 @@ import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 from aldpat import interrupt
 from aldpat.errors import AldpatError, OutputExistsError, UsageError
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.joblog import write_job_log
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
-    from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.task import Task
 
 log = logging.getLogger(__name__)
 

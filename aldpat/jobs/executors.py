@@ -7,16 +7,12 @@ arguments.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from aldpat import interrupt
 from aldpat.core.workers import WorkerPool
 from aldpat.jobs.context import JobResult
 from aldpat.jobs.execute import execute, job_names, report_result
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
-    from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.task import Task
 
 
 def run_in_this_process(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str,

@@ -13,15 +13,12 @@ import os
 import re
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import aldpat
 from aldpat.errors import one_line
 from aldpat.io.sidefiles import append
 from aldpat.jobs.context import JobResult
-
-if TYPE_CHECKING:
-    from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.resolve import ResolvedRun
 
 
 def log_path_for(result: JobResult) -> Path:

@@ -1,6 +1,6 @@
 """Outputs that would destroy data, refused before anything runs.
 
-Each task plans its outputs before it runs (:attr:`aldpat.jobs.registry.Task.outputs`). From the
+Each task plans its outputs before it runs (:attr:`aldpat.jobs.task.Task.outputs`). From the
 plan a run refuses, naming both files:
 
 * an output that is one of the run's inputs -- the same path, or the same file reached through
@@ -23,14 +23,11 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from aldpat.errors import UsageError
-from aldpat.jobs.context import JobContext, JobResult, Planned
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
-    from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.context import JobContext, JobResult
+from aldpat.jobs.resolve import ResolvedRun
+from aldpat.jobs.task import Planned, Task
 
 
 def plan_outputs(task: Task, sources: list[Path], run: ResolvedRun) -> list[Planned]:

@@ -5,13 +5,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from aldpat.jobs.task import Task
 from aldpat.options import InputParams, OutputParams, RunParams
 from aldpat.params import Resolved, renamed_keys, resolve, specs, with_current_names
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
 
 
 @dataclass

@@ -10,7 +10,7 @@ import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from aldpat.core import units
 from aldpat.errors import UsageError
@@ -22,9 +22,7 @@ from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.outputs import check_outputs, forget_folders
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
-
-if TYPE_CHECKING:
-    from aldpat.jobs.registry import Task
+from aldpat.jobs.task import Task
 
 log = logging.getLogger(__name__)
 

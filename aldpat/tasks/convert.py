@@ -21,8 +21,9 @@ from aldpat.core.crs import output_crs
 from aldpat.errors import UsageError
 from aldpat.io.las import RETURN_DIMENSIONS
 from aldpat.io.table import PointTable
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption, FieldsOption, OrderOption, point_names
 from aldpat.params import param
 

@@ -63,8 +63,9 @@ from aldpat.io.registry import open_points
 from aldpat.io.table import PointTable
 from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
 from aldpat.io.toml import load_toml
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
 from aldpat.tasks.filter import STREAM_CHUNK, apply_auto

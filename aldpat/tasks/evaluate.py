@@ -27,8 +27,9 @@ from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.classified import class_column_of
 from aldpat.io.registry import open_points
 from aldpat.io.worldfile import world_path
-from aldpat.jobs.context import JobContext, Planned, Record
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext, Record
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import JsonOption, OverwriteOption
 from aldpat.params import param
 from aldpat.tasks.preview import calls_place, calls_rgba, save_png

@@ -39,8 +39,9 @@ from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, classes_of_table, for_point_format
 from aldpat.io.las import new_point_format
 from aldpat.io.table import PointTable
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.params import spec_map
 
 log = logging.getLogger(__name__)

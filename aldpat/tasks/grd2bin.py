@@ -15,8 +15,9 @@ from aldpat.core.crs import output_crs
 from aldpat.io.esri_grid import write_ascii_grid, write_float_grid
 from aldpat.io.geotiff import FLOAT32_MAX, write_geotiff
 from aldpat.io.surfer import read_surfer
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption
 from aldpat.params import param
 

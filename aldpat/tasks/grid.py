@@ -58,8 +58,9 @@ from aldpat.io.surfer import check_holds, read_surfer, write_surfer
 from aldpat.io.table import PointTable
 from aldpat.io.tile_project import Keep, TileJob, find_tile_job, tile_points
 from aldpat.io.vrt import TileGrid, write_mosaic
-from aldpat.jobs.context import JobContext, JobResult, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext, JobResult
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import ChunkOption, CrsOption, OriginOption
 from aldpat.params import param
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.jobs.context import JobContext, Record
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Task
 from aldpat.options import JsonOption
 
 

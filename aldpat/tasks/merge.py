@@ -30,8 +30,9 @@ from aldpat.errors import DataError
 from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
 from aldpat.io.registry import detect_format
 from aldpat.io.tile_project import find_tile_job, in_core
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption, FieldsOption, point_names
 from aldpat.params import param
 

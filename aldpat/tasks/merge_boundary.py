@@ -21,8 +21,9 @@ import numpy as np
 from aldpat.io.atomic import atomic_output
 from aldpat.io.merged_boundary import SEPARATOR
 from aldpat.io.text import format_rows
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.params import param
 
 log = logging.getLogger(__name__)

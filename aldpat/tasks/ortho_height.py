@@ -34,8 +34,9 @@ from aldpat.core.crs import parse_crs
 from aldpat.core.heights import Z_UNITS, HeightConverter, check_to_crs, geoid_transformer
 from aldpat.errors import AldpatError, ParamError, UsageError
 from aldpat.io.las import as_las14, needs_wkt, set_crs
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption
 from aldpat.params import param
 

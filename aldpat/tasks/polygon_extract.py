@@ -23,8 +23,9 @@ from aldpat.errors import InputFormatError, InputMissingError, shown
 from aldpat.io.atomic import atomic_output
 from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.toml import MAX_SIDE_FILE_BYTES, read_limited
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption, kept_names
 from aldpat.params import param
 

@@ -34,8 +34,9 @@ from aldpat.io.esri_grid import read_ascii_grid, read_float_grid
 from aldpat.io.geotiff import read_geotiff
 from aldpat.io.surfer import read_surfer
 from aldpat.io.worldfile import NorthUp, world_path
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.params import param
 
 GRID_EXTENSIONS = (".grd", ".flt", ".asc", ".tif", ".tiff", ".vrt")

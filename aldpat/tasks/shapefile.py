@@ -18,8 +18,9 @@ from aldpat.errors import UsageError
 from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import PARTS as SHAPEFILE_PARTS
 from aldpat.io.shapefile import Polygon, write_polygons
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption
 from aldpat.params import param
 

@@ -28,8 +28,9 @@ from aldpat.core.precision import above
 from aldpat.errors import UsageError
 from aldpat.io.atomic import atomic_output, glob_escape
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import OrderOption
 from aldpat.params import param
 

@@ -18,8 +18,9 @@ from aldpat.core.boundary import BoundaryScan
 from aldpat.core.crs import output_crs
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CellHeightOption, CrsOption, OriginOption
 from aldpat.params import param
 

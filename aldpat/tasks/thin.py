@@ -24,8 +24,9 @@ import numpy as np
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.core.crs import output_crs
 from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CellHeightOption, CrsOption, OriginOption, kept_names
 from aldpat.params import param
 

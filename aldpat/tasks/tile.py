@@ -52,8 +52,9 @@ from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
-from aldpat.jobs.context import JobContext, Planned
-from aldpat.jobs.registry import Task, register_task
+from aldpat.jobs.context import JobContext
+from aldpat.jobs.registry import register_task
+from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption, FieldsOption, OriginOption, point_names
 from aldpat.params import Checked, format_value, param
 

@@ -20,11 +20,11 @@ from typing import Any
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
-from aldpat.jobs.context import Planned
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, real
-from aldpat.jobs.registry import Task, get_task
+from aldpat.jobs.registry import get_task
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
+from aldpat.jobs.task import Planned, Task
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
 TOP_KEYS = ("settings", "job")
