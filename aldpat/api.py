@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 
 from aldpat.errors import ParamError
-from aldpat.filters.base import FILTERS, FilterOutputOption
+from aldpat.filters.options import FilterOutputOption
+from aldpat.filters.registry import FILTERS
 from aldpat.io.geotiff import Raster
 from aldpat.io.las import las_table
 from aldpat.io.registry import open_points

@@ -12,7 +12,7 @@
     python bench/bench_auto.py sites        # the raw sites CSite1, FSite5 whole, scored where samples lie
 
 Reads the seven ISPRS reference samples (``bench/data_paths.py`` says where). ``sweep`` scores every combination of the candidate
-constants below with the package's own filter (``aldpat.filters.base.ground_filter``) and
+constants below with the package's own filter (``aldpat.filters.driver.ground_filter``) and
 prints (1) the best combinations fitted on all seven samples together -- an in-sample figure
 -- and (2) the leave-one-out figure: for each sample, the combination best on the *other six*
 is chosen and scored on the held-out one; the mean of those seven scores is what a setting
@@ -34,8 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from isprs import Score, load_samples, score
 
 import aldpat.tasks  # noqa: F401  (registers every filter)
-from aldpat.filters.base import MARK_LOW_OUTLIER, ground_filter
+from aldpat.filters.driver import ground_filter
 from aldpat.filters.gapm import GapmParams, auto_params
+from aldpat.filters.marks import MARK_LOW_OUTLIER
 
 #: The candidates: the published windows and thresholds of parameter set 01 stay as printed;
 #: what is chosen here are the constants of the steps added after the filter. Only settings that
@@ -121,10 +122,10 @@ def without(mechanism: str) -> dict:
     past the data's edge, the raised spans (bridge decks). Returns the settings that do it (the first two are switched off in the
     package's modules for this process: they are not parameters)."""
     if mechanism == "levels":
-        from aldpat.filters import base
+        from aldpat.filters import grid_stage
 
-        assert base.raised_cells.__kwdefaults__ is not None
-        base.raised_cells.__kwdefaults__["levels"] = False
+        assert grid_stage.raised_cells.__kwdefaults__ is not None
+        grid_stage.raised_cells.__kwdefaults__["levels"] = False
     elif mechanism == "spacing":
         from aldpat.core import segments
 
@@ -211,7 +212,7 @@ def others(samples) -> None:
     grid filters' shipped parameter files: does what was chosen for gapm carry over?"""
     import tomllib
 
-    from aldpat.filters.base import get_filter
+    from aldpat.filters.registry import get_filter
 
     repo = Path(__file__).resolve().parents[1]
     steps = {k: getattr(GapmParams(), k) for k in ("object_step", "object_share", "surface_threshold",
@@ -240,7 +241,7 @@ def lowout(samples) -> None:
     setting per sample, then every candidate setting in-sample and by leave-one-out (each sample
     scored with the setting best on the other six), and which points the shipped test sets aside
     (reference ground or object)."""
-    from aldpat.filters.base import low_outlier_points
+    from aldpat.filters.grid_stage import low_outlier_points
 
     names = list(LOW_OUTLIER_CANDIDATES)
     combos = [dict(zip(names, v)) for v in itertools.product(*LOW_OUTLIER_CANDIDATES.values())]

@@ -210,7 +210,7 @@ class SurfaceTest:
     @classmethod
     def build(cls, cells, marks: np.ndarray, *, threshold: float, slope_scalar: float) -> SurfaceTest:
         """The test over the provisional surface of the ground cells (``marks`` 0) of ``cells``
-        (:class:`aldpat.filters.base.CellHeights`: their heights are read from its codes)."""
+        (:class:`aldpat.filters.classify.CellHeights`: their heights are read from its codes)."""
         if not (marks == 0).any():
             return cls(None, None, cells.spec, threshold, slope_scalar)
         codes, decode = cells.codes, cells.heights.decode

@@ -17,15 +17,8 @@ from aldpat.filters import (
     polynomial,  # noqa: F401
     slope,  # noqa: F401
 )
-from aldpat.filters.base import (  # noqa: F401
-    FILTERS,
-    MARK_GROUND,
-    MARK_INTERPOLATED,
-    FilterResult,
-    FilterSpec,
-    GroundParams,
-    PointFilterParams,
-    get_filter,
-    ground_filter,
-    register_filter,
-)
+from aldpat.filters.classify import FilterResult  # noqa: F401
+from aldpat.filters.driver import ground_filter  # noqa: F401
+from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED  # noqa: F401
+from aldpat.filters.options import GroundParams, PointFilterParams  # noqa: F401
+from aldpat.filters.registry import FILTERS, FilterSpec, get_filter, register_filter  # noqa: F401

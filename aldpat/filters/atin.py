@@ -71,7 +71,9 @@ from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import steps_between
 from aldpat.core.lowest_grid import LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError
-from aldpat.filters.base import PointFilterParams, RaisedSegmentOption, raised_cells, register_filter
+from aldpat.filters.grid_stage import raised_cells
+from aldpat.filters.options import PointFilterParams, RaisedSegmentOption
+from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
 
 tin_densify = lazy_import("aldpat.filters.atin_densify")

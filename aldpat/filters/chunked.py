@@ -32,7 +32,9 @@ import numpy as np
 
 from aldpat.core.low_points import point_spacing
 from aldpat.errors import UsageError
-from aldpat.filters.base import get_filter, ground_filter, low_outlier_reach
+from aldpat.filters.driver import ground_filter
+from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.registry import get_filter
 from aldpat.io.chunks import ChunkLattice, SpilledChunks, map_chunks, spill_chunks
 from aldpat.io.table import PointTable
 

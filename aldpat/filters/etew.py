@@ -31,7 +31,10 @@ import numpy as np
 from aldpat.core import morphology
 from aldpat.core.lowest_grid import rows_per_block
 from aldpat.core.progressive import mark_dtype
-from aldpat.filters.base import MARK_GROUND, GroundParams, low_outlier_reach, register_filter
+from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.marks import MARK_GROUND
+from aldpat.filters.options import GroundParams
+from aldpat.filters.registry import register_filter
 from aldpat.options import ElevationLimitsOption
 from aldpat.params import param
 

@@ -32,7 +32,9 @@ from aldpat.core.progressive import mark_dtype
 from aldpat.core.threads import thread_budget
 from aldpat.core.trend import candidate_thresholds
 from aldpat.errors import ParamError
-from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
+from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.options import GroundParams
+from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
 
 log = logging.getLogger(__name__)

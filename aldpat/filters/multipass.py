@@ -31,9 +31,11 @@ import numpy as np
 from aldpat.core.lowest_grid import fill_nearest
 from aldpat.core.priority_fill import priority_fill
 from aldpat.errors import ParamError
-from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
 from aldpat.filters.cluster_pm import AXES, OLD_DIRECTIONS, progressive_marks
 from aldpat.filters.gapm import check_series
+from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.options import GroundParams
+from aldpat.filters.registry import register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)

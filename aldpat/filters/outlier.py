@@ -19,7 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
-from aldpat.filters.base import FilterResult, GroundParams, low_outlier_reach, register_filter
+from aldpat.filters.classify import FilterResult
+from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.options import GroundParams
+from aldpat.filters.registry import register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)

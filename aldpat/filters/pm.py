@@ -30,7 +30,9 @@ import numpy as np
 
 from aldpat.core.progressive import progressive_opening
 from aldpat.errors import ParamError
-from aldpat.filters.base import GroundParams, low_outlier_reach, register_filter
+from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.options import GroundParams
+from aldpat.filters.registry import register_filter
 from aldpat.params import param
 
 log = logging.getLogger(__name__)

@@ -14,13 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core.progressive import progressive_opening
-from aldpat.filters.base import register_filter
 from aldpat.filters.pm import (
     ProgressiveParams,
     progressive_reach,
     threshold_series,
     window_series,
 )
+from aldpat.filters.registry import register_filter
 
 
 @dataclass(frozen=True)

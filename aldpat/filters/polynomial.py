@@ -48,7 +48,8 @@ from aldpat.core.lowest_grid import LowestGrid
 from aldpat.core.morphology import within
 from aldpat.core.surface_test import within_surface
 from aldpat.errors import ParamError
-from aldpat.filters.base import PointFilterParams, register_filter
+from aldpat.filters.options import PointFilterParams
+from aldpat.filters.registry import register_filter
 from aldpat.params import param
 
 ndimage = lazy_import("scipy.ndimage")

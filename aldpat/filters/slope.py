@@ -36,7 +36,8 @@ import numpy as np
 from aldpat._lazy import lazy_import
 from aldpat.core.lowest_grid import LowestGrid
 from aldpat.errors import ParamError
-from aldpat.filters.base import PointFilterParams, register_filter
+from aldpat.filters.options import PointFilterParams
+from aldpat.filters.registry import register_filter
 from aldpat.options import CellHeightOption, ElevationLimitsOption
 from aldpat.params import param
 

@@ -5,8 +5,8 @@ lowest height is known, the points themselves are needed again only to take thei
 So the file is read twice, chunk by chunk -- once to keep the lowest height of every cell, once
 to classify each point against the grid's decisions and write it -- and what stays in memory is
 the grid alone, its heights kept as the file's own integers (:mod:`aldpat.core.height_codes`).
-The classes are those :func:`aldpat.filters.base.ground_filter` gives the same points held in
-memory: the same cells, the same grid stage (:func:`aldpat.filters.base.cell_classes`), the same
+The classes are those :func:`aldpat.filters.driver.ground_filter` gives the same points held in
+memory: the same cells, the same grid stage (:func:`aldpat.filters.grid_stage.cell_classes`), the same
 per-point tests.
 
 Which runs can go this way (:func:`streamable`): a grid filter without rotations or noise classes
@@ -25,7 +25,9 @@ from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, floor_index, grid_spec
-from aldpat.filters.base import CellClasses, CellHeights, cell_classes, get_filter
+from aldpat.filters.classify import CellClasses, CellHeights
+from aldpat.filters.grid_stage import cell_classes
+from aldpat.filters.registry import get_filter
 
 log = logging.getLogger(__name__)
 
@@ -114,7 +116,7 @@ def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None, seen
     themselves are never held, only the grid and the ground points' coordinates.
 
     ``None`` when the file cannot go this way (:func:`stream_classes`; the reason is logged): the
-    caller reads it whole. The classes are those of :func:`aldpat.filters.base.ground_filter`.
+    caller reads it whole. The classes are those of :func:`aldpat.filters.driver.ground_filter`.
     ``used(table) -> mask`` selects the points taking part (withheld and ignored classes do not);
     the extent is every point's. ``seen(table)`` is shown every chunk of the first pass, every
     point of the file (a DTM's occupancy grid: :mod:`aldpat.core.data_gaps`).

@@ -52,7 +52,7 @@ from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import interpolate
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
-from aldpat.filters.base import LowOutlierOption
+from aldpat.filters.options import LowOutlierOption
 from aldpat.filters.streamed import stream_ground, streamable
 from aldpat.filters.survey import ExistingClassesOption, taking_part
 from aldpat.io.bounds import Bounds, point_bounds

@@ -2,7 +2,7 @@
 
 One task per registered filter (:data:`aldpat.filters.FILTERS`): its parameters are the
 filter's own, with ``result`` and ``marks``
-(:class:`~aldpat.filters.base.FilterOutputOption`) shared by every filter, so ``aldpat filter gapm --help``, the worksheet keys and the
+(:class:`~aldpat.filters.options.FilterOutputOption`) shared by every filter, so ``aldpat filter gapm --help``, the worksheet keys and the
 ``--params`` file all come from the filter's declaration.
 
 Outputs (manual "Result Mode"): ``<stem>_<algo>`` holds the terrain points, ``<stem>_<algo>_nt``
@@ -32,7 +32,7 @@ from aldpat.core import units
 from aldpat.core.crs import output_crs
 from aldpat.errors import UsageError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
-from aldpat.filters.base import MARK_LOW_OUTLIER
+from aldpat.filters.marks import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
 from aldpat.filters.survey import ground_flags, survey_classes, taking_part
 from aldpat.io.atomic import check_writable

@@ -22,7 +22,7 @@ import pytest
 import rasterio
 
 from aldpat.core.interpolate import METHODS
-from aldpat.filters.base import FILTERS
+from aldpat.filters.registry import FILTERS
 from aldpat.io.atomic import glob_escape
 from aldpat.tasks.grid import SURFACE_METHODS
 from tests.cli.corpus import Case, degenerate_cases, las_cases, text_cases

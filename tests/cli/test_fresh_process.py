@@ -21,7 +21,7 @@ import rasterio
 import shapefile as pyshp
 
 from aldpat.core.interpolate import METHODS
-from aldpat.filters.base import FILTERS
+from aldpat.filters.registry import FILTERS
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.registry import OUT_EXTENSIONS
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS

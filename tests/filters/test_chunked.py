@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from aldpat.errors import UsageError
-from aldpat.filters.base import FILTERS
 from aldpat.filters.chunked import chunk_plan
+from aldpat.filters.registry import FILTERS
 from aldpat.io.chunks import ChunkLattice, spill_chunks
 from aldpat.io.table import PointTable
 from aldpat.tasks import get_task

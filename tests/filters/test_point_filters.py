@@ -228,7 +228,7 @@ def test_point_filters_set_low_outliers_aside(name):
     """The clump of multipath points of the grid filters' low-outlier test, under every point
     filter: with ``low_outliers`` (the default) the clump is set aside (marked as the grid filters
     mark it) and the ground around it kept."""
-    from aldpat.filters.base import MARK_LOW_OUTLIER
+    from aldpat.filters.marks import MARK_LOW_OUTLIER
 
     xs, ys, zs, ground = slope_with_low_clump()
     n = int(ground.sum())

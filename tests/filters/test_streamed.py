@@ -70,7 +70,8 @@ def test_streamed_classes_equal_the_whole_file(name, defaults, tmp_path):
 def test_classes_alone_need_not_compare_the_points_above_their_cell():
     """With the final surface test, a run without ``--marks`` skips the comparison that only the
     marks use: the classes are the same."""
-    from aldpat.filters.base import cell_classes, get_filter
+    from aldpat.filters.grid_stage import cell_classes
+    from aldpat.filters.registry import get_filter
 
     reader = LasReader(STRIP)
     params = FILTERS["gapm"].params(cell=1.0)

@@ -7,15 +7,10 @@ import pytest
 from terrain_scenes import slope_with_low_clump
 
 from aldpat.errors import DataError, ParamError
-from aldpat.filters.base import (
-    FILTERS,
-    MARK_ABOVE_SURFACE,
-    MARK_INTERPOLATED,
-    GroundParams,
-    get_filter,
-    ground_filter,
-    register_filter,
-)
+from aldpat.filters.driver import ground_filter
+from aldpat.filters.marks import MARK_ABOVE_SURFACE, MARK_INTERPOLATED
+from aldpat.filters.options import GroundParams
+from aldpat.filters.registry import FILTERS, get_filter, register_filter
 from aldpat.params import param
 
 
@@ -151,8 +146,8 @@ def test_low_outliers_are_set_aside_and_the_ground_around_them_kept():
     """A clump of 40 multipath points 3-8 m below a slope and 10 isolated ones: without the
     test most of them are taken for ground, and ground around them is rejected; the defaults
     set every one aside and keep all the ground."""
-    from aldpat.filters.base import MARK_LOW_OUTLIER
     from aldpat.filters.gapm import GapmParams
+    from aldpat.filters.marks import MARK_LOW_OUTLIER
 
     xs, ys, zs, ground = slope_with_low_clump(isolated=10)
     without = ground_filter(xs, ys, zs, "gapm", GapmParams(low_outliers=None))

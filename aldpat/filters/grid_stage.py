@@ -1,0 +1,138 @@
+"""The grid stage of a grid filter and the tests around every filter: fill the empty cells
+(dissertation §4.2.1), set the low outliers aside, run the filter on the mark matrix, then the
+raised-segment test and, with ``surface_threshold``, the provisional surface of SMRF's final test
+(:func:`cell_classes`). The driver (:mod:`aldpat.filters.driver`) and the streamed file path
+(:mod:`aldpat.filters.streamed`) both run it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from aldpat.core.low_points import NO_LOW_POINTS, LowPoints, find_low_points, point_spacing
+from aldpat.core.lowest_grid import Extent, fill_nearest, lowest_grid
+from aldpat.core.memory import one_arena, release_free_memory
+from aldpat.core.surface_test import SurfaceTest
+from aldpat.filters.classify import CellClasses, CellHeights
+from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_RAISED_SEGMENT
+from aldpat.filters.registry import FilterSpec
+
+
+def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | None) -> tuple[np.ndarray, LowPoints]:
+    """Fill, find the low outliers, filter and return the cell mark matrix (int16 or int32) of
+    one grid and the low outliers' cells (left out of the grid: marked as empty ones).
+
+    Peak memory is what makes 1 m cells over a large survey possible, so the steps hold as
+    little at once as they can: the empty cells are filled in the codes themselves when the
+    run owns them (``empty`` remembers which they were), the filter gets the one float64 grid
+    and may overwrite it, and it never sees a second copy.
+    """
+    one_arena()  # before the filter's threads start: their scratch is then returned with the rest
+    empty = cells.heights.is_empty(cells.codes)
+    filled = cells.codes if cells.owned else cells.codes.copy()
+    low = find_low_outliers(cells, ~empty, params, spacing)  # on the cells as gridded
+    empty.ravel()[low.cells] = True  # filled from their neighbours, as an empty cell is
+    filled_from = np.empty(filled.shape, np.uint8) if params.object_step > 0 else None
+    fill_nearest(filled, empty, out=filled, spacing=filled_from)
+    raised = None
+    if filled_from is not None:
+        raised = raised_cells(filled, params, cells.spec.cell, filled_from, decode=cells.heights.decode)
+        del filled_from
+        release_free_memory()
+    read_only = empty.view()
+    read_only.flags.writeable = False
+    if spec.takes_codes:
+        # the cells' own codes are lent, not given: a filter that opens them in place copies them
+        given = filled
+        marks = np.asarray(spec.fn(given, read_only, params, in_place=given is not cells.codes,
+                                   decode=cells.heights.decode))
+    else:
+        given = cells.heights.decode(filled)
+        if given is cells.codes:  # float heights owned by the run: the filter gets a copy
+            given = given.copy()
+        marks = np.asarray(spec.fn(given, read_only, params))
+    del filled
+    if marks.shape != empty.shape:
+        raise AssertionError(f"filter {spec.name!r} returned marks of shape {marks.shape}, grid is {empty.shape}")
+    if marks.dtype not in (np.int16, np.int32) or not marks.flags.writeable or marks is given:
+        marks = marks.astype(np.int32)
+    del given
+    release_free_memory()  # the filter's scratch, before the surface and the points' pass
+    if raised is not None:
+        marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
+    marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
+    return marks, low
+
+
+def raised_cells(filled: np.ndarray, params, cell: float, filled_from: np.ndarray | None = None, *,
+                 decode: Callable[[np.ndarray], np.ndarray] | None = None, levels: bool = True) -> np.ndarray:
+    """The cells of objects found by the steps around them (``object_step``): raised segments
+    (:mod:`aldpat.core.segments`, with a building's levels unless ``levels`` is false) and, with
+    ``object_span``, raised spans (:mod:`aldpat.core.spans`). ``filled``: the lowest-point grid
+    with its empty cells filled (heights, or codes ``decode`` turns into heights); ``filled_from``:
+    each cell's distance from the cell it was filled from (``fill_nearest(..., spacing=)``)."""
+    from aldpat.core.segments import raised_segments
+
+    raised = raised_segments(filled, params.object_step, params.object_share, decode=decode, spacing=filled_from,
+                             cell=cell, levels=levels)
+    span = getattr(params, "object_span", 0.0)
+    if span > 0:
+        from aldpat.core.spans import raised_spans
+
+        raised |= raised_spans(filled, params.object_step, int(span / cell), decode=decode, spacing=filled_from,
+                               cell=cell)
+    return raised
+
+
+def find_low_outliers(cells: CellHeights, real: np.ndarray, params, spacing: float | None) -> LowPoints:
+    """The low outliers of a grid (:mod:`aldpat.core.low_points`) with the test's parameters;
+    none when ``low_outliers`` is off. ``spacing``: the input's point spacing."""
+    if getattr(params, "low_outliers", None) is None:
+        return NO_LOW_POINTS
+    return find_low_points(cells.codes, cells.heights.decode, real, cells.spec,
+                           origin=getattr(params, "origin", None), spacing=spacing, threshold=params.low_outliers,
+                           window=params.low_outlier_window, reach=params.low_outlier_reach)
+
+
+def cell_classes(spec: FilterSpec, cells: CellHeights, params, *, origin: tuple[float, float] | None = None,
+                 spacing: float | None = None) -> CellClasses:
+    """The grid stage of a grid filter: fill, the low-outlier test, filter, the raised-segment
+    test and, with ``surface_threshold``, the provisional surface of SMRF's final test.
+    ``spacing``: the input's point spacing (:func:`aldpat.core.low_points.point_spacing`), which
+    sets the low-outlier test's blocks."""
+    marks, low = _run_grid(spec, cells, params, spacing)
+    surface = None
+    if params.surface_threshold is not None:
+        surface = SurfaceTest.build(cells, marks, threshold=params.surface_threshold,
+                                    slope_scalar=params.surface_slope)
+        release_free_memory()
+    return CellClasses(cells, marks, params.ground_tolerance, origin, surface, low)
+
+
+def low_outlier_reach(params) -> int:
+    """Cells the low-outlier test looks across: the terrain around a pit, in cells."""
+    if getattr(params, "low_outliers", None) is None:
+        return 0
+    cell = float(getattr(params, "cell", None) or 1.0)
+    return max(4 * params.low_outlier_window, math.ceil(params.low_outlier_reach / cell - 1e-9))
+
+
+def low_outlier_points(x, y, z, params, extent: Extent | None = None, spacing: float | None = None
+                       ) -> np.ndarray | None:
+    """Which points the low-outlier test finds on the lowest-point grid of ``params.cell`` (a
+    point filter's, which sets them aside before it runs); ``None`` when the test is off."""
+    if getattr(params, "low_outliers", None) is None or len(z) == 0:
+        return None
+    grid = lowest_grid(x, y, z, params.cell, origin=getattr(params, "origin", None), extent=extent)
+    spacing = spacing if spacing is not None else points_spacing(x, y)
+    return find_low_outliers(CellHeights.of(grid), ~grid.empty, params, spacing).below(grid.cell_index, z)
+
+
+def points_spacing(x: np.ndarray, y: np.ndarray) -> float | None:
+    """The mean spacing of points over their own extent (:func:`point_spacing`)."""
+    if len(x) == 0:
+        return None
+    return point_spacing(len(x), (float(x.min()), float(y.min()), float(x.max()), float(y.max())))
