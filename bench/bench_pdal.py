@@ -65,10 +65,13 @@ OUT = WORK / "out_pdal"
 POINTS = 10_053_120
 CELL = 1.0
 SET01 = REPO / "jobs" / "params" / "gapm-isprs-set01.toml"
-ALDPAT_ROWS = ("gapm-defaults", "gapm-set01", "dtm")
+ALDPAT_ROWS = ("gapm-defaults", "gapm-set01", "dtm", "multipass", "outlier")
+#: rows of filters PDAL has no counterpart of, measured alone (not run unless asked: ``--rows``)
+OWN_ROWS = ("multipass", "outlier")
 PDAL_ROWS = ("pdal-smrf", "pdal-dtm")
 #: each aldpat row and the PDAL row it is compared with
-PEER_OF = {"gapm-defaults": "pdal-smrf", "gapm-set01": "pdal-smrf", "dtm": "pdal-dtm"}
+PEER_OF = {"gapm-defaults": "pdal-smrf", "gapm-set01": "pdal-smrf", "dtm": "pdal-dtm", "multipass": None,
+           "outlier": None}
 
 #: PDAL 2.8.4 on this file when no PDAL runs here: (seconds, peak bytes, when and how measured).
 STORED = {
@@ -121,7 +124,8 @@ def aldpat_command(row: str, las: Path, odir: Path) -> list[str]:
     cmd = [sys.executable, "-m", "aldpat"]
     if row == "dtm":
         return [*cmd, "dtm", str(las), "--cell", f"{CELL:g}", "--odir", str(odir), "--overwrite", "-q"]
-    cmd += ["filter", "gapm", str(las), "--cell", f"{CELL:g}", "--result", "classified", "--odir", str(odir),
+    algorithm = row if row in OWN_ROWS else "gapm"
+    cmd += ["filter", algorithm, str(las), "--cell", f"{CELL:g}", "--result", "classified", "--odir", str(odir),
             "--overwrite", "-q"]
     return [*cmd, "--params", str(SET01)] if row == "gapm-set01" else cmd
 
@@ -154,7 +158,9 @@ def timed(cmd: list[str], env: dict | None = None, stdin: str | None = None) -> 
 
 
 def output_of(row: str, las: Path, odir: Path) -> Path:
-    return odir / (f"{las.stem}_dtm.tif" if row == "dtm" else f"{las.stem}_gapm{las.suffix}")
+    if row == "dtm":
+        return odir / f"{las.stem}_dtm.tif"
+    return odir / f"{las.stem}_{row if row in OWN_ROWS else 'gapm'}{las.suffix}"
 
 
 def classes_of(path: Path) -> np.ndarray:
@@ -289,14 +295,15 @@ def run(rows: list[str], against: str | None, repeat: int, file: Path | None) ->
             note += (f"; at {old[1]}: {om['seconds']:.1f} s, {mib(om['peak_bytes'])}; "
                      + compare(row, output_of(row, las, odir), output_of(row, las, old_dir)))
         peer = PEER_OF[row]
-        print(row_line(row, points, m, note, measured.get(peer), peer in stored), flush=True)
+        print(row_line(row, points, m, note, measured.get(peer) if peer else None, peer in stored), flush=True)
     print(f"\nbest of {repeat} for the aldpat rows (largest peak); PDAL once. Ratios: PDAL's wall time over "
           "aldpat's, aldpat's peak over PDAL's.")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--rows", nargs="+", default=[*PDAL_ROWS, *ALDPAT_ROWS], choices=(*PDAL_ROWS, *ALDPAT_ROWS))
+    ap.add_argument("--rows", nargs="+", default=[*PDAL_ROWS, *(r for r in ALDPAT_ROWS if r not in OWN_ROWS)],
+                    choices=(*PDAL_ROWS, *ALDPAT_ROWS))
     ap.add_argument("--against", metavar="REV", help="also run the aldpat rows with git revision REV and compare")
     ap.add_argument("--repeat", type=int, default=1, help="runs per aldpat row (best time, largest peak)")
     ap.add_argument("--file", type=Path, help="another LAS/LAZ file instead of the tiled FSite5")

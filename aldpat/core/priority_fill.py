@@ -23,7 +23,9 @@ lowest level. Everything is vectorized (labels, shifted comparisons, ``np.minimu
 
 On real data the removed sets join into sheets spanning slopes, and a flat flood from the
 lowest corner cuts the terrain beside it; ``rise`` lets the level climb with the distance from
-the boundary cell it came from (see :func:`priority_fill`).
+the boundary cell it came from (see :func:`priority_fill`). That flood and the rim are compiled
+(numba) and work on the result grid in place, a row or a band of columns at a time: on a grid of
+tens of millions of cells a grid-sized temporary per step would cost more than the arithmetic.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+from numba import njit
 
 from aldpat._lazy import lazy_import
 
@@ -93,108 +96,203 @@ def priority_fill(
 
     Returns a new array.
     """
-    z = np.asarray(z, dtype=np.float64)
-    empty = np.asarray(empty, dtype=bool)
-    out = z.copy()
-    labels, count = empty_sets(empty, connectivity=connectivity)
-    if count == 0 or empty.all():
-        return out
-    sizes = np.bincount(labels.ravel(), minlength=count + 1)
-    big = sizes > max(int(min_conn), 0)
-    big[0] = False
-    work = big[labels]  # empty cells of the sets to interpolate
-    if not work.any():
-        return out
-    offsets = _offsets(connectivity)
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    empty = np.ascontiguousarray(empty, dtype=bool)
+    if connectivity not in _STRUCTURE:
+        raise ValueError(f"connectivity must be 4 or 8, got {connectivity!r}")
+    if not empty.any() or empty.all():
+        return z.copy()
+    if min_conn > 0:
+        labels, count = empty_sets(empty, connectivity=connectivity)
+        sizes = np.bincount(labels.ravel(), minlength=count + 1)
+        big = sizes > int(min_conn)
+        big[0] = False
+        work = big[labels]  # empty cells of the sets to interpolate
+        del labels
+        if not work.any():
+            return z.copy()
+    else:
+        work = empty  # every set is interpolated: no labels needed
     valued = ~empty
     if rise > 0:
         filled = _rising_flood(z, valued, work, float(rise))
     else:
+        labels, count = empty_sets(empty, connectivity=connectivity)
         level = np.full(count + 1, np.inf)
-        for dr, dc in offsets:
+        for dr, dc in _offsets(connectivity):
             nz = _shifted(z, dr, dc, np.nan)
             nv = _shifted(valued, dr, dc, False)
             hit = work & nv
             np.minimum.at(level, labels[hit], nz[hit])
         filled = np.where(work, level[labels], z)
+        del labels
     # the rim: cells of a set touching valued cells take the mean of their neighbours
-    total = np.zeros(z.shape)
-    count_n = np.zeros(z.shape)
-    rim = np.zeros(z.shape, dtype=bool)
-    for dr, dc in offsets:
-        nv = _shifted(valued, dr, dc, False)
-        nw = _shifted(work, dr, dc, False)
-        nz = _shifted(filled, dr, dc, np.nan)
-        use = work & (nv | nw)
-        total[use] += nz[use]
-        count_n[use] += 1
-        rim |= work & nv
-    np.copyto(out, filled, where=work)
-    np.divide(total, count_n, out=out, where=rim & (count_n > 0))
-    bad = work & ~np.isfinite(out)
+    offsets = np.array(_offsets(connectivity), dtype=np.int64)
+    _rim_means(filled, valued, work, offsets)
+    bad = work & ~np.isfinite(filled)
     if bad.any():  # a set with no valued neighbour at all (the whole grid empty around it)
-        out[bad] = z[bad]
-    log.debug("priority fill: %d sets, %d interpolated", count, int(big.sum()))
-    return out
+        filled[bad] = z[bad]
+    log.debug("priority fill: %d cells interpolated", int(work.sum()))
+    return filled
 
 
-def _segment_envelope(v: np.ndarray, offsets: tuple[np.ndarray, np.ndarray], rise: float,
-                      step: float) -> np.ndarray:
-    """Along each row: ``min_y v(y) + rise * |x - y|`` over ``y`` reachable from ``x``.
-
-    Valued cells and barriers (``v`` +inf) end a stretch of interpolated cells: a value passes
-    into the stretch from them but not through them. Each stretch is made independent of the
-    earlier ones by a per-stretch offset larger than any value (``offsets``, from
-    :func:`_stretch_offsets`), so one running minimum per direction serves the whole row.
-    """
-    _rows, n = v.shape
-    ramp = np.arange(n, dtype=np.float64)[None, :] * rise
-    out = np.full(v.shape, np.inf)
-    for sign, offset in zip((1, -1), offsets):
-        vv = v if sign == 1 else v[:, ::-1]
-        acc = np.minimum.accumulate(vv - ramp + offset, axis=1)
-        acc += ramp
-        acc -= offset
-        acc[acc > step / 4.0] = np.inf     # from an earlier stretch: not reachable
-        if sign == -1:
-            acc = acc[:, ::-1]
-        np.minimum(out, acc, out=out)
-    return out
-
-
-def _stretch_offsets(stop: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per-stretch offsets for the forward and the backward running minimum of each row."""
-    out = []
-    for src in (stop, stop[:, ::-1]):
-        seg = np.cumsum(src, axis=1, dtype=np.float64)
-        out.append((seg[:, -1:] - seg) * step)   # earlier stretches lie higher
-    return out[0], out[1]
+@njit(cache=True, nogil=True)
+def _rim_means(filled, valued, work, offsets):  # pragma: no cover - compiled
+    """In place: every ``work`` cell touching a ``valued`` cell takes the mean of its valued and
+    ``work`` neighbours (summed in ``offsets`` order). Rows are written one row late, so every
+    mean reads the values before the rim was set."""
+    rows, cols = filled.shape
+    pending = np.empty(cols)
+    current = np.empty(cols)
+    for r in range(rows + 1):
+        if r < rows:
+            for c in range(cols):
+                current[c] = filled[r, c]
+                if not work[r, c]:
+                    continue
+                total = 0.0
+                count = 0
+                rim = False
+                for k in range(offsets.shape[0]):
+                    nr = r + offsets[k, 0]
+                    nc = c + offsets[k, 1]
+                    if nr < 0 or nr >= rows or nc < 0 or nc >= cols:
+                        continue
+                    if valued[nr, nc] or work[nr, nc]:
+                        total += filled[nr, nc]
+                        count += 1
+                        if valued[nr, nc]:
+                            rim = True
+                if rim and count > 0:
+                    current[c] = total / count
+        if r > 0:
+            for c in range(cols):
+                filled[r - 1, c] = pending[c]
+        pending, current = current, pending
 
 
 def _rising_flood(z, valued, work, rise, max_sweeps: int = 64) -> np.ndarray:
     """``min_b z(b) + rise * d(b, cell)`` over valued cells ``b``, for the ``work`` cells.
 
     ``d`` is the city-block length of the shortest path from ``b`` through the set. Exact row
-    and column envelopes (:func:`_segment_envelope`) alternate until nothing changes; each
-    turn of the shortest paths costs one more sweep, a few on real sets.
+    and column envelopes alternate until nothing changes; each turn of the shortest paths costs
+    one more sweep, a few on real sets. A stretch of ``work`` cells along a row (or column) ends
+    at any other cell: a valued cell passes its value into the stretch, a barrier (an empty cell
+    of a set left alone) passes nothing. One running minimum per direction serves the whole
+    line: each stretch is offset by a multiple of ``step``, larger than any value, so that the
+    stretches before it never win (the offsets cost a few ulps per sweep).
     """
-    barrier = ~valued & ~work
-    stop = valued | barrier
     n = max(z.shape)
     span = float(np.abs(z[valued]).max()) if valued.any() else 0.0
     step = 4.0 * (span + rise * n + 1.0)
-    offs = _stretch_offsets(stop, step)
-    offs_t = _stretch_offsets(np.ascontiguousarray(stop.T), step)
-    work_t = np.ascontiguousarray(work.T)
+    stop = ~work
     v = np.where(valued, z, np.inf)
     for _ in range(max_sweeps):
-        before = v[work]
-        np.copyto(v, np.minimum(v, _segment_envelope(v, offs, rise, step)), where=work)
-        vt = np.ascontiguousarray(v.T)
-        np.copyto(vt, np.minimum(vt, _segment_envelope(vt, offs_t, rise, step)), where=work_t)
-        v = np.ascontiguousarray(vt.T)
-        if not (before - v[work] > 1e-6).any():  # the offsets cost a few ulps per sweep
+        changed = _row_envelopes(v, stop, work, rise, step)
+        changed |= _column_envelopes(v, stop, work, rise, step)
+        if not changed:
             break
     out = z.copy()
-    out[work] = v[work]
+    np.copyto(out, v, where=work)
     return out
+
+
+@njit(cache=True, nogil=True)
+def _row_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
+    """One row sweep of :func:`_rising_flood`, in place; whether a ``work`` cell fell by more than
+    1e-6. Along each row, the forward and backward running minima of ``v - rise * i + offset``."""
+    rows, n = v.shape
+    quarter = step / 4.0
+    forward = np.empty(n)
+    changed = False
+    for r in range(rows):
+        total = 0
+        for x in range(n):
+            total += stop[r, x]
+        seen = 0
+        acc = np.inf
+        for x in range(n):
+            seen += stop[r, x]
+            offset = float(total - seen) * step
+            ramp = float(x) * rise
+            t = (v[r, x] - ramp) + offset
+            if t < acc or np.isnan(t):  # NaN carries on, as np.minimum.accumulate
+                acc = t
+            res = (acc + ramp) - offset
+            forward[x] = np.inf if res > quarter else res
+        seen = 0
+        acc = np.inf
+        for i in range(n):
+            x = n - 1 - i
+            seen += stop[r, x]
+            offset = float(total - seen) * step
+            ramp = float(i) * rise
+            old = v[r, x]
+            t = (old - ramp) + offset
+            if t < acc or np.isnan(t):  # NaN carries on, as np.minimum.accumulate
+                acc = t
+            res = (acc + ramp) - offset
+            if res > quarter:
+                res = np.inf
+            best = forward[x]
+            best = min(best, res)
+            if work[r, x] and best < old:
+                if old - best > 1e-6:
+                    changed = True
+                v[r, x] = best
+    return changed
+
+
+@njit(cache=True, nogil=True)
+def _column_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
+    """:func:`_row_envelopes` along the columns, a band of columns at a time (row-major reads)."""
+    n, cols = v.shape
+    quarter = step / 4.0
+    band = 256
+    forward = np.empty((n, band))
+    total = np.zeros(band, np.int64)
+    seen = np.zeros(band, np.int64)
+    acc = np.empty(band)
+    changed = False
+    for c0 in range(0, cols, band):
+        w = min(band, cols - c0)
+        total[:] = 0
+        for y in range(n):
+            for j in range(w):
+                total[j] += stop[y, c0 + j]
+        seen[:] = 0
+        acc[:] = np.inf
+        for y in range(n):
+            ramp = float(y) * rise
+            for j in range(w):
+                c = c0 + j
+                seen[j] += stop[y, c]
+                offset = float(total[j] - seen[j]) * step
+                t = (v[y, c] - ramp) + offset
+                if t < acc[j] or np.isnan(t):
+                    acc[j] = t
+                res = (acc[j] + ramp) - offset
+                forward[y, j] = np.inf if res > quarter else res
+        seen[:] = 0
+        acc[:] = np.inf
+        for i in range(n):
+            y = n - 1 - i
+            ramp = float(i) * rise
+            for j in range(w):
+                c = c0 + j
+                seen[j] += stop[y, c]
+                offset = float(total[j] - seen[j]) * step
+                old = v[y, c]
+                t = (old - ramp) + offset
+                if t < acc[j] or np.isnan(t):
+                    acc[j] = t
+                res = (acc[j] + ramp) - offset
+                if res > quarter:
+                    res = np.inf
+                best = forward[y, j]
+                best = min(best, res)
+                if work[y, c] and best < old:
+                    if old - best > 1e-6:
+                        changed = True
+                    v[y, c] = best
+    return changed
