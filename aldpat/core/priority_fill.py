@@ -185,22 +185,22 @@ def _rising_flood(z, valued, work, rise, max_sweeps: int = 64) -> np.ndarray:
     n = max(z.shape)
     span = float(np.abs(z[valued]).max()) if valued.any() else 0.0
     step = 4.0 * (span + rise * n + 1.0)
-    stop = ~work
-    v = np.where(valued, z, np.inf)
+    out = z.copy()  # the envelopes run in it: only its work cells change
+    out[work] = np.inf
     for _ in range(max_sweeps):
-        changed = _row_envelopes(v, stop, work, rise, step)
-        changed |= _column_envelopes(v, stop, work, rise, step)
+        changed = _row_envelopes(out, valued, work, rise, step)
+        changed |= _column_envelopes(out, valued, work, rise, step)
         if not changed:
             break
-    out = z.copy()
-    np.copyto(out, v, where=work)
     return out
 
 
 @njit(cache=True, nogil=True)
-def _row_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
+def _row_envelopes(v, valued, work, rise, step):  # pragma: no cover - compiled
     """One row sweep of :func:`_rising_flood`, in place; whether a ``work`` cell fell by more than
-    1e-6. Along each row, the forward and backward running minima of ``v - rise * i + offset``."""
+    1e-6. Along each row, the forward and backward running minima of ``v - rise * i + offset``;
+    a cell neither valued nor ``work`` (a barrier) counts as +inf, and every cell but a ``work``
+    cell ends a stretch."""
     rows, n = v.shape
     quarter = step / 4.0
     forward = np.empty(n)
@@ -208,14 +208,14 @@ def _row_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
     for r in range(rows):
         total = 0
         for x in range(n):
-            total += stop[r, x]
+            total += not work[r, x]
         seen = 0
         acc = np.inf
         for x in range(n):
-            seen += stop[r, x]
+            seen += not work[r, x]
             offset = float(total - seen) * step
             ramp = float(x) * rise
-            t = (v[r, x] - ramp) + offset
+            t = ((v[r, x] if valued[r, x] or work[r, x] else np.inf) - ramp) + offset
             if t < acc or np.isnan(t):  # NaN carries on, as np.minimum.accumulate
                 acc = t
             res = (acc + ramp) - offset
@@ -224,10 +224,10 @@ def _row_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
         acc = np.inf
         for i in range(n):
             x = n - 1 - i
-            seen += stop[r, x]
+            seen += not work[r, x]
             offset = float(total - seen) * step
             ramp = float(i) * rise
-            old = v[r, x]
+            old = v[r, x] if valued[r, x] or work[r, x] else np.inf
             t = (old - ramp) + offset
             if t < acc or np.isnan(t):  # NaN carries on, as np.minimum.accumulate
                 acc = t
@@ -244,7 +244,7 @@ def _row_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def _column_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
+def _column_envelopes(v, valued, work, rise, step):  # pragma: no cover - compiled
     """:func:`_row_envelopes` along the columns, a band of columns at a time (row-major reads)."""
     n, cols = v.shape
     quarter = step / 4.0
@@ -259,16 +259,16 @@ def _column_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
         total[:] = 0
         for y in range(n):
             for j in range(w):
-                total[j] += stop[y, c0 + j]
+                total[j] += not work[y, c0 + j]
         seen[:] = 0
         acc[:] = np.inf
         for y in range(n):
             ramp = float(y) * rise
             for j in range(w):
                 c = c0 + j
-                seen[j] += stop[y, c]
+                seen[j] += not work[y, c]
                 offset = float(total[j] - seen[j]) * step
-                t = (v[y, c] - ramp) + offset
+                t = ((v[y, c] if valued[y, c] or work[y, c] else np.inf) - ramp) + offset
                 if t < acc[j] or np.isnan(t):
                     acc[j] = t
                 res = (acc[j] + ramp) - offset
@@ -280,9 +280,9 @@ def _column_envelopes(v, stop, work, rise, step):  # pragma: no cover - compiled
             ramp = float(i) * rise
             for j in range(w):
                 c = c0 + j
-                seen[j] += stop[y, c]
+                seen[j] += not work[y, c]
                 offset = float(total[j] - seen[j]) * step
-                old = v[y, c]
+                old = v[y, c] if valued[y, c] or work[y, c] else np.inf
                 t = (old - ramp) + offset
                 if t < acc[j] or np.isnan(t):
                     acc[j] = t

@@ -15,8 +15,12 @@ each was published and tested. The two can disagree on a cell whose height above
 surface equals the threshold to within float32 rounding; the precision is therefore an argument
 of the one loop, not a second implementation.
 
-Memory: three grid-sized surfaces (current, opened, work) of the chosen precision and the int16
-(:func:`mark_dtype`) mark matrix, whatever the number of windows; ``z`` is not changed.
+Memory: one grid-sized surface of the chosen precision and the int16 (:func:`mark_dtype`) mark
+matrix, whatever the number of windows, when every opening is along a line without a recovery: the
+lines are independent, so each is opened, compared and replaced in place a block of lines at a
+time. Square and disk windows, and a recovery (which needs the surface before the opening beside
+the one after it), take two more grid-sized surfaces (opened, work). ``z`` is not changed unless
+given to the run (``in_place``).
 """
 
 from __future__ import annotations
@@ -48,7 +52,8 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
                         passes: Sequence[tuple[str, int]], *, dtype: type = np.float32,
                         skip: np.ndarray | None = None,
                         recover: Callable[[int], Recovery | None] | None = None,
-                        decode: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+                        decode: Callable[[np.ndarray], np.ndarray] | None = None,
+                        in_place: bool = False) -> np.ndarray:
     """Mark matrix (:func:`mark_dtype`: 0 ground, else the half window that removed the cell) of
     the progressive opening.
 
@@ -58,17 +63,25 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     window that removed it. ``skip`` cells only support the openings, never being marked.
     ``recover(k)`` gives the recovery applied after each opening at window ``k`` (or None).
     ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`), turned into the
-    surface's heights a block of rows at a time (no float64 copy of the grid).
+    surface's heights a block of rows at a time (no float64 copy of the grid). ``in_place``: ``z``
+    (heights of ``dtype``, C-ordered) is the run's to open in place instead of a copy.
     """
-    surface: np.ndarray = _surface_of(z, dtype, decode)
-    opened = np.empty_like(surface)
-    work = np.empty_like(surface)
+    given = in_place and decode is None and isinstance(z, np.ndarray) and z.dtype == dtype and z.flags.c_contiguous
+    surface: np.ndarray = z if given else heights_grid(z, dtype, decode)
+    opened: np.ndarray | None = None  # whole-grid scratch, only for the openings that need it
+    work: np.ndarray | None = None
     marks = np.zeros(surface.shape, mark_dtype(max(windows, default=0)))
     candidates = np.ones(surface.shape, bool) if skip is None else ~skip  # marks == 0, kept current
-    removed = np.empty(surface.shape, bool)
+    removed = None
     for k, dh in zip(windows, thresholds):
         recovery = recover(k) if recover is not None else None
         for window, axis in passes:
+            if window == "line" and recovery is None:
+                _line_pass(surface, k, axis, dtype(dh), candidates, marks)
+                continue
+            if opened is None or work is None or removed is None:
+                opened, work = np.empty_like(surface), np.empty_like(surface)
+                removed = np.empty(surface.shape, bool)
             morphology.opening(surface, k, window=window, axis=axis, out=opened, work=work)
             np.subtract(surface, opened, out=work)
             np.greater(work, dtype(dh), out=removed)
@@ -82,8 +95,33 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     return marks
 
 
-def _surface_of(z: np.ndarray, dtype: type, decode: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
-    """A copy of the heights ``z`` (or of the heights of codes ``z``) in ``dtype``."""
+def _line_pass(surface: np.ndarray, k: int, axis: int, dh, candidates: np.ndarray, marks: np.ndarray) -> None:
+    """One opening along ``axis`` of the progressive loop, in place: the cells of ``candidates``
+    standing more than ``dh`` above the opened surface are marked ``k`` and leave
+    ``candidates``, and ``surface`` becomes the opened one. The lines are independent, so a block
+    of them at a time gives the same values as the whole grid at once."""
+    rows, cols = surface.shape
+    lines = rows if axis == 1 else cols
+    along = cols if axis == 1 else rows
+    step = max(1, (1 << 20) // max(1, along))
+    opened = work = None
+    for a in range(0, lines, step):
+        part = (slice(a, a + step), slice(None)) if axis == 1 else (slice(None), slice(a, a + step))
+        block = surface[part]
+        if opened is None or opened.shape != block.shape:
+            opened, work = np.empty(block.shape, surface.dtype), np.empty(block.shape, surface.dtype)
+        morphology.opening(block, k, window="line", axis=axis, out=opened, work=work)
+        np.subtract(block, opened, out=work)
+        removed = work > dh
+        removed &= candidates[part]
+        marks[part][removed] = k
+        candidates[part] &= ~removed
+        block[...] = opened
+
+
+def heights_grid(z: np.ndarray, dtype: type, decode: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
+    """A copy of the heights ``z`` (or of the heights of codes ``z``) in ``dtype``, decoded a block
+    of rows at a time (no grid-sized temporary)."""
     if decode is None:
         return np.array(z, dtype=dtype, copy=True)
     surface: np.ndarray = np.empty(z.shape, dtype)

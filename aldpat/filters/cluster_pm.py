@@ -87,6 +87,7 @@ def progressive_marks(
     recover_across_gaps: bool = True,
     skip: np.ndarray | None = None,
     decode=None,
+    in_place: bool = False,
 ) -> np.ndarray:
     """Mark matrix of the (cluster-based) progressive morphological filter (§5.2.2).
 
@@ -103,6 +104,7 @@ def progressive_marks(
         an earlier window (see :func:`aldpat.core.clusters.recover_runs`).
     skip : cells that are never marked (they only support the openings).
     decode : ``z`` holds height codes (:mod:`aldpat.core.height_codes`) that it turns into heights.
+    in_place : ``z`` (float64 heights) is the run's to open in place, instead of a copy.
 
     A cell keeps the first window that removed it. The surface handed to the next window is
     the opened one (line 17). Runs on :func:`aldpat.core.progressive.progressive_opening` in

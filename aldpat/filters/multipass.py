@@ -30,6 +30,7 @@ import numpy as np
 
 from aldpat.core.lowest_grid import fill_nearest
 from aldpat.core.priority_fill import priority_fill
+from aldpat.core.progressive import heights_grid
 from aldpat.errors import ParamError
 from aldpat.filters.cluster_pm import AXES, OLD_DIRECTIONS, progressive_marks
 from aldpat.filters.gapm import check_series
@@ -88,17 +89,25 @@ def multipass_reach(p: MultipassParams) -> int:
     return first + second + low_outlier_reach(p)
 
 
-@register_filter("multipass", params=MultipassParams, reach=multipass_reach,
+@register_filter("multipass", params=MultipassParams, reach=multipass_reach, takes_codes=True,
                  summary="multi-pass morphological filter with priority boundary interpolation "
                          "(dissertation ch. 4)")
-def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams) -> np.ndarray:
-    """Mark matrix of the multi-pass filter (dissertation §4.2.5)."""
+def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams, *, in_place: bool = False,
+              decode=None) -> np.ndarray:
+    """Mark matrix of the multi-pass filter (dissertation §4.2.5); ``decode``: ``z`` holds height
+    codes (:mod:`aldpat.core.height_codes`). ``z`` is never changed.
+
+    Memory: a 1 m grid of a large survey holds tens of millions of cells, so at most two float64
+    grids live at once (the interpolation's input and output); the openings work on one surface
+    in place (:func:`aldpat.core.progressive.progressive_opening`).
+    """
     p = params
     axes = AXES[p.direction]
-    marks = progressive_marks(z, p.window_series, p.threshold_series, axes=axes)
+    marks = progressive_marks(z, p.window_series, p.threshold_series, axes=axes, decode=decode)
     for n in range(p.passes):
         removed = marks > 0
-        standing = ~removed & ~empty
+        standing = ~removed
+        standing &= ~empty
         if not standing.any():
             break
         # Cells without a point take the nearest standing cell, as before pass 1; the sets of
@@ -107,14 +116,23 @@ def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams) -> np.n
         # -9999 marks of PQBoundInterp would on dense data, joins the sets of sparse data into
         # one sheet flooded from its lowest corner (ISPRS samples: mean total error 19 %
         # instead of 9 %).
-        base = fill_nearest(np.where(standing, z, np.nan), ~standing)
+        standing = ~standing
+        if decode is None:
+            base = fill_nearest(np.where(standing, np.nan, z), standing)
+        else:  # the nearest cell's code, then its height: the same value as filling heights
+            base = heights_grid(fill_nearest(z, standing), np.float64, decode)
+        del standing
         surface = priority_fill(base, removed, min_conn=p.min_conn, connectivity=p.connectivity,
                                 rise=p.fill_rise)
+        del base
+        skip = removed
+        skip |= empty
         second = progressive_marks(surface, p.second_window_series, p.second_threshold_series,
-                                   axes=axes, skip=removed | empty)
+                                   axes=axes, skip=skip, in_place=True)
+        del surface, skip
         fresh = second > 0
         log.debug("multipass: pass %d removed %d more cells", n + 2, int(fresh.sum()))
         if not fresh.any():
             break
-        marks = np.where(fresh, second, marks)
+        np.copyto(marks, second, where=fresh)
     return marks.astype(np.int32, copy=False)
