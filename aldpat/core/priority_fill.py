@@ -31,15 +31,20 @@ tens of millions of cells a grid-sized temporary per step would cost more than t
 from __future__ import annotations
 
 import logging
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
 
 from aldpat._lazy import lazy_import
+from aldpat.core.threads import thread_budget
 
 ndimage = lazy_import("scipy.ndimage")
 
 log = logging.getLogger(__name__)
+
+#: columns of one band of the column sweep: its rows are read in order, a band's width at a time
+_BAND = 256
 
 _STRUCTURE = {4: np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool), 8: np.ones((3, 3), dtype=bool)}
 
@@ -187,25 +192,37 @@ def _rising_flood(z, valued, work, rise, max_sweeps: int = 64) -> np.ndarray:
     step = 4.0 * (span + rise * n + 1.0)
     out = z.copy()  # the envelopes run in it: only its work cells change
     out[work] = np.inf
-    for _ in range(max_sweeps):
-        changed = _row_envelopes(out, valued, work, rise, step)
-        changed |= _column_envelopes(out, valued, work, rise, step)
-        if not changed:
-            break
+    rows, cols = out.shape
+    workers = max(1, min(thread_budget(), rows // 64, cols // 256))
+    row_parts = _parts(rows, workers, 1)
+    column_parts = _parts(cols, workers, _BAND)
+    with ThreadPoolExecutor(workers) as pool:  # rows, and bands of columns, are independent
+        for _ in range(max_sweeps):
+            changed = any([*pool.map(lambda ab: _row_envelopes(out, valued, work, rise, step, *ab), row_parts)])
+            changed |= any([*pool.map(lambda ab: _column_envelopes(out, valued, work, rise, step, *ab), column_parts)])
+            if not changed:
+                break
     return out
 
 
+def _parts(n: int, count: int, multiple: int) -> list[tuple[int, int]]:
+    """``count`` ranges covering ``0..n``, their starts multiples of ``multiple``."""
+    size = -(-n // count)
+    size = -(-size // multiple) * multiple
+    return [(a, min(n, a + size)) for a in range(0, n, size)]
+
+
 @njit(cache=True, nogil=True)
-def _row_envelopes(v, valued, work, rise, step):  # pragma: no cover - compiled
+def _row_envelopes(v, valued, work, rise, step, r0, r1):  # pragma: no cover - compiled
     """One row sweep of :func:`_rising_flood`, in place; whether a ``work`` cell fell by more than
     1e-6. Along each row, the forward and backward running minima of ``v - rise * i + offset``;
     a cell neither valued nor ``work`` (a barrier) counts as +inf, and every cell but a ``work``
     cell ends a stretch."""
-    rows, n = v.shape
+    n = v.shape[1]
     quarter = step / 4.0
     forward = np.empty(n)
     changed = False
-    for r in range(rows):
+    for r in range(r0, r1):
         total = 0
         for x in range(n):
             total += not work[r, x]
@@ -244,18 +261,18 @@ def _row_envelopes(v, valued, work, rise, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def _column_envelopes(v, valued, work, rise, step):  # pragma: no cover - compiled
+def _column_envelopes(v, valued, work, rise, step, c_first, c_last):  # pragma: no cover - compiled
     """:func:`_row_envelopes` along the columns, a band of columns at a time (row-major reads)."""
-    n, cols = v.shape
+    n = v.shape[0]
     quarter = step / 4.0
-    band = 256
+    band = _BAND
     forward = np.empty((n, band))
     total = np.zeros(band, np.int64)
     seen = np.zeros(band, np.int64)
     acc = np.empty(band)
     changed = False
-    for c0 in range(0, cols, band):
-        w = min(band, cols - c0)
+    for c0 in range(c_first, c_last, band):
+        w = min(band, c_last - c0)
         total[:] = 0
         for y in range(n):
             for j in range(w):

@@ -27,11 +27,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from aldpat.core import morphology
 from aldpat.core.lowest_grid import rows_per_block
+from aldpat.core.threads import thread_budget
 
 log = logging.getLogger(__name__)
 
@@ -99,17 +101,18 @@ def _line_pass(surface: np.ndarray, k: int, axis: int, dh, candidates: np.ndarra
     """One opening along ``axis`` of the progressive loop, in place: the cells of ``candidates``
     standing more than ``dh`` above the opened surface are marked ``k`` and leave
     ``candidates``, and ``surface`` becomes the opened one. The lines are independent, so a block
-    of them at a time gives the same values as the whole grid at once."""
+    of them at a time gives the same values as the whole grid at once, and blocks run on threads
+    (scipy's running min and max release the GIL)."""
     rows, cols = surface.shape
     lines = rows if axis == 1 else cols
     along = cols if axis == 1 else rows
     step = max(1, (1 << 20) // max(1, along))
-    opened = work = None
-    for a in range(0, lines, step):
+
+    def one(a: int) -> None:
         part = (slice(a, a + step), slice(None)) if axis == 1 else (slice(None), slice(a, a + step))
         block = surface[part]
-        if opened is None or opened.shape != block.shape:
-            opened, work = np.empty(block.shape, surface.dtype), np.empty(block.shape, surface.dtype)
+        opened = np.empty(block.shape, surface.dtype)
+        work = np.empty(block.shape, surface.dtype)
         morphology.opening(block, k, window="line", axis=axis, out=opened, work=work)
         np.subtract(block, opened, out=work)
         removed = work > dh
@@ -117,6 +120,16 @@ def _line_pass(surface: np.ndarray, k: int, axis: int, dh, candidates: np.ndarra
         marks[part][removed] = k
         candidates[part] &= ~removed
         block[...] = opened
+
+    starts = range(0, lines, step)
+    workers = min(thread_budget(), len(starts))
+    if workers <= 1:
+        for a in starts:
+            one(a)
+        return
+    with ThreadPoolExecutor(workers) as pool:
+        for _ in pool.map(one, starts):
+            pass
 
 
 def heights_grid(z: np.ndarray, dtype: type, decode: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:

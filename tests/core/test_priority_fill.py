@@ -120,3 +120,17 @@ def test_compiled_rising_flood_equals_the_whole_grid_form_bit_for_bit():
         rise = float(rng.choice([0.3, 0.8, 1.0]))
         expected = _reference_rising_flood(z, ~empty, work, rise)
         assert np.array_equal(_rising_flood(z, ~empty, work, rise), expected)
+
+
+def test_rising_flood_on_threads_equals_the_whole_grid_form(monkeypatch):
+    """A grid large enough to be cut into row ranges and bands of columns, one per thread."""
+    from aldpat.core import priority_fill as module
+    from aldpat.core.threads import ENV
+
+    monkeypatch.setenv(ENV, "3")
+    rng = np.random.default_rng(5)
+    z = np.round(np.cumsum(rng.normal(0, 0.4, (200, 800)), axis=0) + 250, 2)
+    empty = rng.random(z.shape) < 0.3
+    empty[40:150, 100:700] = True
+    work = empty & (rng.random(z.shape) < 0.95)
+    assert np.array_equal(module._rising_flood(z, ~empty, work, 0.8), _reference_rising_flood(z, ~empty, work, 0.8))
