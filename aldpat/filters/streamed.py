@@ -9,24 +9,30 @@ The classes are those :func:`aldpat.filters.driver.ground_filter` gives the same
 memory: the same cells, the same grid stage (:func:`aldpat.filters.grid_stage.cell_classes`), the same
 per-point tests.
 
-Which runs can go this way (:func:`streamable`): a grid filter without rotations or noise classes
-(each needs every point at once), on heights given as scaled integers. The low-outlier test
-decides from the grid (:mod:`aldpat.core.low_points`), so it streams too.
+Which runs can go this way (:func:`streamable`): a grid filter without rotations (each needs every
+point at once), on heights given as scaled integers. The low-outlier test decides from the grid
+(:mod:`aldpat.core.low_points`), so it streams too. So does the noise of a filter that finds noise
+(``outlier``, dissertation §4.1.1): a point's noise class depends only on its own height, its cell's
+mark and the final ground surface at its cell (:class:`ChunkNoise`), all known after pass one --
+unless the final surface test decides the points' classes, which can give the lowest point of a cell
+another mark than its cell's.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
 from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.low_points import point_spacing
-from aldpat.core.lowest_grid import Extent, floor_index, grid_spec
+from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, floor_index, grid_spec
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.grid_stage import cell_classes
+from aldpat.filters.marks import MARK_GROUND
 from aldpat.filters.registry import get_filter
 
 log = logging.getLogger(__name__)
@@ -42,8 +48,10 @@ class Unstreamable(Exception):
 def streamable(algorithm: str, params) -> bool:
     """Whether ``algorithm`` with ``params`` gives the same classes in two streaming passes."""
     spec = get_filter(algorithm)
-    if spec.on_points or spec.noise is not None:
+    if spec.on_points:
         return False
+    if spec.noise is not None and getattr(params, "surface_threshold", None) is not None:
+        return False  # the surface test may give a cell's lowest point another mark than the cell's
     if spec.rotations is not None and any(float(a) % 360.0 for a in spec.rotations(params)):
         return False
     return not getattr(params, "auto", False)
@@ -107,6 +115,61 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
               params.cell)
     units.stage("filter")
     return cell_classes(spec, cells, params, origin=params.origin, spacing=cells.spacing)
+
+
+@dataclass
+class _CodesAsHeights:
+    """A grid of height codes read as heights: ``grid.ravel()[cells]`` decodes only those cells."""
+
+    codes: np.ndarray
+    decode: Callable[[np.ndarray], np.ndarray]
+
+    def ravel(self) -> _CodesAsHeights:
+        return self
+
+    def __getitem__(self, cells: np.ndarray) -> np.ndarray:
+        return self.decode(self.codes.ravel()[cells])
+
+
+@dataclass
+class _ChunkResult:
+    """What a noise test reads of a filter's result (:class:`aldpat.filters.base.FilterResult`:
+    ``marks``, ``cell_index``, ``is_ground``, ``surface``), for one chunk of points."""
+
+    marks: np.ndarray
+    cell_index: np.ndarray
+    is_ground: np.ndarray
+    surface: _CodesAsHeights
+
+
+class ChunkNoise:
+    """The noise test of a filter that finds noise (``FilterSpec.noise``: ``outlier``'s classes 7
+    and 18, dissertation §4.1.1) on points classified a chunk at a time.
+
+    The whole-file test reads three things per point: its height, its cell's mark -- the mark of
+    the cell's lowest point, which is the grid stage's mark of the cell when no final surface test
+    runs (:func:`streamable`; a low outlier's cell and an empty one are neither removed nor ground
+    either way) -- and the final ground surface at its cell: the ground cells' lowest heights, every
+    other cell filled from its nearest ground cell (:func:`aldpat.filters.base.ground_surface`),
+    kept here as height codes (the same values, half the memory of float64 heights).
+    """
+
+    def __init__(self, classes: CellClasses, noise: Callable[..., np.ndarray], params):
+        self.classes, self.noise, self.params = classes, noise, params
+        ground = classes.marks == MARK_GROUND
+        # no ground cell: the whole-file surface is all NaN, which makes no point noise
+        self.surface = fill_nearest(classes.cells.codes, ~ground) if ground.any() else None
+
+    def classify(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, *, marks: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(point marks, is ground, noise: -1 low, +1 high, 0 neither) of points x, y, z."""
+        classes = self.classes
+        cells = flat_cell_indices(x, y, classes.cells.spec, origin=classes.origin)
+        point_marks, is_ground = classes.classify(x, y, z, cells, marks=marks)
+        if self.surface is None:
+            return point_marks, is_ground, np.zeros(len(z), np.int8)
+        result = _ChunkResult(classes.marks, cells, is_ground, _CodesAsHeights(self.surface, classes.cells.heights.decode))
+        return point_marks, is_ground, self.noise(result, np.asarray(z, np.float64), self.params)
 
 
 def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None, seen=None

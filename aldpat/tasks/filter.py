@@ -66,10 +66,13 @@ def point_classes(res, z: np.ndarray, params, algorithm: str) -> np.ndarray:
     point formats 0-5, which reserve 18: :func:`aldpat.io.classified.for_point_format`)."""
     cls = ground_classes(res.is_ground, res.point_marks)
     noise = FILTERS[algorithm].noise
-    if noise is not None:
-        kind = noise(res, z, params)
-        cls[kind < 0] = LOW_NOISE
-        cls[kind > 0] = HIGH_NOISE
+    return cls if noise is None else with_noise(cls, noise(res, z, params))
+
+
+def with_noise(cls: np.ndarray, kind: np.ndarray) -> np.ndarray:
+    """``cls`` (in place) with the noise a filter found: ``kind`` -1 low noise (7), +1 high (18)."""
+    cls[kind < 0] = LOW_NOISE
+    cls[kind > 0] = HIGH_NOISE
     return cls
 
 
@@ -232,7 +235,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
     first, the classes and outputs from the second; memory holds the grid, not the points.
     False (nothing written) when the file cannot go this way -- a point outside the header's
     bounds, a z scale that is not positive: the caller then reads the file whole."""
-    from aldpat.filters.streamed import Unstreamable, stream_classes
+    from aldpat.filters.streamed import ChunkNoise, Unstreamable, stream_classes
     from aldpat.io.las import z_codes
 
     outputs = _outputs(source, params, ctx, reader, algorithm)
@@ -257,9 +260,15 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         log.info("%s: %s; reading the file whole", source, exc)
         return False
 
+    spec = FILTERS[algorithm]
+    noise = ChunkNoise(classes, spec.noise, params) if spec.noise is not None else None
+
     def classes_of(table, _start, _stop):
-        marks, ground = classes.classify(table.x, table.y, table.z, marks=params.marks)
-        return marks, ground_classes(ground, marks)
+        if noise is None:
+            marks, ground = classes.classify(table.x, table.y, table.z, marks=params.marks)
+            return marks, ground_classes(ground, marks)
+        marks, ground, kind = noise.classify(table.x, table.y, table.z, marks=params.marks)
+        return marks, with_noise(ground_classes(ground, marks), kind)
 
     _write_from_classes(source, reader, outputs, params, ctx, classes_of, algorithm, STREAM_CHUNK)
     return True
