@@ -34,10 +34,45 @@ def _params(name: str, **values):
 
 
 def test_the_grid_filters_that_can_stream():
-    # every grid filter but the one that finds noise (it needs all points' heights at once)
-    assert set(STREAMABLE) == {n for n, s in FILTERS.items() if not s.on_points} - {"outlier"}
+    assert set(STREAMABLE) == {n for n, s in FILTERS.items() if not s.on_points}
     assert streamable("gapm", _params("gapm", low_outliers=2.0))  # the test decides on the grid
     assert not streamable("gapm", _params("gapm", auto=True))
+    # the final surface test can give a cell's lowest point another mark than its cell's, which
+    # the noise test reads
+    assert not streamable("outlier", _params("outlier", surface_threshold=0.5))
+
+
+@pytest.mark.parametrize("source", ["fsite5_strip.laz", "fsite5_pit.laz", "csite1_slice.laz"])
+def test_streamed_outlier_writes_the_noise_classes_of_the_whole_file(source, tmp_path, monkeypatch, runner, cli):
+    """``outlier`` finds noise (classes 7 and 18): in a fresh ``aldpat`` process its two-pass run
+    writes every point's class and mark as the whole file held in memory gives them, on LAS 1.4
+    output (point format 6, which holds class 18) -- and the file is never read whole."""
+    from aldpat.tasks.filter import point_classes
+
+    las = laspy.read(DATA / source)
+    x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
+    params = FILTERS["outlier"].params(cell=1.0)
+    expected = ground_filter(x, y, z, "outlier", params)
+    want = point_classes(expected, z, params, "outlier")
+    assert {7, 18} <= set(np.unique(want).tolist())  # both kinds of noise occur
+    six = tmp_path / f"{Path(source).stem}_14.las"
+    laspy.convert(las, point_format_id=6, file_version="1.4").write(six)
+    aldpat("filter", "outlier", six, "--odir", tmp_path / "out", "--result", "classified", "--marks", "--cell", "1").ok()
+    got = laspy.read(tmp_path / "out" / f"{six.stem}_outlier.las")
+    assert np.array_equal(np.asarray(got["mark"]), expected.point_marks)
+    noise = np.isin(want, (7, 18))
+    assert np.array_equal(np.asarray(got.classification)[noise], want[noise])
+    assert not np.isin(np.asarray(got.classification)[~noise], (7, 18)).any()
+
+    def whole(_self):
+        raise AssertionError("the file was read whole")
+
+    monkeypatch.setattr(LasReader, "read", whole)
+    out = runner.invoke(cli, ["filter", "outlier", str(six), "--odir", str(tmp_path / "again"), "--result",
+                              "classified", "--cell", "1"])
+    assert out.exit_code == 0, out.output
+    assert np.array_equal(np.asarray(laspy.read(tmp_path / "again" / f"{six.stem}_outlier.las").classification),
+                          np.asarray(got.classification))
 
 
 def test_height_codes_read_back_as_laspys_heights():
@@ -47,7 +82,7 @@ def test_height_codes_read_back_as_laspys_heights():
         assert np.array_equal(heights.decode(z_codes(table)), table.z)  # bit for bit
 
 
-@pytest.mark.parametrize("name", STREAMABLE)
+@pytest.mark.parametrize("name", [n for n in STREAMABLE if FILTERS[n].noise is None])  # outlier: below
 @pytest.mark.parametrize("defaults", [False, True])
 def test_streamed_classes_equal_the_whole_file(name, defaults, tmp_path):
     """In a fresh ``aldpat`` process: classes and marks written by the two-pass run equal
