@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.lowest_grid import rows_per_block
 from aldpat.filters.classify import FilterResult
 from aldpat.filters.grid_stage import low_outlier_reach
 from aldpat.filters.options import GroundParams
@@ -44,18 +45,39 @@ class OutlierParams(GroundParams):
 
 
 def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | None = 2.0,
-                  low_threshold: float | None = 2.0, shape: str = "square") -> np.ndarray:
-    """Mark matrix of the morphological outlier test (§4.1.1): ``window`` where an outlier."""
-    z = np.asarray(z, dtype=np.float64)
+                  low_threshold: float | None = 2.0, shape: str = "square", decode=None) -> np.ndarray:
+    """Mark matrix of the morphological outlier test (§4.1.1): ``window`` where an outlier.
+
+    ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`); openings and closings
+    move values only, so they run on the codes and only the comparisons read heights. The test
+    is local -- a closing, then an opening of the lifted surface: ``4 window`` cells -- so it runs
+    on slabs of rows with that many rows of margin, each row the value the whole grid gives it,
+    and memory holds the grid and its marks, not a grid-sized temporary per step.
+    """
+    z = np.asarray(z) if decode is not None else np.asarray(z, dtype=np.float64)
+    rows, cols = z.shape
+    marks = np.zeros(z.shape, np.int32)
+    margin = 4 * int(window)
+    step = max(rows_per_block(cols, 1 << 20), margin)
+    for a in range(0, rows, step):
+        b = min(rows, a + step)
+        lo, hi = max(0, a - margin), min(rows, b + margin)
+        marks[a:b] = _slab_marks(z[lo:hi], window, high_threshold, low_threshold, shape, decode)[a - lo:b - lo]
+    return marks
+
+
+def _slab_marks(z: np.ndarray, window: int, high_threshold: float | None, low_threshold: float | None, shape: str,
+                decode) -> np.ndarray:
+    heights = decode if decode is not None else (lambda v: v)
     out = np.zeros(z.shape, dtype=bool)
     if low_threshold is not None:
         closed = morphology.closing(z, window, window=shape)
-        out = closed - z > low_threshold
+        out = heights(closed) - heights(z) > low_threshold
         # a pit pulls the opening of its neighbours down with it: test the high side on the
         # surface with the low outliers lifted to their closing
         z = np.where(out, closed, z)
     if high_threshold is not None:
-        out |= z - morphology.opening(z, window, window=shape) > high_threshold
+        out |= heights(z) - heights(morphology.opening(z, window, window=shape)) > high_threshold
     return np.where(out, np.int32(window), np.int32(0))
 
 
@@ -87,12 +109,14 @@ def outlier_reach(p: OutlierParams) -> int:
     return 4 * p.window + low_outlier_reach(p)
 
 
-@register_filter("outlier", params=OutlierParams, noise=outlier_noise, reach=outlier_reach,
+@register_filter("outlier", params=OutlierParams, noise=outlier_noise, reach=outlier_reach, takes_codes=True,
                  summary="morphological removal of isolated high and low points (dissertation §4.1)")
-def outlier(z: np.ndarray, empty: np.ndarray, params: OutlierParams) -> np.ndarray:
-    """Mark matrix of the outlier filter (dissertation §4.1.1)."""
+def outlier(z: np.ndarray, empty: np.ndarray, params: OutlierParams, *, in_place: bool = False,
+            decode=None) -> np.ndarray:
+    """Mark matrix of the outlier filter (dissertation §4.1.1); ``decode``: ``z`` holds height
+    codes. ``z`` is never changed."""
     p = params
     marks = outlier_marks(z, window=p.window, high_threshold=p.high_threshold,
-                          low_threshold=p.low_threshold, shape=p.shape)
+                          low_threshold=p.low_threshold, shape=p.shape, decode=decode)
     log.debug("outlier: %d cells removed", int((marks > 0).sum()))
     return marks

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from aldpat.filters import ground_filter
 from aldpat.filters.outlier import OutlierParams, outlier, outlier_marks
@@ -35,3 +36,25 @@ def test_points_end_to_end():
     r = ground_filter(x, y, z, "outlier", OutlierParams())
     assert not r.is_ground[57]
     assert r.is_ground.sum() == x.size - 1
+
+
+@pytest.mark.parametrize("shape", ["square", "disk"])
+def test_slabs_of_rows_and_height_codes_give_the_whole_grids_marks(shape, monkeypatch):
+    """The test runs on slabs of rows with ``4 window`` rows of margin, on height codes: every
+    mark is the one the whole grid of heights gives (slabs of 1 to 5 rows against one slab)."""
+    from aldpat.core.height_codes import ScaledHeights
+    from aldpat.filters import outlier as module
+
+    heights = ScaledHeights(0.01, 300.0)
+    rng = np.random.default_rng(2)
+    codes = (np.cumsum(rng.integers(-30, 30, (47, 39)), axis=1) + 400).astype(np.int32)
+    spikes = rng.random(codes.shape) < 0.06
+    codes[spikes] += (rng.choice([-1, 1], spikes.sum()) * rng.integers(150, 2000, spikes.sum())).astype(np.int32)
+    for window in (1, 2, 3):
+        whole = outlier_marks(heights.decode(codes), window=window, shape=shape)
+        assert (whole > 0).sum() > 10
+        for rows in (1, 2, 5):
+            monkeypatch.setattr(module, "rows_per_block", lambda cols, cells=0, _rows=rows: _rows)
+            assert np.array_equal(outlier_marks(codes, window=window, shape=shape, decode=heights.decode), whole)
+            assert np.array_equal(outlier_marks(heights.decode(codes), window=window, shape=shape), whole)
+        monkeypatch.undo()
