@@ -82,6 +82,7 @@ def priority_fill(
     min_conn: int = 0,
     connectivity: int = 8,
     rise: float = 0.0,
+    in_place: bool = False,
 ) -> np.ndarray:
     """Fill empty cells from their lowest boundary upward (``PQBoundInterp``, §4.2.4).
 
@@ -98,8 +99,11 @@ def priority_fill(
         a slope takes the level of its nearby low boundary instead of its far lowest corner
         (each empty cell gets ``min over valued cells b of z(b) + rise * d(b, cell)``,
         ``d`` the city-block distance).
+    in_place : ``z`` (float64, C-ordered) may become the result, saving a grid, where that
+        gives the same values: a rising flood over every set (``min_conn`` 0) of finite heights,
+        which reaches every empty cell, so that no cell falls back to its value in ``z``.
 
-    Returns a new array.
+    Returns the filled grid (a new array unless ``in_place``).
     """
     z = np.ascontiguousarray(z, dtype=np.float64)
     empty = np.ascontiguousarray(empty, dtype=bool)
@@ -120,7 +124,8 @@ def priority_fill(
         work = empty  # every set is interpolated: no labels needed
     valued = ~empty
     if rise > 0:
-        filled = _rising_flood(z, valued, work, float(rise))
+        own = in_place and min_conn <= 0 and z.flags.writeable and bool(np.isfinite(z).all())
+        filled = _rising_flood(z, valued, work, float(rise), own=own)
     else:
         labels, count = empty_sets(empty, connectivity=connectivity)
         level = np.full(count + 1, np.inf)
@@ -176,7 +181,7 @@ def _rim_means(filled, valued, work, offsets):  # pragma: no cover - compiled
         pending, current = current, pending
 
 
-def _rising_flood(z, valued, work, rise, max_sweeps: int = 64) -> np.ndarray:
+def _rising_flood(z, valued, work, rise, max_sweeps: int = 64, *, own: bool = False) -> np.ndarray:
     """``min_b z(b) + rise * d(b, cell)`` over valued cells ``b``, for the ``work`` cells.
 
     ``d`` is the city-block length of the shortest path from ``b`` through the set. Exact row
@@ -185,12 +190,15 @@ def _rising_flood(z, valued, work, rise, max_sweeps: int = 64) -> np.ndarray:
     at any other cell: a valued cell passes its value into the stretch, a barrier (an empty cell
     of a set left alone) passes nothing. One running minimum per direction serves the whole
     line: each stretch is offset by a multiple of ``step``, larger than any value, so that the
-    stretches before it never win (the offsets cost a few ulps per sweep).
+    stretches before it never win (the offsets cost a few ulps per sweep). ``own``: ``z`` is
+    the result (filled in place).
     """
     n = max(z.shape)
-    span = float(np.abs(z[valued]).max()) if valued.any() else 0.0
+    # the largest |height| of a valued cell, without a copy of the valued cells
+    span = max(abs(float(np.max(z, where=valued, initial=-np.inf))), abs(float(np.min(z, where=valued, initial=np.inf))))
+    span = span if valued.any() else 0.0
     step = 4.0 * (span + rise * n + 1.0)
-    out = z.copy()  # the envelopes run in it: only its work cells change
+    out = z if own else z.copy()  # the envelopes run in it: only its work cells change
     out[work] = np.inf
     rows, cols = out.shape
     workers = max(1, min(thread_budget(), rows // 64, cols // 256))

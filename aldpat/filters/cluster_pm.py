@@ -115,7 +115,7 @@ def progressive_marks(
         recovery = _cluster_recovery(cluster_threshold, gap_threshold, recover_across_gaps)
     return progressive_opening(z, windows, thresholds, [("line", axis) for axis in axes], dtype=np.float64,
                                skip=skip, recover=lambda k: recovery if k >= (cluster_window_size or 0) else None,
-                               decode=decode)
+                               decode=decode, in_place=in_place)
 
 
 def _cluster_recovery(cluster_threshold: float, gap_threshold: float | None, recover_across_gaps: bool) -> Recovery:

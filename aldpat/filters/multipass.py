@@ -97,9 +97,9 @@ def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams, *, in_p
     """Mark matrix of the multi-pass filter (dissertation §4.2.5); ``decode``: ``z`` holds height
     codes (:mod:`aldpat.core.height_codes`). ``z`` is never changed.
 
-    Memory: a 1 m grid of a large survey holds tens of millions of cells, so at most two float64
-    grids live at once (the interpolation's input and output); the openings work on one surface
-    in place (:func:`aldpat.core.progressive.progressive_opening`).
+    Memory: a 1 m grid of a large survey holds tens of millions of cells, so one float64 grid
+    lives at a time: the interpolation fills it in place and the openings open it in place
+    (:func:`aldpat.core.progressive.progressive_opening`).
     """
     p = params
     axes = AXES[p.direction]
@@ -123,7 +123,7 @@ def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams, *, in_p
             base = heights_grid(fill_nearest(z, standing), np.float64, decode)
         del standing
         surface = priority_fill(base, removed, min_conn=p.min_conn, connectivity=p.connectivity,
-                                rise=p.fill_rise)
+                                rise=p.fill_rise, in_place=True)
         del base
         skip = removed
         skip |= empty

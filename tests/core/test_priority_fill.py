@@ -134,3 +134,17 @@ def test_rising_flood_on_threads_equals_the_whole_grid_form(monkeypatch):
     empty[40:150, 100:700] = True
     work = empty & (rng.random(z.shape) < 0.95)
     assert np.array_equal(module._rising_flood(z, ~empty, work, 0.8), _reference_rising_flood(z, ~empty, work, 0.8))
+
+
+def test_in_place_gives_the_values_of_a_copy():
+    rng = np.random.default_rng(7)
+    z = np.round(np.cumsum(rng.normal(0, 0.5, (50, 70)), axis=1) + 120, 2)
+    empty = rng.random(z.shape) < 0.5
+    expected = priority_fill(z, empty, rise=0.8)
+    given = z.copy()
+    assert priority_fill(given, empty, rise=0.8, in_place=True) is given
+    assert np.array_equal(given, expected)
+    kept = z.copy()  # sets left alone keep their own values: a copy, the input untouched
+    assert np.array_equal(priority_fill(kept, empty, rise=0.8, min_conn=2, in_place=True),
+                          priority_fill(z, empty, rise=0.8, min_conn=2))
+    assert np.array_equal(kept, z)
