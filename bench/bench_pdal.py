@@ -2,6 +2,7 @@
 
     python bench/bench_pdal.py                         # every row: aldpat's three, PDAL's two, ratios
     python bench/bench_pdal.py --rows gapm-defaults gapm-set01 pdal-smrf
+    python bench/bench_pdal.py --rows multipass outlier --against REV   # the filters PDAL lacks
     python bench/bench_pdal.py --against main          # also the aldpat rows with the code of main:
                                                        # classes and DTM nodes compared point for point
 
@@ -18,7 +19,10 @@ process tree (``ru_maxrss`` of the waited-for children):
 * ``pdal-smrf``: ``pdal pipeline``: ``readers.las`` -> ``filters.smrf`` (its defaults: 1 m
   cells) -> ``writers.las``;
 * ``pdal-dtm``: PDAL's usual DTM pipeline: ``filters.smrf`` -> ``filters.range``
-  ``Classification[2:2]`` -> ``writers.gdal`` (``idw``, 1 m).
+  ``Classification[2:2]`` -> ``writers.gdal`` (``idw``, 1 m);
+* ``multipass`` and ``outlier`` (only when named in ``--rows``: PDAL has neither):
+  ``aldpat filter multipass FILE --cell 1 --result classified`` and the same for ``outlier``,
+  their own defaults otherwise.
 
 Ratios: PDAL's time over aldpat's (gapm rows against ``pdal-smrf``, ``dtm`` against
 ``pdal-dtm``) and aldpat's peak memory over PDAL's. The load average is printed before and after
