@@ -133,7 +133,7 @@ class _CodesAsHeights:
 
 @dataclass
 class _ChunkResult:
-    """What a noise test reads of a filter's result (:class:`aldpat.filters.base.FilterResult`:
+    """What a noise test reads of a filter's result (:class:`aldpat.filters.classify.FilterResult`:
     ``marks``, ``cell_index``, ``is_ground``, ``surface``), for one chunk of points."""
 
     marks: np.ndarray
@@ -150,7 +150,7 @@ class ChunkNoise:
     the cell's lowest point, which is the grid stage's mark of the cell when no final surface test
     runs (:func:`streamable`; a low outlier's cell and an empty one are neither removed nor ground
     either way) -- and the final ground surface at its cell: the ground cells' lowest heights, every
-    other cell filled from its nearest ground cell (:func:`aldpat.filters.base.ground_surface`),
+    other cell filled from its nearest ground cell (:func:`aldpat.filters.classify.ground_surface`),
     kept here as height codes (the same values, half the memory of float64 heights).
     """
 
