@@ -21,9 +21,8 @@ import numpy as np
 
 from aldpat.core.clusters import make_clusters, recover_runs
 from aldpat.core.progressive import Recovery, progressive_opening
-from aldpat.filters.gapm import check_series
 from aldpat.filters.grid_stage import low_outlier_reach
-from aldpat.filters.options import GroundParams
+from aldpat.filters.options import GroundParams, check_series
 from aldpat.filters.registry import register_filter
 from aldpat.params import param
 

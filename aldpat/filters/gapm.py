@@ -18,12 +18,12 @@ removed where its height above the opened surface exceeds the threshold. In set 
 
 from __future__ import annotations
 
-import itertools
+import functools
 import logging
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from aldpat.core.threads import thread_budget
 from aldpat.core.trend import candidate_thresholds
 from aldpat.errors import ParamError
 from aldpat.filters.grid_stage import low_outlier_reach
-from aldpat.filters.options import GroundParams
+from aldpat.filters.options import GroundParams, check_series
 from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
 
@@ -117,29 +117,47 @@ class GapmParams(GroundParams):
         super().check()
         # series that do not fit together are a usage error, reported before any file is read
         check_series(self.window_series, self.cluster_thresholds, ("window_series", "cluster_thresholds"))
-        if not _direction_series(self, "row")[0] and not _direction_series(self, "column")[0]:
+        if not passes(self):
             raise ParamError("row_windows and column_windows are both none: nothing to filter")
 
 
-def check_series(windows: tuple[int, ...], values: tuple[float, ...], names: tuple[str, str]) -> None:
-    """Windows ascending and one value per window, or a :class:`ParamError` naming both keys."""
-    if len(windows) != len(values):
-        raise ParamError(f"{names[1]}: expected one value per window of {names[0]} "
-                         f"({len(windows)}), got {len(values)}")
-    if any(b <= a for a, b in itertools.pairwise(windows)):
-        raise ParamError(f"{names[0]}: half windows must be strictly ascending, got {windows}")
+class Pass(NamedTuple):
+    """One pass of ``AdaptiveMorphFilter`` (§6.2.4): a half window, its cluster threshold, and the
+    direction it opens along (``"row"``: along x, ``"column"``: along y)."""
+
+    window: int
+    threshold: float
+    direction: str
 
 
-def _direction_series(p: GapmParams, which: str) -> tuple[tuple[int, ...], tuple[float, ...]]:
-    chosen = p.row_windows if which == "row" else p.column_windows
-    if chosen is None:
-        return (), ()
-    lookup = dict(zip(p.window_series, p.cluster_thresholds))
-    missing = [w for w in chosen if w not in lookup]
-    if missing:
-        raise ParamError(f"{which}_windows: {missing} not in window_series {p.window_series}")
-    chosen = tuple(sorted(set(chosen)))
-    return chosen, tuple(lookup[w] for w in chosen)
+def passes(p: GapmParams) -> list[Pass]:
+    """The passes of gapm's series in the order the printed algorithm runs them: at every window
+    of ``window_series``, the row pass if it is a row window, then the column pass if it is a
+    column window, each with the window's cluster threshold. A ``row_windows`` or
+    ``column_windows`` entry missing from ``window_series`` is a :class:`ParamError` naming it."""
+    chosen = {}
+    for direction, windows in (("row", p.row_windows), ("column", p.column_windows)):
+        missing = [w for w in windows or () if w not in p.window_series]
+        if missing:
+            raise ParamError(f"{direction}_windows: {missing} not in window_series {p.window_series}")
+        chosen[direction] = set(windows or ())
+    return [Pass(k, ct, direction) for k, ct in zip(p.window_series, p.cluster_thresholds)
+            for direction in ("row", "column") if k in chosen[direction]]
+
+
+class StepRules(NamedTuple):
+    """How a pass decides which cells it removes (§6.2.4 lines 13-17, CalThreshArray §6.2.3):
+    the smallest half window with an adaptive threshold, the cap's divisor, whether the jump to
+    the neighbouring cluster caps the threshold too, and what a window sees past the data's edge."""
+
+    init_thresh_bin: int = 4
+    max_threshold_divisor: float = 4.0
+    use_cluster_diff: bool = False
+    edges: str = "nearest"
+
+    @classmethod
+    def of(cls, p: GapmParams) -> StepRules:
+        return cls(p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff, p.edges)
 
 
 def adaptive_rows(
@@ -161,13 +179,13 @@ def adaptive_rows(
     all the windows at once and the whole grid is never copied.
     """
     z = np.asarray(z, dtype=np.float64)
+    rules = StepRules(init_thresh_bin, max_threshold_divisor, use_cluster_diff, edges)
     marks = np.zeros(z.shape, np.int32)
     lines = z.shape[0] if axis == 1 else z.shape[1]
     for a in range(0, lines, BLOCK_ROWS):
         b = min(a + BLOCK_ROWS, lines)
         block = z[a:b] if axis == 1 else np.ascontiguousarray(z[:, a:b].T)
-        m = _adaptive_block(block, windows, cluster_thresholds, init_thresh_bin, max_threshold_divisor,
-                            use_cluster_diff, edges)
+        m = _adaptive_block(block, windows, cluster_thresholds, rules)
         if axis == 1:
             marks[a:b] = m
         else:
@@ -175,24 +193,25 @@ def adaptive_rows(
     return marks
 
 
-def _adaptive_block(z, windows, cts, init_bin, divisor, use_cluster_diff, edges) -> np.ndarray:
+def _adaptive_block(z, windows, cts, rules: StepRules) -> np.ndarray:
     zc = z.copy()
     mark = np.zeros(z.shape, np.int32)
     for k, ct in zip(windows, cts):
-        removed, zc = adaptive_step(zc, mark == 0, k, ct, init_bin, divisor, use_cluster_diff, edges)
+        removed, zc = adaptive_step(zc, mark == 0, k, ct, rules)
         mark[removed] = k
     return mark
 
 
-def adaptive_step(zc, unfiltered, k, ct, init_bin, divisor, use_cluster_diff, edges: str = "nearest",
-                  axis: int = 1, decode=None):
-    """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``).
+def adaptive_step(zc, unfiltered, k, ct, rules: StepRules, axis: int = 1, decode=None):
+    """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``): half
+    window ``k``, cluster threshold ``ct``, decided by ``rules``.
 
     Returns (cells removed, opened surface). ``decode``: ``zc`` holds height codes
     (:mod:`aldpat.core.height_codes`) and the opened surface is returned as codes; an opening
     only moves values, so it is the same opening of the heights. ``edges="trend"``: the lines
     are continued past their ends along their trend (:func:`opened_along_trend`).
     """
+    init_bin, divisor, use_cluster_diff, edges = rules
     if edges == "trend":
         if axis == 1:
             zo, diff = opened_along_trend(zc, k, decode)
@@ -281,20 +300,17 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
     codes (:mod:`aldpat.core.height_codes`), and so does the surface: 4 bytes a cell instead
     of 8, each block's heights decoded as it is filtered.
     """
-    lookup = dict(zip(p.window_series, p.cluster_thresholds))
-    rows = set(p.row_windows or ())
-    cols = set(p.column_windows or ())
     dtype = z.dtype if decode is not None else np.dtype(np.float64)
     usable = in_place and z.dtype == dtype and z.flags.c_contiguous and z.flags.writeable
     zc = z if usable else np.array(z, dtype=dtype, copy=True)
     mark = np.zeros(zc.shape, mark_dtype(max(p.window_series)))  # int16 unless a window is huge
-    opts = (p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff, p.edges)
+    rules = StepRules.of(p)
     nr, nc = zc.shape
 
     def row_block(a, k, ct):
         b = min(a + BLOCK_ROWS, nr)
         m = mark[a:b]
-        removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, *opts, decode=decode)
+        removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, rules, decode=decode)
         zc[a:b] = zo
         np.copyto(m, k, where=removed)
 
@@ -302,17 +318,15 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
         b = min(a + BLOCK_COLUMNS, nc)
         m = mark[:, a:b]
         zt = np.ascontiguousarray(zc[:, a:b].T)
-        removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, *opts, decode=decode)
+        removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, rules, decode=decode)
         zc[:, a:b] = zo.T
         np.copyto(m, k, where=removed.T)
 
+    blocks = {"row": (row_block, nr, BLOCK_ROWS), "column": (column_block, nc, BLOCK_COLUMNS)}
     with ThreadPoolExecutor(max_workers=max(1, workers or thread_budget())) as pool:
-        for k in p.window_series:
-            ct = lookup[k]
-            for block, use, lines, step in ((row_block, rows, nr, BLOCK_ROWS),
-                                            (column_block, cols, nc, BLOCK_COLUMNS)):
-                if k in use:
-                    list(pool.map(lambda a, block=block, k=k, ct=ct: block(a, k, ct), range(0, lines, step)))
+        for k, ct, direction in passes(p):
+            block, lines, step = blocks[direction]
+            list(pool.map(lambda a, block=block, k=k, ct=ct: block(a, k, ct), range(0, lines, step)))
     return mark
 
 
@@ -361,19 +375,20 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams, *, in_place: bool
     ``decode``: ``z`` holds height codes that it turns into heights.
     """
     p = params  # series checked when the params were made (GapmParams.check)
-    rw, rt = _direction_series(p, "row")
-    cw, ctc = _direction_series(p, "column")
     if p.directions == "sequential":
         marks = adaptive_sequential(z, p, in_place=in_place, decode=decode)
         log.debug("gapm: %d of %d cells removed", int((marks > 0).sum()), marks.size)
         return marks
     if decode is not None:
         z = decode(z)
-    opts: dict[str, Any] = {"init_thresh_bin": p.init_thresh_bin, "max_threshold_divisor": p.max_threshold_divisor,
-                            "use_cluster_diff": p.use_cluster_diff, "edges": p.edges}
-    row_fn = (lambda a: adaptive_rows(a, rw, rt, axis=1, **opts)) if rw else None
-    col_fn = (lambda a: adaptive_rows(a, cw, ctc, axis=0, **opts)) if cw else None
-    marks = run_directions(z, row_fn, col_fn)
+    opts: dict[str, Any] = StepRules.of(p)._asdict()
+    fns = []
+    for direction, axis in (("row", 1), ("column", 0)):
+        mine = [(k, ct) for k, ct, d in passes(p) if d == direction]
+        fns.append(functools.partial(adaptive_rows, windows=tuple(k for k, _ in mine),
+                                     cluster_thresholds=tuple(ct for _, ct in mine), axis=axis, **opts)
+                   if mine else None)
+    marks = run_directions(z, *fns)
     log.debug("gapm: %d of %d cells removed", int((marks > 0).sum()), marks.size)
     return marks.astype(np.int32, copy=False)
 

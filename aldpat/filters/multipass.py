@@ -33,9 +33,8 @@ from aldpat.core.priority_fill import priority_fill
 from aldpat.core.progressive import heights_grid
 from aldpat.errors import ParamError
 from aldpat.filters.cluster_pm import AXES, OLD_DIRECTIONS, progressive_marks
-from aldpat.filters.gapm import check_series
 from aldpat.filters.grid_stage import low_outlier_reach
-from aldpat.filters.options import GroundParams
+from aldpat.filters.options import GroundParams, check_series
 from aldpat.filters.registry import register_filter
 from aldpat.params import param
 

@@ -6,8 +6,10 @@ class subclasses one of them.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
+from aldpat.errors import ParamError
 from aldpat.filters.survey import ExistingClassesOption
 from aldpat.options import ChunkOption, CrsOption, OriginOption
 from aldpat.params import Checked, SharedOption, param
@@ -124,3 +126,12 @@ class PointFilterParams(LowOutlierOption, ExistingClassesOption, FilterOutputOpt
     def cell_shape(self) -> tuple[float, float]:
         """Width and height of the filter's cells."""
         raise NotImplementedError
+
+
+def check_series(windows: tuple[int, ...], values: tuple[float, ...], names: tuple[str, str]) -> None:
+    """Windows ascending and one value per window, or a :class:`ParamError` naming both keys."""
+    if len(windows) != len(values):
+        raise ParamError(f"{names[1]}: expected one value per window of {names[0]} "
+                         f"({len(windows)}), got {len(values)}")
+    if any(b <= a for a, b in itertools.pairwise(windows)):
+        raise ParamError(f"{names[0]}: half windows must be strictly ascending, got {windows}")

@@ -11,7 +11,7 @@ from terrain_scenes import FAILURE_SCENES, SCENE_SHARES, errors, scene, walled_t
 
 from aldpat.errors import ParamError
 from aldpat.filters import ground_filter
-from aldpat.filters.gapm import GapmParams, adaptive_rows, auto_params, combine_directions, gapm
+from aldpat.filters.gapm import GapmParams, Pass, adaptive_rows, auto_params, combine_directions, gapm, passes
 from aldpat.params import resolve
 
 REPO = Path(__file__).resolve().parents[2]
@@ -104,6 +104,17 @@ def test_samp24_with_set01_within_the_published_error(samp24):
     assert total <= 5.41 + 1.5
 
 
+def test_passes_follow_the_printed_order():
+    """At every window the row pass, then the column pass, each with the window's threshold; a
+    window of row_windows or column_windows outside window_series is refused by name."""
+    p = GapmParams(window_series=(1, 2, 4), cluster_thresholds=(0.3, 0.5, 1.0), row_windows=(4, 1),
+                   column_windows=(1, 2))
+    assert passes(p) == [Pass(1, 0.3, "row"), Pass(1, 0.3, "column"), Pass(2, 0.5, "column"), Pass(4, 1.0, "row")]
+    assert [q.window for q in passes(GapmParams()) if q.direction == "column"] == [1, 2, 4, 8, 12, 16]
+    with pytest.raises(ParamError, match=r"column_windows: \[3\] not in window_series"):
+        GapmParams(window_series=(1, 2, 4), cluster_thresholds=(0.3, 0.5, 1.0), row_windows=(1,), column_windows=(1, 3))
+
+
 def test_printed_order_and_separate_directions():
     """An L-shaped roof with 12-cell arms: rows remove the arm across x, and in the printed
     order (rows then columns on one surface, §6.2.4) the columns then see the corner as a short
@@ -125,16 +136,16 @@ def test_printed_order_and_separate_directions():
 def _printed_sequential(z, p):
     """The printed loop of AdaptiveMorphFilter (§6.2.4) on whole grids, one thread, no blocks:
     the reference the blocked, threaded :func:`adaptive_sequential` must reproduce exactly."""
-    from aldpat.filters.gapm import adaptive_step
+    from aldpat.filters.gapm import StepRules, adaptive_step
 
     lookup = dict(zip(p.window_series, p.cluster_thresholds))
     zc = np.array(z, dtype=np.float64)
     mark = np.zeros(z.shape, np.int32)
-    opts = (p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)
+    rules = StepRules(p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)
     for k in p.window_series:
         for axis, use in ((1, p.row_windows or ()), (0, p.column_windows or ())):
             if k in use:
-                removed, zc = adaptive_step(zc, mark == 0, k, lookup[k], *opts, axis=axis)
+                removed, zc = adaptive_step(zc, mark == 0, k, lookup[k], rules, axis=axis)
                 mark[removed] = k
     return mark
 
