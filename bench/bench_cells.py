@@ -193,7 +193,7 @@ def run_table(algos: list[str], threads: list[int | None], peers: bool, check: b
 def run_stages(repeat: int) -> None:
     """gapm's two runs with a timer around each step, in this process (after a first run that
     loads every library)."""
-    from aldpat.core import segments, surface_test
+    from aldpat.core import segments, surface_check
     from aldpat.filters import classify, gapm, grid_stage, streamed
     from aldpat.io import las as las_io
     from aldpat.tasks import get_task
@@ -217,7 +217,7 @@ def run_stages(repeat: int) -> None:
     timed(grid_stage, "fill_nearest", "fill the empty cells (nearest neighbour)")
     timed(segments, "raised_segments", "raised-segment test")
     timed(gapm, "adaptive_sequential", "gapm's row and column passes")
-    timed(surface_test.SurfaceTest, "build", "provisional surface and slope")
+    timed(surface_check.SurfaceTest, "build", "provisional surface and slope")
     timed(classify.CellClasses, "classify", "pass 2: classify every point")
     timed(las_io.LasWriter, "write", "pass 2: write the classified LAS")
     for row in ("gapm", "gapm-defaults"):

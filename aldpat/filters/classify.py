@@ -18,7 +18,7 @@ import numpy as np
 from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints
 from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, flat_cell_indices
-from aldpat.core.surface_test import SurfaceTest
+from aldpat.core.surface_check import SurfaceTest
 from aldpat.filters.marks import MARK_ABOVE_SURFACE, MARK_GROUND, MARK_INTERPOLATED, MARK_LOW_OUTLIER
 
 #: Points classified per block when comparing with the ground surface (bounds temporaries).

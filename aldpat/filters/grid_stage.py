@@ -15,7 +15,7 @@ import numpy as np
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints, find_low_points, point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, lowest_grid
 from aldpat.core.memory import one_arena, release_free_memory
-from aldpat.core.surface_test import SurfaceTest
+from aldpat.core.surface_check import SurfaceTest
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_RAISED_SEGMENT
 from aldpat.filters.registry import FilterSpec

@@ -46,7 +46,7 @@ from aldpat._lazy import lazy_import
 from aldpat.core.local_poly import PointSums, fit_surface
 from aldpat.core.lowest_grid import LowestGrid
 from aldpat.core.morphology import within
-from aldpat.core.surface_test import within_surface
+from aldpat.core.surface_check import within_surface
 from aldpat.errors import ParamError
 from aldpat.filters.options import PointFilterParams
 from aldpat.filters.registry import register_filter

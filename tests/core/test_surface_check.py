@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from aldpat.core.lowest_grid import CellGridSpec
-from aldpat.core.surface_test import (
+from aldpat.core.surface_check import (
     bilinear,
     provisional_surface,
     slope_of,
@@ -60,7 +60,7 @@ def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
     """The finest level relaxed a strip of rows at a time, and the slope taken a strip at a time,
     are bit for bit those of the whole grid at once; the float32 surface with exact ground heights
     of the surface test is the float64 surface."""
-    import aldpat.core.surface_test as module
+    import aldpat.core.surface_check as module
 
     rng = np.random.default_rng(11)
     spec = CellGridSpec(0.0, 0.0, 0.75, 131, 97)
