@@ -143,7 +143,7 @@ def sweep(samples, auto: bool = False, waive: tuple[str, ...] = (), ablate: str 
     grid = CANDIDATES if ablate is None else ABLATION_CANDIDATES
     extra = ({"auto": True} if auto else {}) | (without(ablate) if ablate else {})
     names = list(grid)
-    combos = [dict(zip(names, values), **extra) for values in itertools.product(*grid.values())]
+    combos = [dict(zip(names, values, strict=False), **extra) for values in itertools.product(*grid.values())]
     tag = ("-auto" if auto else "") + (f"-without-{ablate}" if ablate not in (None, "nothing") else "")
     cache_file = CACHE / f"sweep-{_source_digest()}{tag}.json"
     cached = json.loads(cache_file.read_text()) if cache_file.exists() else {}
@@ -189,7 +189,7 @@ def sweep(samples, auto: bool = False, waive: tuple[str, ...] = (), ablate: str 
         held.append(sc)
         print(f"  {s.name}: {combos[i]} -> {sc.total:.2f}")
     print("\n| held out | type I | type II | total | kappa |\n|---|---|---|---|---|")
-    for s, sc in zip(samples, held):
+    for s, sc in zip(samples, held, strict=False):
         print(f"| {s.name} | {sc.type1:.2f} | {sc.type2:.2f} | {sc.total:.2f} | {sc.kappa:.3f} |")
     print(f"| mean | {np.mean([sc.type1 for sc in held]):.2f} | {np.mean([sc.type2 for sc in held]):.2f} | "
           f"**{np.mean([sc.total for sc in held]):.2f}** | {np.mean([sc.kappa for sc in held]):.3f} |")
@@ -201,7 +201,7 @@ def report(samples) -> None:
     for label, settings in (("gapm defaults", {}), ("gapm --auto", {"auto": True})):
         scores = evaluate(samples, settings)
         print(f"\n{label}\n| sample | type I | type II | total | kappa |\n|---|---|---|---|---|")
-        for s, sc in zip(samples, scores):
+        for s, sc in zip(samples, scores, strict=False):
             print(f"| {s.name} | {sc.type1:.2f} | {sc.type2:.2f} | {sc.total:.2f} | {sc.kappa:.3f} |")
         print(f"| mean | {np.mean([s.type1 for s in scores]):.2f} | {np.mean([s.type2 for s in scores]):.2f} | "
               f"**{np.mean([s.total for s in scores]):.2f}** | {np.mean([s.kappa for s in scores]):.3f} |")
@@ -244,7 +244,7 @@ def lowout(samples) -> None:
     from aldpat.filters.grid_stage import low_outlier_points
 
     names = list(LOW_OUTLIER_CANDIDATES)
-    combos = [dict(zip(names, v)) for v in itertools.product(*LOW_OUTLIER_CANDIDATES.values())]
+    combos = [dict(zip(names, v, strict=False)) for v in itertools.product(*LOW_OUTLIER_CANDIDATES.values())]
     shipped = {k: getattr(GapmParams(), k) for k in names}
     for label, auto in (("gapm defaults", False), ("gapm --auto", True)):
         off = np.array([sc.total for sc in evaluate(samples, {"low_outliers": None, "auto": auto})])

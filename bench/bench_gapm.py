@@ -232,30 +232,30 @@ def run_readings(show: int) -> None:
     names = list(READINGS)
     results = []
     for values in itertools.product(*READINGS.values()):
-        reading = dict(zip(names, values))
+        reading = dict(zip(names, values, strict=False))
         swap = reading.pop("rows_along") == "y"
         totals = {}
         for st in PUBLISHED_GAPM:
             p = params_from("gapm", PARAMS / f"gapm-isprs-set{st}.toml", **reading)
             totals[st] = [score(s.ground, ground_filter(*((s.y, s.x) if swap else (s.x, s.y)), s.z, "gapm",
                                                         p).is_ground).total for s in samples]
-        off = np.array([[t - PUBLISHED_GAPM[st][s.name][0] for t, s in zip(totals[st], samples)]
+        off = np.array([[t - PUBLISHED_GAPM[st][s.name][0] for t, s in zip(totals[st], samples, strict=False)]
                         for st in PUBLISHED_GAPM])
         results.append((int((np.abs(off) > REPRODUCED_WITHIN).sum()), float(np.abs(off).max()), values, totals))
         print(f"{(np.abs(off) > REPRODUCED_WITHIN).sum():3d} missed, worst {np.abs(off).max():5.2f}  "
-              + "  ".join(f"{k}={v}" for k, v in zip(names, values)), flush=True)
+              + "  ".join(f"{k}={v}" for k, v in zip(names, values, strict=False)), flush=True)
     results.sort(key=lambda r: (r[0], r[1]))
     print(f"\n| {' | '.join(names)} | totals missed by > {REPRODUCED_WITHIN} (of 21) | worst miss |")
     print("|" + "---|" * (len(names) + 2))
     for missed, worst, values, _ in results:
         print("| " + " | ".join(str(v) for v in values) + f" | {missed} | {worst:.2f} |")
-    for missed, worst, values, totals in results[:show]:
-        print(f"\n{', '.join(f'{k}={v}' for k, v in zip(names, values))}: total % (published)")
+    for _, _, values, totals in results[:show]:
+        print(f"\n{', '.join(f'{k}={v}' for k, v in zip(names, values, strict=False))}: total % (published)")
         print("| set | " + " | ".join(s.name for s in samples) + " |")
         print("|---|" + "---|" * len(samples))
         for st in PUBLISHED_GAPM:
             print(f"| {st} | " + " | ".join(f"{t:.2f} ({PUBLISHED_GAPM[st][s.name][0]:.2f})"
-                                           for t, s in zip(totals[st], samples)) + " |")
+                                           for t, s in zip(totals[st], samples, strict=False)) + " |")
 
 
 def main() -> None:

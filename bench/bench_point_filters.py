@@ -91,7 +91,7 @@ def evaluate(algo: str, samples, settings: dict) -> list[Score]:
 
 def sweep(algo: str, samples) -> None:
     names = list(CANDIDATES[algo])
-    combos = [dict(zip(names, values)) for values in itertools.product(*CANDIDATES[algo].values())]
+    combos = [dict(zip(names, values, strict=False)) for values in itertools.product(*CANDIDATES[algo].values())]
     totals = np.empty((len(combos), len(samples)))
     t = time.time()
     for i, combo in enumerate(combos):

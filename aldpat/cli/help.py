@@ -88,4 +88,4 @@ class GuidedGroup(Guided, click.Group):
             import difflib
 
             hint = difflib.get_close_matches(args[0], list(self.commands), n=1) if args else []
-            raise click.UsageError(f"no command {args[0]!r}" + (f"; did you mean {hint[0]!r}?" if hint else ""))
+            raise click.UsageError(f"no command {args[0]!r}" + (f"; did you mean {hint[0]!r}?" if hint else "")) from None

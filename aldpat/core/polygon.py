@@ -71,7 +71,7 @@ def crossing_parity(x: np.ndarray, y: np.ndarray, rings: list[np.ndarray]) -> np
             continue
         x1, y1 = ring[:, 0], ring[:, 1]
         x2, y2 = np.roll(x1, -1), np.roll(y1, -1)
-        for ax, ay, bx, by in zip(x1.tolist(), y1.tolist(), x2.tolist(), y2.tolist()):
+        for ax, ay, bx, by in zip(x1.tolist(), y1.tolist(), x2.tolist(), y2.tolist(), strict=False):
             if ay == by:
                 continue  # a horizontal edge is never crossed by a horizontal ray
             lo_y, hi_y = (ay, by) if ay < by else (by, ay)

@@ -75,7 +75,7 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     marks = np.zeros(surface.shape, mark_dtype(max(windows, default=0)))
     candidates = np.ones(surface.shape, bool) if skip is None else ~skip  # marks == 0, kept current
     removed = None
-    for k, dh in zip(windows, thresholds):
+    for k, dh in zip(windows, thresholds, strict=False):
         recovery = recover(k) if recover is not None else None
         for window, axis in passes:
             if window == "line" and recovery is None:

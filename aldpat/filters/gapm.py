@@ -141,7 +141,7 @@ def passes(p: GapmParams) -> list[Pass]:
         if missing:
             raise ParamError(f"{direction}_windows: {missing} not in window_series {p.window_series}")
         chosen[direction] = set(windows or ())
-    return [Pass(k, ct, direction) for k, ct in zip(p.window_series, p.cluster_thresholds)
+    return [Pass(k, ct, direction) for k, ct in zip(p.window_series, p.cluster_thresholds, strict=False)
             for direction in ("row", "column") if k in chosen[direction]]
 
 
@@ -196,7 +196,7 @@ def adaptive_rows(
 def _adaptive_block(z, windows, cts, rules: StepRules) -> np.ndarray:
     zc = z.copy()
     mark = np.zeros(z.shape, np.int32)
-    for k, ct in zip(windows, cts):
+    for k, ct in zip(windows, cts, strict=False):
         removed, zc = adaptive_step(zc, mark == 0, k, ct, rules)
         mark[removed] = k
     return mark
@@ -463,7 +463,7 @@ def with_auto(params: GapmParams, x: np.ndarray, y: np.ndarray, z: np.ndarray) -
 
     def scaled(windows) -> dict[int, float]:
         out: dict[int, float] = {}
-        for k, threshold in zip(AUTO_WINDOWS, AUTO_THRESHOLDS):
+        for k, threshold in zip(AUTO_WINDOWS, AUTO_THRESHOLDS, strict=False):
             if k not in windows or (out and k * SET01_CELL > reach + 1e-9):
                 continue
             out.setdefault(max(1, round(k * SET01_CELL / cell)), threshold)

@@ -237,7 +237,7 @@ def atomic_outputs(paths: list[Path], *, overwrite: bool = False) -> Iterator[li
     placed: list[Path] = []
     try:
         yield tmps
-        for t, p in zip(tmps, paths):
+        for t, p in zip(tmps, paths, strict=False):
             if t.exists():
                 publish(t, p, overwrite=overwrite)
                 placed.append(p)

@@ -160,7 +160,7 @@ def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = N
             low = np.minimum(low, [records["x"].min(), records["y"].min()])
             high = np.maximum(high, [records["x"].max(), records["y"].max()])
             col, row = lattice.index(records["x"], records["y"])
-            owned.update(zip(col.tolist(), row.tolist()))
+            owned.update(zip(col.tolist(), row.tolist(), strict=False))
             if len(owned) > MOST_CHUNKS:
                 raise too_many_chunks(lattice, len(owned))
             for dc in range(-reach, reach + 1):
@@ -196,7 +196,7 @@ def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.nd
     key = key[order]
     part = part[order]
     cuts = np.flatnonzero(np.any(np.diff(key, axis=0) != 0, axis=1)) + 1
-    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(part)]):
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(part)], strict=False):
         c, r = int(key[a, 0]), int(key[a, 1])
         with open(folder / f"chunk_{c}_{r}.bin", "ab") as fh:
             part[a:b].tofile(fh)

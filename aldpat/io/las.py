@@ -97,14 +97,14 @@ class LasReader:
         coordinates (NaN, 1e300: every x collapses to one value), bounds the wrong way round or
         wider than the Earth (the point counts: :meth:`_check_record_count`)."""
         h = self.header
-        for axis, scale, offset in zip("xyz", h.scales, h.offsets):
+        for axis, scale, offset in zip("xyz", h.scales, h.offsets, strict=False):
             if not (math.isfinite(scale) and scale > 0):
                 raise InputFormatError(f"LAS header: {axis} scale {scale:g} is not a positive number", path=self.path)
             if not abs(offset) <= MAX_COORDINATE:  # NaN too
                 raise InputFormatError(f"LAS header: {axis} offset {offset:g} is not a coordinate (a finite "
                                        f"number within +-{MAX_COORDINATE:g})", path=self.path)
         if self.count:
-            for axis, low, high in zip("xyz", h.mins, h.maxs):
+            for axis, low, high in zip("xyz", h.mins, h.maxs, strict=False):
                 if not (abs(low) <= MAX_COORDINATE and abs(high) <= MAX_COORDINATE):
                     raise InputFormatError(f"LAS header: {axis} bounds {low:g} .. {high:g} are not coordinates "
                                            f"(finite numbers within +-{MAX_COORDINATE:g})", path=self.path)
@@ -218,7 +218,7 @@ def _columns(header: laspy.LasHeader) -> tuple[tuple[str, ...], dict[str, int]]:
     its scales give x, y, z."""
     dims = set(header.point_format.dimension_names)
     names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
-    return names, {n: max(0, round(-np.log10(float(s)))) for n, s in zip("xyz", header.scales)}
+    return names, {n: max(0, round(-np.log10(float(s)))) for n, s in zip("xyz", header.scales, strict=False)}
 
 
 def buffer_marks(table: PointTable) -> np.ndarray | None:

@@ -100,7 +100,7 @@ class TextReader:
                     path=self.path, line=self.first_data_line)
             self.names = tuple(POINT_NAMES[: min(self.ncols, 4)]) + tuple(
                 f"col{k + 1}" for k in range(4, self.ncols))
-        self.decimals = {n: d for n, d in zip(self.names, self._decimals)}
+        self.decimals = {n: d for n, d in zip(self.names, self._decimals, strict=False)}
 
     # -------------------------------------------------------------------------- sniffing
     def _sniff(self) -> None:
@@ -206,7 +206,7 @@ class TextReader:
     def _raw_lines_before(self, data_row: int) -> int:
         """How many raw lines precede data row ``data_row`` (header and blank lines included)."""
         seen = number = 0
-        with open(self.path, "r", encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
+        with open(self.path, encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
             for number, line in self._lines(fh):
                 if number <= self.header_lines or not line.strip():
                     continue
@@ -238,7 +238,7 @@ class TextReader:
         Runs only on the error path, so a plain line-by-line scan is fine here.
         """
         seen = 0
-        with open(self.path, "r", encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
+        with open(self.path, encoding=TEXT_ENCODING, errors=TEXT_ERRORS, newline=None) as fh:
             for number, line in self._lines(fh):
                 if number <= self.header_lines or not line.strip():
                     continue
@@ -247,7 +247,7 @@ class TextReader:
                     if len(tokens) != self.ncols:
                         raise InputFormatError(
                             f"expected {self.ncols} columns, found {len(tokens)}", path=self.path, line=number)
-                    for name, tok in zip(self.names, tokens):
+                    for name, tok in zip(self.names, tokens, strict=False):
                         try:
                             value = float(tok)
                         except ValueError:

@@ -87,7 +87,7 @@ def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: 
 
     parts = []
     sep = np.frombuffer(delimiter.encode("ascii"), dtype=np.uint8)
-    for k, (name, fmt) in enumerate(zip(names, column_formats(table, names, decimals))):
+    for k, (name, fmt) in enumerate(zip(names, column_formats(table, names, decimals), strict=False)):
         m = _FMT.match(fmt)
         assert m is not None, fmt  # column_formats writes only these
         places = int(m.group(1) or 0)

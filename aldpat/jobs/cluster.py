@@ -185,9 +185,9 @@ def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command:
     keys = [f"aldpat-{task.key.replace(' ', '-')}-{k}-{tag}" for k in range(len(jobs))]
     heard = _hear_units(client, set(keys), progress) if progress is not None else None
     futures = [client.submit(_execute_in_folder, folder, task, job, run, command, pure=False, key=key)
-               for key, job in zip(keys, jobs)]
+               for key, job in zip(keys, jobs, strict=False)]
     try:
-        for job, fut in zip(jobs, futures):
+        for job, fut in zip(jobs, futures, strict=False):
             def state(done: int = len(results)) -> str:
                 return f"{task.key} on {scheduler} ({done} of {len(jobs)} inputs done)"
 

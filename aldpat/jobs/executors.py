@@ -35,9 +35,9 @@ def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, comman
     pool = WorkerPool(workers)
     try:
         futures = pool.submit_all(execute, [(task, job, run, command) for job in jobs])
-        for job, fut in zip(jobs, futures):  # in input order, so output and logs do not depend on -j
+        for job, fut in zip(jobs, futures, strict=False):  # in input order, so output and logs do not depend on -j
             def state(done: int = len(results)) -> str:
-                running = [job_names(j) for j, f in zip(jobs, futures) if f.running()]
+                running = [job_names(j) for j, f in zip(jobs, futures, strict=False) if f.running()]
                 return f"{task.key} ({done} of {len(jobs)} inputs done; running: {'; '.join(running)})"
 
             with interrupt.doing(state):

@@ -292,7 +292,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     readers = [ctx.open_input(s) for s in sources]
     params = with_result(params, source, ctx, readers[0])
     plan = chunk_plan(algorithm, params, params.chunk, params.chunk_buffer)
-    outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers)]
+    outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers, strict=False)]
     check_spill(plan.lattice, readers, Path(params.tmpdir) if params.tmpdir else outputs[0][0][0].parent, source)
     for path, _ in (o for outs in outputs for o in outs):  # refuse an existing output before the long part
         check_writable(path, overwrite=ctx.overwrite)
@@ -316,7 +316,7 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
                  f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {done.points} points, on "
                  f"{where}; the chunks' own filtering {done.seconds:.1f} s")
         offset = 0
-        for src, reader, outs, count in zip(sources, readers, outputs, counts):
+        for src, reader, outs, count in zip(sources, readers, outputs, counts, strict=False):
             _write_from_classes(src, reader, outs, params, ctx, StoredClasses(done.marks, done.classes, offset, params),
                                 algorithm)
             offset += count

@@ -370,7 +370,7 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
                 sub = GridSpec(spec.xmin + c * params.cell, spec.ymin + r * params.cell, params.cell,
                                params.cell, min(k, spec.nx - c), min(k, spec.ny - r))
                 jobs.append((spilled, c // k, r // k, sub, options))
-        for (_, c, r, sub, _), part in zip(jobs, map_chunks(_grid_one_chunk, jobs, ctx.workers)):
+        for (_, c, r, sub, _), part in zip(jobs, map_chunks(_grid_one_chunk, jobs, ctx.workers), strict=False):
             values[r * k: r * k + sub.ny, c * k: c * k + sub.nx] = part
         count = spilled.points
     ctx.note(f"--chunk: {len(jobs)} chunks of {k * params.cell:g} m ({k} nodes a side) with {buffer:g} m "

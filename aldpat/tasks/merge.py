@@ -62,7 +62,7 @@ def _las_template(readers):
 def _exact_at(header, template) -> bool:
     """Whether the coordinates stored under ``header`` keep every digit stored under ``template``'s
     scales and offsets (scales a whole multiple of the template's, offsets apart by whole steps)."""
-    for scale, offset, to_scale, to_offset in zip(header.scales, header.offsets, template.scales, template.offsets):
+    for scale, offset, to_scale, to_offset in zip(header.scales, header.offsets, template.scales, template.offsets, strict=False):
         ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
         if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 or abs(shift - round(shift)) > 1e-6:
             return False

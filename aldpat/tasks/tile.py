@@ -204,7 +204,7 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> int:
         order = np.lexsort((rows, tj, ti))  # by tile, input order within a tile
         rows, ti, tj = rows[order], ti[order], tj[order]
         starts = np.flatnonzero(np.r_[True, (ti[1:] != ti[:-1]) | (tj[1:] != tj[:-1])])
-        for a, b in zip(starts, np.r_[starts[1:], len(rows)]):
+        for a, b in zip(starts, np.r_[starts[1:], len(rows)], strict=False):
             key = (int(ti[a]), int(tj[a]))
             if lines is not None:
                 sink.write_raw(layout, key, lines, rows[a:b], core)

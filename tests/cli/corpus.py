@@ -43,7 +43,7 @@ def _lines(rows: np.ndarray, layout: str) -> list[str]:
     if layout == "altm9":
         t = np.arange(len(rows)) * 0.01 + 318000.0
         return [f"{ti:.2f} {x:.2f} {y:.2f} {z:.2f} {int(i)} {x:.2f} {y:.2f} {z + 0.4:.2f} {int(i)}"
-                for ti, (x, y, z, i) in zip(t, rows)]
+                for ti, (x, y, z, i) in zip(t, rows, strict=False)]
     return [f"{x:.2f} {y:.2f} {z:.2f} {int(i)}" for x, y, z, i in rows]
 
 

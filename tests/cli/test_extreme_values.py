@@ -103,7 +103,7 @@ def test_every_numeric_option_at_extreme_values(tmp_path):
     results = aldpat_batch(cases, total=900)
     seconds = time.perf_counter() - start
     bad = []
-    for case, got in zip(cases, results):
+    for case, got in zip(cases, results, strict=False):
         stderr = got["stderr"]
         lines = [ln for ln in stderr.splitlines() if ln.strip()]
         if got["status"] not in (0, 1, 2):

@@ -20,7 +20,7 @@ from tests.cli.fresh import aldpat_batch
 def check(cases: list[Hostile]) -> None:
     results = aldpat_batch([{"args": c.args, "cwd": c.cwd, "limit": c.limit, "env": c.env} for c in cases])
     problems = []
-    for case, got in zip(cases, results):
+    for case, got in zip(cases, results, strict=False):
         lines = [ln for ln in got["stderr"].splitlines() if ln.strip()]
         why = []
         if got["status"] != case.status:

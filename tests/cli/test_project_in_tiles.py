@@ -37,7 +37,7 @@ def shared_nodes(tifs: list[Path]) -> tuple[int, int]:
             band = ds.read(1)
             cols, rows = np.meshgrid(np.arange(ds.width), np.arange(ds.height))
             xs, ys = rasterio.transform.xy(ds.transform, rows.ravel(), cols.ravel())
-            for x, y, v in zip(np.round(xs, 3), np.round(ys, 3), band.ravel()):
+            for x, y, v in zip(np.round(xs, 3), np.round(ys, 3), band.ravel(), strict=False):
                 key = (round(float(x) * 1000), round(float(y) * 1000))
                 seen.setdefault(key, set()).add(v.tobytes())
                 held[key] = held.get(key, 0) + 1

@@ -27,7 +27,7 @@ def test_row_scan_takes_the_lowest_points_of_the_end_cells_of_each_row():
     scan.add(x, y, z)
     assert scan.direction("auto") == "x"  # 4 m wide, 2 m tall
     ring = scan.ring("auto")
-    pts = list(zip(ring["x"].tolist(), ring["y"].tolist()))
+    pts = list(zip(ring["x"].tolist(), ring["y"].tolist(), strict=False))
     # right ends going north, then left ends going south, closed
     assert pts == [(3.75, 0.75), (3.75, 1.75), (0.75, 1.75), (0.75, 0.75), (3.75, 0.75)]
     assert signed_area(np.column_stack([ring["x"], ring["y"]])) > 0  # counter-clockwise
@@ -45,7 +45,7 @@ def test_column_scan_and_chunking_give_the_same_ring():
         for key in ("x", "y", "z"):
             assert np.array_equal(a[key], b[key])
     ring = whole.ring("y")
-    pts = list(zip(ring["x"].tolist(), ring["y"].tolist()))
+    pts = list(zip(ring["x"].tolist(), ring["y"].tolist(), strict=False))
     # bottom ends going east, then top ends going west
     assert pts[:4] == [(0.75, 0.75), (1.75, 0.75), (2.75, 0.75), (3.75, 0.75)]
     assert pts[4:] == [(3.75, 1.75), (2.75, 1.75), (1.75, 1.75), (0.75, 1.75), (0.75, 0.75)]
@@ -67,7 +67,7 @@ def test_boundary_points_are_real_points_and_enclose_a_real_strip():
         scan.add(x[k:k + 5000], y[k:k + 5000], z[k:k + 5000])
     ring = scan.ring("auto")
     assert ring["x"][0] == ring["x"][-1] and ring["y"][0] == ring["y"][-1]
-    real = set(zip(x.tolist(), y.tolist(), z.tolist()))
-    assert all(p in real for p in zip(ring["x"].tolist(), ring["y"].tolist(), ring["z"].tolist()))
+    real = set(zip(x.tolist(), y.tolist(), z.tolist(), strict=False))
+    assert all(p in real for p in zip(ring["x"].tolist(), ring["y"].tolist(), ring["z"].tolist(), strict=False))
     inside = points_in_polygons(x, y, [[np.column_stack([ring["x"], ring["y"]])]])
     assert inside.mean() >= 0.97

@@ -94,7 +94,7 @@ def test_fill_nearest_is_nearest():
     f = fill_nearest(z, empty)
     assert np.array_equal(f[~empty], z[~empty])
     vr, vc = np.nonzero(~empty)
-    for r, c in zip(*np.nonzero(empty)):
+    for r, c in zip(*np.nonzero(empty), strict=False):
         d2 = (vr - r) ** 2 + (vc - c) ** 2
         candidates = z[vr[d2 == d2.min()], vc[d2 == d2.min()]]
         assert f[r, c] in candidates

@@ -29,7 +29,7 @@ def _brute(z, fp, maximum):
     pad = -np.inf if maximum else np.inf
     p = np.pad(z, ((hr, hr), (hc, hc)), constant_values=pad)
     out = np.full(z.shape, pad)
-    for dr, dc in zip(*np.nonzero(fp)):
+    for dr, dc in zip(*np.nonzero(fp), strict=False):
         part = p[dr:dr + z.shape[0], dc:dc + z.shape[1]]
         out = np.maximum(out, part) if maximum else np.minimum(out, part)
     return out

@@ -79,7 +79,7 @@ def _reference_rising_flood(z, valued, work, rise, max_sweeps=64):
     def envelope(v, offs, step):
         ramp = np.arange(v.shape[1], dtype=np.float64)[None, :] * rise
         out = np.full(v.shape, np.inf)
-        for sign, offset in zip((1, -1), offs):
+        for sign, offset in zip((1, -1), offs, strict=False):
             acc = np.minimum.accumulate((v if sign == 1 else v[:, ::-1]) - ramp + offset, axis=1)
             acc += ramp
             acc -= offset

@@ -39,7 +39,7 @@ def test_canonical_points_ignore_order_and_far_points():
     order = rng.permutation(500)
     far = rng.uniform(20, 30, (3, 100))
     b = canonical_points(np.r_[x[order], far[0]], np.r_[y[order], far[1]], np.r_[z[order], far[2]], box)
-    for u, v in zip(a, b):
+    for u, v in zip(a, b, strict=False):
         assert u.tobytes() == v.tobytes()
 
 

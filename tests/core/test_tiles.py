@@ -12,7 +12,7 @@ def members(layout, x, y):
     out = {}
     cores = {}
     for ti, tj, rows, core in layout.memberships(x, y):
-        for a, b, k in zip(ti.tolist(), tj.tolist(), rows.tolist()):
+        for a, b, k in zip(ti.tolist(), tj.tolist(), rows.tolist(), strict=False):
             assert (a, b) not in out.setdefault(k, set()), "a (point, tile) pair listed twice"
             out[k].add((a, b))
             if core:
@@ -60,7 +60,7 @@ def test_points_on_edges_follow_the_edge_values_of_the_parameter_file():
     x = np.array(edges[:-1] + [np.nextafter(e, -1) for e in edges[1:-1]])
     y = np.full(len(x), 0.35)
     ci, _ = layout.core_index(x, y)
-    for xv, i in zip(x, ci):
+    for xv, i in zip(x, ci, strict=False):
         x0, x1, _, _ = layout.core(int(i), 0)
         assert float(number_text(x0)) <= xv < float(number_text(x1))
 

@@ -138,7 +138,7 @@ def _printed_sequential(z, p):
     the reference the blocked, threaded :func:`adaptive_sequential` must reproduce exactly."""
     from aldpat.filters.gapm import StepRules, adaptive_step
 
-    lookup = dict(zip(p.window_series, p.cluster_thresholds))
+    lookup = dict(zip(p.window_series, p.cluster_thresholds, strict=False))
     zc = np.array(z, dtype=np.float64)
     mark = np.zeros(z.shape, np.int32)
     rules = StepRules(p.init_thresh_bin, p.max_threshold_divisor, p.use_cluster_diff)

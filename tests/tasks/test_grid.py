@@ -146,7 +146,7 @@ def test_gdal_finds_each_input_point_at_its_node(tmp_path, fmt):
         assert ds.driver == DRIVERS[fmt]
         assert (ds.width, ds.height) == (11, 8)
         band = ds.read(1, masked=True)
-        for px, py, pz in zip(x[keep], y[keep], z[keep]):
+        for px, py, pz in zip(x[keep], y[keep], z[keep], strict=False):
             row, col = ds.index(px, py)
             assert ds.xy(row, col) == pytest.approx((px, py))
             assert band[row, col] == pytest.approx(pz, abs=1e-3)

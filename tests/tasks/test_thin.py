@@ -93,10 +93,10 @@ def test_las_input_keeps_its_attributes(tmp_path):
     i = np.floor(np.asarray(full.x) / 10).astype(int)
     j = np.floor(np.asarray(full.y) / 10).astype(int)
     lowest = {}
-    for a, b, z in zip(i, j, np.asarray(full.z)):
+    for a, b, z in zip(i, j, np.asarray(full.z), strict=False):
         lowest[(a, b)] = min(lowest.get((a, b), np.inf), z)
     assert len(out.points) == len(lowest)
-    for x, y, z in zip(np.asarray(out.x), np.asarray(out.y), np.asarray(out.z)):
+    for x, y, z in zip(np.asarray(out.x), np.asarray(out.y), np.asarray(out.z), strict=False):
         assert z == lowest[(int(np.floor(x / 10)), int(np.floor(y / 10)))]
 
 
@@ -110,7 +110,7 @@ def test_las_through_bucket_files_keeps_records(tmp_path, monkeypatch):
     a = laspy.read(tmp_path / "mem" / "fsite5_strip_thin.laz")
     b = laspy.read(tmp_path / "disk" / "fsite5_strip_thin.laz")
     key = lambda las: sorted(zip(np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z),
-                                 np.asarray(las.intensity), np.asarray(las.return_number)))
+                                 np.asarray(las.intensity), np.asarray(las.return_number), strict=False))
     assert len(a.points) == len(b.points) and key(a) == key(b)
 
 
