@@ -177,3 +177,25 @@ def test_sparse_points_on_a_steep_hill_are_one_segment():
     filled = fill_nearest(np.where(holders, block, np.nan), ~holders, spacing=spacing)
     roof = raised_segments(filled, 2.0, 0.55, spacing=spacing, cell=0.5)
     assert roof[60:116, 60:116].all() and not roof[:50].any()
+
+
+def test_a_plateau_larger_than_any_roof_is_terrain_and_a_roof_beside_it_is_not():
+    """A mesa of 400 m x 300 m (12 ha) standing 20 m above the plain on every side, and a 60 m
+    square hall on the plain: both are enclosed by down-steps, only the hall is an object. A block
+    of terrain is no roof, whatever its steps (``MAX_OBJECT_AREA``: 10 ha)."""
+    from aldpat.core.segments import MAX_OBJECT_AREA
+
+    cell = 1.0
+    z = sloped(rows=500, cols=600, slope=0.01, cell=cell)
+    z[50:350, 50:450] += 20.0  # the mesa
+    z[400:460, 480:540] += 8.0  # the hall
+    assert 300 * 400 * cell ** 2 > MAX_OBJECT_AREA > 60 * 60 * cell ** 2
+    raised = raised_segments(z, step=2.0, down_share=0.5, cell=cell)
+    assert raised[400:460, 480:540].all()
+    assert raised.sum() == 60 * 60  # nothing of the mesa or the plain
+    # the bound is an area: 200 x 200 cells enclosed by a 20 m cliff are an object at 0.5 m cells
+    # (1 ha), terrain at 2 m cells (16 ha)
+    small = sloped(rows=300, cols=300, slope=0.01)
+    small[50:250, 50:250] += 20.0
+    assert raised_segments(small, step=2.0, down_share=0.5, cell=0.5).sum() == 200 * 200
+    assert not raised_segments(small, step=2.0, down_share=0.5, cell=2.0).any()
