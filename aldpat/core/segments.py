@@ -234,12 +234,15 @@ def _segment_graph(z, step: float, decode, spacing, cell: float, strip_rows: int
     high, low = pair_keys >> 32, pair_keys & 0xFFFFFFFF
     side_cells = []
     for side in range(2):  # the higher cells of the steps, then the lower ones
-        cells_across = np.concatenate([s[side] for s in sides])
-        cells = cells_across >> 32
-        cells_across = np.unique(cells << 32 | segment[cells_across & 0xFFFFFFFF])  # once per segment across
-        cells, across = cells_across >> 32, cells_across & 0xFFFFFFFF
-        own = segment[label.ravel()[cells]].astype(np.int64)
-        side_cells.append((np.searchsorted(pair_keys, own << 32 | across if side == 0 else across << 32 | own), cells))
+        pair_parts, cell_parts = [], []
+        for cells_across in _by_strip([s[side] for s in sides], strip_rows * cols):
+            cells = cells_across >> 32
+            cells_across = np.unique(cells << 32 | segment[cells_across & 0xFFFFFFFF])  # once per segment across
+            cells, across = cells_across >> 32, cells_across & 0xFFFFFFFF
+            own = segment[label.ravel()[cells]].astype(np.int64)
+            pair_parts.append(np.searchsorted(pair_keys, own << 32 | across if side == 0 else across << 32 | own))
+            cell_parts.append(cells)
+        side_cells.append((np.concatenate(pair_parts), np.concatenate(cell_parts)))
     del sides
     (high_pair, _), (low_pair, low_cell) = side_cells
     # the connected terrain: the largest segment (of equals, the first in row order)
@@ -249,6 +252,19 @@ def _segment_graph(z, step: float, decode, spacing, cell: float, strip_rows: int
                   np.bincount(low_pair, minlength=len(pair_keys)),
                   np.bincount(low_pair, weights=heights_at(z, decode, low_cell), minlength=len(pair_keys)),
                   int(largest[np.argmin(first[largest])]))
+
+
+def _by_strip(keys: list[np.ndarray], strip_cells: int):
+    """The (cell, label across) keys of every strip, each with the keys of its cells that the next
+    strip found (the steps across its upper edge, whose lower cell is this strip's), so that all
+    of a cell's keys are seen together: strip by strip, the keys deduplicate as the whole grid's
+    would, without a sort of the whole grid's keys."""
+    for k, strip in enumerate(keys):
+        mine = strip[strip >> 32 >= k * strip_cells]
+        if k + 1 < len(keys):
+            after = keys[k + 1]
+            mine = np.concatenate([mine, after[after >> 32 < (k + 1) * strip_cells]])
+        yield mine
 
 
 def heights_at(z: np.ndarray, decode, cells: np.ndarray) -> np.ndarray:
