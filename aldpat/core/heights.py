@@ -11,7 +11,7 @@ Plane. Here PROJ does both through pyproj:
   anything pyproj accepts), located in geographic coordinates for the geoid, and optionally
   re-projected to ``to_crs`` (x is always easting / longitude: pyproj ``always_xy``).
 
-The heights written say their datum (:func:`output_crs`): orthometric heights are recorded as a
+The heights written say their datum (:func:`recorded_crs`): orthometric heights are recorded as a
 compound CRS, the horizontal CRS + EGM96 height (EPSG:5773, the datum of the NGA geoid grid
 ALDPAT's users take), or the vertical CRS the user names in a compound ``to_crs`` (a national
 geoid's heights: ``EPSG:25832+7837``); ellipsoidal heights (``reverse``) are recorded with the
@@ -94,7 +94,7 @@ def _check_not_geocentric(crs, option: str) -> None:
                          "horizontal or compound CRS")
 
 
-def output_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = "m") -> pyproj.CRS:
+def recorded_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = "m") -> pyproj.CRS:
     """The CRS recorded with converted points (see the module docstring): ``to_crs``'s
     horizontal part (else ``horizontal``), + its vertical part or EGM96 height unless ``reverse``."""
     target = horizontal_part(to_crs) if to_crs is not None else None
@@ -106,6 +106,7 @@ def output_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = 
         return to_crs  # the user's compound, EPSG code and name kept
     vertical = vertical_part(to_crs) if to_crs is not None else None
     return compound(target, vertical if vertical is not None else egm96_height(z_unit))
+
 
 def local_grids_only() -> None:
     """Turn PROJ's network access off in this process (and its threads), before any transformer
@@ -155,7 +156,6 @@ class HeightConverter:
     def __init__(self, crs, geoid: str | Path, *, to_crs=None, reverse: bool = False, z_unit: str = "m"):
         if z_unit not in Z_UNITS:
             raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
-        local_grids_only()
         check_to_crs(to_crs, reverse=reverse, z_unit=z_unit)
         _check_not_geocentric(crs, "--crs")
         self.crs = horizontal_part(crs)
@@ -169,8 +169,8 @@ class HeightConverter:
         if geographic is None:
             raise UsageError(f"CRS {self.crs.name!r} has no geographic datum to locate points on the geoid")
         try:
-            #: the CRS of the converted points' x, y and z, recorded in their file (:func:`output_crs`)
-            self.output_crs = output_crs(self.crs, to_crs, reverse=reverse, z_unit=z_unit)
+            #: the CRS of the converted points' x, y and z, recorded in their file (:func:`recorded_crs`)
+            self.recorded_crs = recorded_crs(self.crs, to_crs, reverse=reverse, z_unit=z_unit)
             self._to_geo = pyproj.Transformer.from_crs(self.crs, geographic, always_xy=True)
             self._xy = (pyproj.Transformer.from_crs(self.crs, self.to_crs, always_xy=True)
                         if self.to_crs is not None and self.to_crs != self.crs else None)

@@ -283,6 +283,14 @@ def set_crs(header: laspy.LasHeader, crs) -> None:
     header.global_encoding.wkt = True
 
 
+def holding_crs(header: laspy.LasHeader, crs) -> laspy.LasHeader:
+    """A copy of ``header`` recording ``crs`` (:func:`set_crs`): as LAS 1.4 (:func:`as_las14`,
+    every attribute kept) when it is a format 0-5 header whose GeoTIFF keys cannot hold ``crs``."""
+    header = as_las14(header) if header.point_format.id < 6 and needs_wkt(crs) else copy.deepcopy(header)
+    set_crs(header, crs)
+    return header
+
+
 def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
     """A copy of ``header`` as LAS 1.4 with the point format of the same attributes
     (:data:`FORMAT_14`; formats 6-10 kept), extra-byte dimensions and VLRs kept: the LAS
@@ -350,11 +358,7 @@ class LasWriter:
 
         header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
         if self.template is not None and self.crs is not None and not _names_crs(header, self.crs):
-            # --crs over the source's own (aldpat.core.crs.output_crs); a CRS GeoTIFF keys cannot
-            # hold makes a format 0-5 source's file LAS 1.4, whose WKT record can
-            if header.point_format.id < 6 and needs_wkt(self.crs):
-                header = as_las14(header)
-            set_crs(header, self.crs)
+            header = holding_crs(header, self.crs)  # --crs over the source's own (aldpat.core.crs.output_crs)
         known = set(header.point_format.dimension_names)
         self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
         # extra-byte dimensions the template already has and the table sets (a tile of a tile)

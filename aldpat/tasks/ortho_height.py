@@ -6,7 +6,7 @@ datums, UTM zones or State Plane (``--to-crs``). Streams chunk by chunk in bound
 point outside the geoid grid stops that file with a message naming it (no silent 0 or NaN).
 Conversion: :mod:`aldpat.core.heights`.
 
-The output says its vertical datum (:func:`~aldpat.core.heights.output_crs`): orthometric heights
+The output says its vertical datum (:func:`~aldpat.core.heights.recorded_crs`): orthometric heights
 as a compound CRS, horizontal + EGM96 height (EPSG:5773) or the vertical CRS of a compound
 ``--to-crs`` (``EPSG:32632+5783``); ``--reverse`` output as the horizontal CRS alone. A compound
 CRS is OGC WKT in a LAS 1.4 header, so a LAS 1.2 input (formats 0-5) is written as LAS 1.4 in
@@ -23,7 +23,6 @@ WKT with ``minor_version=4``, and LAStools converts with ``las2las -set_version 
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,7 +32,7 @@ import numpy as np
 from aldpat.core.crs import parse_crs
 from aldpat.core.heights import Z_UNITS, HeightConverter, check_to_crs, geoid_transformer
 from aldpat.errors import AldpatError, ParamError, UsageError
-from aldpat.io.las import as_las14, needs_wkt, set_crs
+from aldpat.io.las import holding_crs
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
 from aldpat.jobs.task import Planned, Task
@@ -88,8 +87,8 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
     if reader.format == "las":
         like = _las_template(reader, convert)
     if out.suffix.lower() in (".las", ".laz"):
-        ctx.note(f"{out.name}: CRS recorded: {convert.output_crs.name}")
-    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=convert.output_crs) as writer:
+        ctx.note(f"{out.name}: CRS recorded: {convert.recorded_crs.name}")
+    with ctx.write_points(out, reader.names, like=like, decimals=decimals, crs=convert.recorded_crs) as writer:
         done = 0
         for chunk in reader.chunks():
             x, y, z = convert(chunk.x, chunk.y, chunk.z, first=done, path=source)
@@ -112,7 +111,7 @@ def _las_template(reader, convert: HeightConverter) -> _LasTemplate:
     """The LAS source's header, as LAS 1.4 when the output's CRS needs WKT
     (:func:`~aldpat.io.las.as_las14`: VLRs and every attribute kept), with the output's CRS as WKT and, when re-projecting, an x, y scale and offset
     that suit the new coordinates (1e-7 for degrees)."""
-    header = as_las14(reader.header) if needs_wkt(convert.output_crs) else copy.deepcopy(reader.header)
+    header = holding_crs(reader.header, convert.recorded_crs)
     if convert.to_crs is not None:
         x0, y0 = (float(v[0]) for v in convert.horizontal([header.mins[0]], [header.mins[1]], path=reader.path))
         if convert.to_crs.is_geographic:
@@ -121,8 +120,7 @@ def _las_template(reader, convert: HeightConverter) -> _LasTemplate:
         else:
             header.offsets = np.array([np.floor(x0 / 1000.0) * 1000.0, np.floor(y0 / 1000.0) * 1000.0,
                                        header.offsets[2]])
-    set_crs(header, convert.output_crs)
-    return _LasTemplate(header, convert.output_crs)
+    return _LasTemplate(header, convert.recorded_crs)
 
 
 register_task(Task(
