@@ -14,10 +14,14 @@ the constant threshold of that window, otherwise its adaptive threshold; then a 
 removed where its height above the opened surface exceeds the threshold. In set 01 the
 "cluster threshold" of the half windows 1 and 2 (0.3, 0.5) is that constant threshold
 (Table 6-3), so one series serves both.
+
+``--auto`` (:func:`with_auto`) replaces the cell and the series by those derived from the data
+(:mod:`aldpat.core.auto_windows`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 import math
@@ -28,6 +32,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.auto_windows import SET01_CELL, auto_windows
 from aldpat.core.progressive import mark_dtype
 from aldpat.core.threads import thread_budget
 from aldpat.core.trend import candidate_thresholds
@@ -38,10 +43,6 @@ from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
 
 log = logging.getLogger(__name__)
-
-#: Cell size of parameter set 01 (dissertation Table 6-8), gapm's default; ``--auto`` keeps the
-#: windows' extent in metres on these cells whatever cell it chooses.
-SET01_CELL = 0.75
 
 #: Rows of a direction pass processed together: bounds temporaries, keeps them in cache.
 BLOCK_ROWS = 32
@@ -393,87 +394,16 @@ def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams, *, in_place: bool
     return marks.astype(np.int32, copy=False)
 
 
-#: ``--auto`` cell: the mean point spacing, never coarser than set 01's cell. On the ISPRS samples
-#: (0.16-0.97 points/m2) coarser cells for sparser data lost 0.7 points of mean total error
-#: (bench/README.md): a cell under the spacing keeps each point's place in its own cell.
-AUTO_MAX_CELL = SET01_CELL
-#: Coarse cells (m) over which the occupied area, and so the point density, is measured.
-DENSITY_CELL = 5.0
-
-
-def point_spacing(x: np.ndarray, y: np.ndarray) -> float:
-    """Mean point spacing: 1 / sqrt(points per m2 of occupied ground), water and gaps left out."""
-    if len(x) == 0:
-        return 1.0
-    cx = np.floor((x - x.min()) / DENSITY_CELL).astype(np.int64)
-    cy = np.floor((y - y.min()) / DENSITY_CELL).astype(np.int64)
-    occupied = len(np.unique(cy * (int(cx.max()) + 1) + cx))
-    return float(np.sqrt(occupied * DENSITY_CELL ** 2 / len(x)))
-
-
-#: The windows ``--auto`` chooses from, in cells of set 01's 0.75 m: set 01's series (Table 6-8)
-#: extended by the 30 and 40 of sets 02 and 03 (Tables 6-10, 6-13), with their cluster
-#: thresholds; columns stop at 16 as in all three sets.
-AUTO_WINDOWS = (1, 2, 4, 8, 12, 16, 20, 30, 40)
-AUTO_THRESHOLDS = (0.3, 0.5, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0)
-AUTO_MAX_COLUMN_WINDOW = 16
-#: Bounds of the largest half window ``--auto`` derives (m): at least a tree crown's, at most
-#: set 03's.
-AUTO_REACH = (6.0, 30.0)
-
-
-def largest_object(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: GapmParams) -> float:
-    """Half-width (m) of the largest object the data hold: the widest inscribed half-width of a
-    raised segment (:mod:`aldpat.core.segments`) of the lowest-point grid on set 01's cells."""
-    from scipy import ndimage
-
-    from aldpat.core.lowest_grid import fill_nearest, lowest_grid
-    from aldpat.core.segments import raised_segments
-
-    grid = lowest_grid(x, y, z, SET01_CELL, origin=params.origin)
-    # the segment test's own step, or gapm's default one where the test is turned off
-    step = params.object_step or GapmParams().object_step
-    spacing = np.empty(grid.z.shape, np.uint8)
-    filled = fill_nearest(grid.z, grid.empty, spacing=spacing)
-    raised = raised_segments(filled, step, params.object_share, spacing=spacing, cell=SET01_CELL)
-    if not raised.any():
-        return 0.0
-    return float(ndimage.distance_transform_edt(raised).max()) * SET01_CELL
-
-
 def with_auto(params: GapmParams, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> GapmParams:
-    """``params`` with cell and windows derived from the data (``aldpat filter gapm --auto``).
-
-    The cell follows the point density (the mean spacing in steps of 5 cm, at most
-    ``AUTO_MAX_CELL``). The largest window is the largest object the data hold
-    (:func:`largest_object`, within ``AUTO_REACH`` and no wider than a quarter of the data's
-    shorter side, where a window would take the whole slope for an object); the windows are
-    those of ``AUTO_WINDOWS`` up to it, kept at their extent in metres whatever the cell. Every
-    other parameter is kept as given.
-    """
-    import dataclasses
-
-    x = np.asarray(x, np.float64)
-    y = np.asarray(y, np.float64)
-    z = np.asarray(z, np.float64)
-    cell = min(AUTO_MAX_CELL, max(0.05, round(point_spacing(x, y) / 0.05) * 0.05))
-    reach = min(max(largest_object(x, y, z, params), AUTO_REACH[0]), AUTO_REACH[1])
-    if len(x):
-        reach = min(reach, 0.25 * min(np.ptp(x), np.ptp(y)))
-
-    def scaled(windows) -> dict[int, float]:
-        out: dict[int, float] = {}
-        for k, threshold in zip(AUTO_WINDOWS, AUTO_THRESHOLDS, strict=False):
-            if k not in windows or (out and k * SET01_CELL > reach + 1e-9):
-                continue
-            out.setdefault(max(1, round(k * SET01_CELL / cell)), threshold)
-        return out
-
-    rows = scaled(AUTO_WINDOWS)
-    columns = scaled(tuple(k for k in AUTO_WINDOWS if k <= AUTO_MAX_COLUMN_WINDOW))
+    """``params`` with the cell and windows derived from the data (``aldpat filter gapm --auto``,
+    :func:`aldpat.core.auto_windows.auto_windows`, the raised-segment test's step and share
+    choosing the largest object: gapm's default step where the test is turned off). Every other
+    parameter is kept as given."""
+    chosen = auto_windows(x, y, z, step=params.object_step or GapmParams().object_step,
+                          share=params.object_share, origin=params.origin)
     return dataclasses.replace(
-        params, cell=cell, window_series=tuple(rows), cluster_thresholds=tuple(rows.values()),
-        row_windows=tuple(rows), column_windows=tuple(columns), auto=False)
+        params, cell=chosen.cell, window_series=tuple(chosen.rows), cluster_thresholds=tuple(chosen.rows.values()),
+        row_windows=tuple(chosen.rows), column_windows=tuple(chosen.columns), auto=False)
 
 
 def auto_params(x: np.ndarray, y: np.ndarray, z: np.ndarray, **values) -> GapmParams:

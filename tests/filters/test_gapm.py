@@ -251,16 +251,13 @@ def test_edges_follow_the_trend_and_the_set_files_repeat_the_edge():
 
 
 def test_auto_derives_the_cell_from_density_and_the_largest_window_from_the_largest_object():
-    from aldpat.filters.gapm import (
-        AUTO_REACH,
-        auto_params,
-        largest_object,
-        point_spacing,
-    )
+    from aldpat.core.auto_windows import AUTO_REACH, largest_object, occupied_spacing
 
     x, y, z, truth = _shed_scene()  # 2 points per m2: spacing 0.71 m; a 60 m x 45 m shed
-    assert point_spacing(x, y) == pytest.approx(np.sqrt(200 * 150 / 60_000), rel=0.05)
-    assert largest_object(x, y, z, GapmParams()) == pytest.approx(45 / 2, abs=1.0)  # the shed's half-width
+    assert occupied_spacing(x, y) == pytest.approx(np.sqrt(200 * 150 / 60_000), rel=0.05)
+    defaults = GapmParams()
+    half_width = largest_object(x, y, z, step=defaults.object_step, share=defaults.object_share)
+    assert half_width == pytest.approx(45 / 2, abs=1.0)  # the shed's half-width
     p = auto_params(x, y, z)
     assert p.cell == pytest.approx(0.7)
     reach = max(p.window_series) * p.cell
