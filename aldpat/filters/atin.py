@@ -72,6 +72,7 @@ from aldpat.core.grid_extent import steps_between
 from aldpat.core.lowest_grid import LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError
 from aldpat.filters.grid_stage import raised_cells
+from aldpat.filters.marks import MARK_NON_GROUND
 from aldpat.filters.options import PointFilterParams, RaisedSegmentOption
 from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
@@ -80,8 +81,6 @@ tin_densify = lazy_import("aldpat.filters.atin_densify")
 
 log = logging.getLogger(__name__)
 
-#: Mark of a non-ground point.
-MARK_OFF_TIN = 1
 #: Rounds of densification at most (each adds every passing candidate; a round adding nothing ends).
 MAX_ROUNDS = 50
 
@@ -181,7 +180,7 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
     is_cand = np.zeros(len(z), bool)
     is_cand[cand] = True
     others = np.flatnonzero(~is_cand & ~in_object)
-    marks = np.full(len(z), MARK_OFF_TIN, np.int32)
+    marks = np.full(len(z), MARK_NON_GROUND, np.int32)
     ground = np.zeros(len(cz), bool)  # one rectangle's ground candidates at a time
     if len(cand) == 0:
         return marks
@@ -213,7 +212,7 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
                 (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold,
                 p.angle_min_distance, p.mirror, p.best_per_triangle, MAX_ROUNDS)
             ground[sel[g]] = True
-            marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_OFF_TIN)
+            marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_NON_GROUND)
             ground[sel] = False
             mine = others[other_buckets.take(r, r, c, c)]
             if len(mine):

@@ -19,7 +19,7 @@ from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints
 from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, flat_cell_indices
 from aldpat.core.surface_check import SurfaceTest
-from aldpat.filters.marks import MARK_ABOVE_SURFACE, MARK_GROUND, MARK_INTERPOLATED, MARK_LOW_OUTLIER
+from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_LOW_OUTLIER, MARK_NON_GROUND
 
 #: Points classified per block when comparing with the ground surface (bounds temporaries).
 _CHUNK = 1 << 21
@@ -165,11 +165,11 @@ class CellClasses:
             if len(other) and (marks or self.surface is None):
                 h = zs[other] - self._ground_height(xs[other], ys[other])
                 ok = h <= self.tolerance  # NaN (no ground around) compares False
-                pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_ABOVE_SURFACE))
+                pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_NON_GROUND))
             if self.surface is not None:
                 ig = self.surface.test(xs, ys, zs)
                 pm[ig] = MARK_GROUND
-                pm[~ig & (pm == MARK_GROUND)] = MARK_ABOVE_SURFACE
+                pm[~ig & (pm == MARK_GROUND)] = MARK_NON_GROUND
             else:
                 ig = pm == MARK_GROUND
             if len(self.low):

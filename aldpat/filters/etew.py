@@ -13,7 +13,7 @@ of half size ``k_i = 2^(i-1)`` lowest-point cells centred on each cell, not fixe
 ``c_i = 2 k_i c`` doubles as in eq. (3) (2c, 4c, 8c ...) and a point is compared with the
 lowest point around it rather than with the lowest of an arbitrary block; the result then
 does not depend on where tiles start. A removed cell is marked with ``k_i``; cells outside
-[Min Z, Max Z] are marked 1.
+[Min Z, Max Z] are marked 1 (``MARK_NON_GROUND``).
 
 The manual stops as soon as an iteration removes nothing. Every iteration here compares a
 cell with the lowest cell of the original grid around it, so that early stop only saves time
@@ -32,7 +32,7 @@ from aldpat.core import morphology
 from aldpat.core.lowest_grid import rows_per_block
 from aldpat.core.progressive import mark_dtype
 from aldpat.filters.grid_stage import low_outlier_reach
-from aldpat.filters.marks import MARK_GROUND
+from aldpat.filters.marks import MARK_GROUND, MARK_NON_GROUND
 from aldpat.filters.options import GroundParams
 from aldpat.filters.registry import register_filter
 from aldpat.options import ElevationLimitsOption
@@ -70,9 +70,9 @@ def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool
     for a in range(0, z.shape[0], step):
         block = heights(z[a:a + step])
         if params.min_z is not None:
-            marks[a:a + step][block < params.min_z] = 1
+            marks[a:a + step][block < params.min_z] = MARK_NON_GROUND
         if params.max_z is not None:
-            marks[a:a + step][block > params.max_z] = 1
+            marks[a:a + step][block > params.max_z] = MARK_NON_GROUND
     for i in range(1, params.loop_times + 1):
         k = 2 ** (i - 1)
         h = params.slope * 2 * k * params.cell

@@ -9,10 +9,12 @@ from __future__ import annotations
 MARK_GROUND = 0
 #: Mark of an interpolated (empty) cell (dissertation Table 5-1); never written out as a point.
 MARK_INTERPOLATED = -7777
-#: Mark given to a point that is not the lowest of its cell, lies above the ground surface by
-#: more than ``ground_tolerance`` and sits in a cell whose lowest point is ground: no window
-#: removed it, so it gets the smallest window a filter can use.
-MARK_ABOVE_SURFACE = 1
+#: Mark of a point that is not ground though no window removed it, so it gets the smallest window
+#: a filter can use: every non-ground point of a point filter (``slope``, ``ipf``, ``poly2``,
+#: ``atin``: they have no windows), a cell outside ``etew``'s [Min Z, Max Z], and a point of a
+#: grid filter's ground cell that the final tests (``ground_tolerance``, the surface test) find
+#: off the ground surface.
+MARK_NON_GROUND = 1
 
 #: Mark of a cell removed by the raised-segment test (an object larger than any window).
 MARK_RAISED_SEGMENT = 9000

@@ -8,7 +8,7 @@ from terrain_scenes import slope_with_low_clump
 
 from aldpat.errors import DataError, ParamError
 from aldpat.filters.driver import ground_filter
-from aldpat.filters.marks import MARK_ABOVE_SURFACE, MARK_INTERPOLATED
+from aldpat.filters.marks import MARK_INTERPOLATED, MARK_NON_GROUND
 from aldpat.filters.options import GroundParams
 from aldpat.filters.registry import FILTERS, get_filter, register_filter
 from aldpat.params import param
@@ -56,9 +56,9 @@ def test_classification_hand_case(step_filter):
     assert step_filter["empty"].tolist() == [[False, False, True, False]]
     assert res.marks.tolist() == [[0, 0, MARK_INTERPOLATED, 0]]
     # point 1: 0.2 above a surface of 0.0 .. 0.25 -> ground; point 2: 5 m up -> removed,
-    # no window removed it -> MARK_ABOVE_SURFACE; point 5: 1.9 above -> removed
+    # no window removed it -> MARK_NON_GROUND; point 5: 1.9 above -> removed
     assert res.is_ground.tolist() == [True, True, False, True, True, False]
-    assert res.point_marks.tolist() == [0, 0, MARK_ABOVE_SURFACE, 0, 0, MARK_ABOVE_SURFACE]
+    assert res.point_marks.tolist() == [0, 0, MARK_NON_GROUND, 0, 0, MARK_NON_GROUND]
 
 
 def test_lowest_points_follow_cell_marks_and_others_the_surface(step_filter):
@@ -80,7 +80,7 @@ def test_lowest_points_follow_cell_marks_and_others_the_surface(step_filter):
     assert not res.is_ground[2 * n:].any()  # 0.6 above: removed everywhere
     # non-lowest roof points take their cell's mark, others the smallest window
     assert (res.point_marks[n:][roof3[n:]] == 3).all()
-    assert (res.point_marks[2 * n:][~roof] == MARK_ABOVE_SURFACE).all()
+    assert (res.point_marks[2 * n:][~roof] == MARK_NON_GROUND).all()
     # the final ground surface under the roof is filled from ground cells
     assert np.nanmax(res.surface) == 0.0 and not np.isnan(res.surface).any()
 
