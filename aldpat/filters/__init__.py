@@ -12,8 +12,6 @@ from aldpat.filters import (
     multipass,  # noqa: F401
     outlier,  # noqa: F401
     pm,  # noqa: F401
-    pm2d,  # noqa: F401
-    pmcircle,  # noqa: F401
     polynomial,  # noqa: F401
     slope,  # noqa: F401
 )

@@ -1,15 +1,25 @@
-"""Progressive morphological filter with 1-D line windows (``pm``).
+"""Progressive morphological filter (``pm``) and its window shapes (``pm2d``, ``pmcircle``).
 
 ALDPAT 1.0 user manual (2007), Appendix "Progressive Morphological (PM) Filter" (Zhang et al. 2003)
-and task 8 "Progressive Morphology (PM)" for the parameters; Cui (2013) §5.1 for
-the review and §5.2.2 for the mark matrix it fills (Table 5-1).
+and task 8 "Progressive Morphology (PM)" and "2D Morphological Filters (Square or Circle Window)"
+for the parameters; Cui (2013) §5.1 for the review and §5.2.2 for the mark matrix it fills
+(Table 5-1).
 
 For each window of an increasing series the current surface is opened; a cell whose
 elevation drops by more than the window's threshold is marked with the (half) window size at
-which that happened, and the opened surface becomes the input of the next window. With line
-windows the opening runs along x, along y, or along x then y at every step (the manual:
-"the opening operation was applied to both x and y directions at each step"); the data can
-be rotated first (Rotate Angle / Rotate Times) to line the windows up with linear features.
+which that happened, and the opened surface becomes the input of the next window. The appendix:
+"the filtering window can be a one-dimensional line or two-dimensional rectangle"; the three
+filters are that one method with three window shapes, each filter's params class fixing its
+shape (:attr:`ProgressiveParams.window_shape`):
+
+* ``pm``: line windows, the opening along x, along y, or along x then y at every step (the
+  manual: "the opening operation was applied to both x and y directions at each step"); the
+  data can be rotated first (Rotate Angle / Rotate Times) to line the windows up with linear
+  features;
+* ``pm2d`` ("Morph 2D Filter"): ``(2k+1) x (2k+1)`` square windows;
+* ``pmcircle`` ("Morph Circle Filter"): disk windows of radius ``k`` cells (the cells whose
+  centres lie within ``k`` cells; diameter ``2k+1`` is the ``w`` of the threshold rule). A disk
+  has no preferred direction, so objects are removed alike whatever their orientation.
 
 Threshold of the manual's eq. (5), with full window sizes ``w = 2k + 1`` in cells::
 
@@ -25,6 +35,7 @@ import itertools
 import logging
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -69,13 +80,23 @@ class ProgressiveParams(GroundParams):
     )
     min_window: int = param(1, "smallest half window used", unit="cells", ge=1, manual="Min WndSize", level="internal")
 
+    #: The window of the openings, fixed by each filter's params class (no parameter a user sets):
+    #: ``"line"`` (``pm``), ``"square"`` (``pm2d``) or ``"disk"`` (``pmcircle``).
+    window_shape: ClassVar[str]
+
     def check(self) -> None:
         super().check()
         threshold_series(self, window_series(self))
 
+    def openings(self) -> tuple[tuple[str, int], ...]:
+        """The openings at every window, in turn, as ``(window shape, axis)``
+        (:func:`aldpat.core.progressive.progressive_opening`'s ``passes``)."""
+        return ((self.window_shape, 1),)
+
 
 @dataclass(frozen=True)
 class PMParams(ProgressiveParams):
+    window_shape: ClassVar[str] = "line"
     direction: str = param("xy", "open along x (rows), y (columns) or x then y at every window",
                            choices=("x", "y", "xy"), manual="Direction", level="internal")
     rotate_angle: float = param(0.0, "angle the data are rotated by (counter-clockwise) before filtering",
@@ -84,6 +105,24 @@ class PMParams(ProgressiveParams):
         0, "number of rotations: filter at 1, 2 ... times the angle; a point is ground only if every "
         "rotation keeps it (0: unrotated)", ge=0, le=36, manual="Rotate Times", level="internal",
     )
+
+    def openings(self) -> tuple[tuple[str, int], ...]:
+        """Along x (axis 1, the rows), y (axis 0, the columns) or x then y."""
+        return tuple(("line", axis) for axis in _LINE_AXES[self.direction])
+
+
+#: The axes a line window opens along, by ``direction``.
+_LINE_AXES = {"x": (1,), "y": (0,), "xy": (1, 0)}
+
+
+@dataclass(frozen=True)
+class PM2DParams(ProgressiveParams):
+    window_shape: ClassVar[str] = "square"
+
+
+@dataclass(frozen=True)
+class PMCircleParams(ProgressiveParams):
+    window_shape: ClassVar[str] = "disk"
 
 
 #: The largest half window of a series (cells): 100 km at 1 m cells, wider than any tile; a
@@ -139,24 +178,28 @@ def rotation_angles(p: PMParams) -> tuple[float, ...]:
     return tuple(i * p.rotate_angle for i in range(1, p.rotate_times + 1))
 
 
-_PASSES = {"x": (("line", 1),), "y": (("line", 0),), "xy": (("line", 1), ("line", 0))}
-
-
 def progressive_reach(p: ProgressiveParams) -> int:
     """Cells a progressive filter's marks depend on: each opening works on the last one's
     surface and reaches twice its half window (Zhang et al. 2003, eq. 2)."""
     return sum(2 * k for k in window_series(p)) + low_outlier_reach(p)
 
 
-@register_filter("pm", params=PMParams, takes_codes=True, rotations=rotation_angles,
-                 reach=progressive_reach,
-                 summary="progressive morphological filter, line windows along x, y or both "
-                         "(manual appendix and task 8; Zhang and others 2003)")
-def pm(z: np.ndarray, empty: np.ndarray, params: PMParams, *, in_place: bool = False, decode=None) -> np.ndarray:
-    """Progressive morphology with 1-D line windows (manual appendix PM, task 8 "Direction").
+def pm(z: np.ndarray, empty: np.ndarray, params: ProgressiveParams, *, in_place: bool = False, decode=None
+       ) -> np.ndarray:
+    """Progressive morphology with the windows of ``params`` (manual appendix PM, task 8): lines
+    along ``direction`` (:class:`PMParams`), squares (:class:`PM2DParams`) or disks
+    (:class:`PMCircleParams`).
 
     ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`); ``z`` is never changed.
     """
     windows = window_series(params)
-    return progressive_opening(z, windows, threshold_series(params, windows), _PASSES[params.direction],
-                               decode=decode)
+    return progressive_opening(z, windows, threshold_series(params, windows), params.openings(), decode=decode)
+
+
+register_filter("pm", params=PMParams, takes_codes=True, rotations=rotation_angles, reach=progressive_reach,
+                summary="progressive morphological filter, line windows along x, y or both "
+                        "(manual appendix and task 8; Zhang and others 2003)")(pm)
+register_filter("pm2d", params=PM2DParams, takes_codes=True, reach=progressive_reach,
+                summary="progressive morphological filter, square windows (manual task 8, Morph 2D Filter)")(pm)
+register_filter("pmcircle", params=PMCircleParams, takes_codes=True, reach=progressive_reach,
+                summary="progressive morphological filter, circular windows (manual task 8, Morph Circle Filter)")(pm)

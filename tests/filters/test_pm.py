@@ -1,11 +1,15 @@
-"""Progressive morphology with line windows (manual appendix PM, task 8)."""
+"""Progressive morphology with line (``pm``), square (``pm2d``) and disk (``pmcircle``) windows
+(manual appendix PM, task 8)."""
 
 import numpy as np
 import pytest
 
+from aldpat.core.morphology import disk_footprint
 from aldpat.errors import ParamError
-from aldpat.filters import ground_filter
+from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.pm import (
+    PM2DParams,
+    PMCircleParams,
     PMParams,
     pm,
     rotation_angles,
@@ -88,3 +92,50 @@ def test_rotation_lines_windows_up_with_a_linear_feature():
     # a second rotation at -90 degrees puts x across the dike again: removed
     twice = ground_filter(x, y, z, "pm", PMParams(**base, rotate_angle=-45.0, rotate_times=2))
     assert not twice.is_ground[inner].any()
+
+
+def test_one_method_three_window_shapes():
+    """pm, pm2d and pmcircle are the one progressive opening; their params fix the window."""
+    assert {FILTERS[name].fn for name in ("pm", "pm2d", "pmcircle")} == {pm}
+    assert PMParams(direction="xy").openings() == (("line", 1), ("line", 0))
+    assert PMParams(direction="y").openings() == (("line", 0),)
+    assert PM2DParams().openings() == (("square", 1),)
+    assert PMCircleParams().openings() == (("disk", 1),)
+
+
+def test_square_building_removed_by_the_first_window_wider_than_it():
+    z = np.zeros((30, 30))
+    z[10:15, 10:15] = 6.0  # 5 x 5 cells
+    marks = pm(z, np.zeros(z.shape, bool), PM2DParams(window_series=(1, 2, 4, 8)))
+    # thresholds 0.3, 0.9, 1.5, 2.5: the 3x3 and 5x5 windows fit on the roof, 9x9 does not
+    assert (marks[10:15, 10:15] == 4).all()
+    assert marks.sum() == 4 * 25
+
+
+def test_sloped_ground_within_the_threshold_is_kept():
+    r, c = np.mgrid[0:50, 0:50]
+    z = 0.2 * r + 0.1 * c  # about 0.22 m per cell, below slope 0.3
+    marks = pm(z, np.zeros(z.shape, bool), PM2DParams())
+    assert marks.max() == 0
+
+
+def test_disk_cuts_square_corners_where_a_square_window_does_not():
+    z = np.zeros((30, 30))
+    z[10:15, 10:15] = 6.0  # 5 x 5 cells
+    empty = np.zeros(z.shape, bool)
+    disk = pm(z, empty, PMCircleParams(window_series=(2, 4)))
+    square = pm(z, empty, PM2DParams(window_series=(2, 4)))
+    # the only disk of radius 2 inside the 5x5 roof is centred on it: the roof cells it does
+    # not cover (corners and their neighbours) go at window 2, the rest at 4
+    inside = disk_footprint(2)
+    assert disk[10:15, 10:15].tolist() == np.where(inside, 4, 2).tolist()
+    assert disk[10, 10] == 2 and disk[10, 12] == 4
+    assert (square[10:15, 10:15] == 4).all()
+    assert disk.sum() == 4 * inside.sum() + 2 * (25 - inside.sum())
+
+
+def test_round_object_removed_whatever_its_orientation():
+    r, c = np.mgrid[0:41, 0:41]
+    z = np.where(np.hypot(r - 20, c - 20) <= 3.2, 5.0, 0.0)  # a 7-cell wide round tank
+    marks = pm(z, np.zeros(z.shape, bool), PMCircleParams(window_series=(1, 2, 4)))
+    assert (marks[z > 0] > 0).all() and (marks[z == 0] == 0).all()
