@@ -51,7 +51,7 @@ from aldpat.errors import ParamError
 from aldpat.filters.marks import MARK_NON_GROUND
 from aldpat.filters.options import PointFilterParams
 from aldpat.filters.registry import register_filter
-from aldpat.params import param
+from aldpat.params import default_of, param
 
 ndimage = lazy_import("scipy.ndimage")
 
@@ -114,15 +114,9 @@ class Poly2Params(IpfParams):
               "better than the previous one by this much (RMS residual)", unit="m", ge=0,
         manual="Sigma Difference", level="internal",
     )
-    cell: float = param(1.0, "node spacing of the interpolated surface", unit="m", gt=0,
-                             manual="Cell Size")
-    z_difference: float = param(0.5, "a candidate within this height of the surface joins the ground set",
-                                unit="m", gt=0, manual="Z Difference", level="internal")
-    init_window_length: float = param(40.0, "first moving window: larger than the largest object",
-                                      unit="m", gt=0, manual="Init Window Length", level="internal")
-    outlier_tolerance: float = param(0.8, "at the end, every point within this height of the final "
-                                          "surface is ground", unit="m", gt=0, manual="Outlier Tolerance",
-                                          level="internal")
+    z_difference: float = default_of(IpfParams, "z_difference", 0.5)
+    init_window_length: float = default_of(IpfParams, "init_window_length", 40.0)
+    outlier_tolerance: float = default_of(IpfParams, "outlier_tolerance", 0.8)
     neighbor_range: int = param(6, "fewest ground points a local fit uses (its window grows until it "
                                     "holds them)", ge=1, le=10_000, manual="Neighbor Range", level="internal")
     interpolation_window: float = param(10.0, "window in which the two surfaces' fit to the ground "
