@@ -40,7 +40,6 @@ __all__ = ["Raster", "dtm", "ground"]
 #: class has no use for them.
 COMMAND_ONLY = frozenset(
     {f.name for f in dataclasses.fields(FilterOutputOption)} | {f.name for f in dataclasses.fields(ChunkOption)}
-    | {"data_mode"}
 )
 
 #: ``aldpat dtm``'s own parameters a call takes (beside ``cell`` and ``algorithm``): the others

@@ -24,6 +24,12 @@ class FilterOutputOption(SharedOption):
         "(in input order with every attribute: ground LAS class 2, a former 2 or 0 that is not ground 1, low "
         "outliers 7, other classes kept; text: a column class); default: classified for a LAS/LAZ output, "
         "terrain for text", choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
+    data_mode: str = param(
+        "real",
+        "output points at their own x, y (real) or one point per cell at the cell centre (center)",
+        choices=("real", "center"),
+        manual="Data Mode", level="advanced",
+    )
     marks: bool = param(False, "add each point's mark: 0 for ground, else the half window (cells) "
                         "at which it was removed (column / LAS extra byte 'mark')", level="advanced")
 
@@ -83,12 +89,6 @@ class GroundParams(RaisedSegmentOption, LowOutlierOption, ExistingClassesOption,
     """Parameters every grid filter shares; each filter's params class subclasses it."""
 
     cell: float = param(1.0, "grid cell size", unit="m", gt=0, manual="Cell size")
-    data_mode: str = param(
-        "real",
-        "output points at their own x, y (real) or one point per cell at the cell centre (center)",
-        choices=("real", "center"),
-        manual="Data Mode", level="advanced",
-    )
     ground_tolerance: float = param(
         0.3,
         "a non-lowest point of a cell is ground within this height of the final ground surface",
@@ -115,13 +115,6 @@ class PointFilterParams(LowOutlierOption, ExistingClassesOption, FilterOutputOpt
     Subclasses say which cells ``--data-mode center`` and the reported mark matrix use
     (:meth:`cell_shape`): the filter's own cells.
     """
-
-    data_mode: str = param(
-        "real",
-        "output points at their own x, y (real) or one point per cell at the cell centre (center)",
-        choices=("real", "center"),
-        manual="Data Mode", level="advanced",
-    )
 
     def cell_shape(self) -> tuple[float, float]:
         """Width and height of the filter's cells."""
