@@ -21,6 +21,11 @@ tiles, the nodes two or more tile grids hold and how many of them differ in any 
 blank), the tiles warned to have no node, the wall times, and the merged file's points against the
 site's (every point once: the stored records, classes aside, compared as a multiset).
 
+``python bench/bench_dtm.py compare NEW.tif OLD.tif`` -- two DTMs node for node: the largest
+|difference|, how many nodes differ at all and by more than 1 mm, and the nodes blank in one
+only; "holds" when every node is within 1 mm and the blanks are the same (the check a speed
+change must pass; ``bench_pdal.py --against REV`` runs it on the 10 M-point file).
+
 ``python bench/bench_dtm.py levels [--auto] [--filter-params FILE] [--keep DIR]`` -- reads the raw
 ISPRS sites CSite1, FSite5 and FSite8 (``bench/data_paths.py``) and makes each into a 1 m DTM with
 ``aldpat dtm`` (gapm's defaults unless told otherwise). It counts the DTM's nodes that stand more
@@ -344,6 +349,9 @@ def main() -> None:
     pj.add_argument("--buffer", type=float, default=30.0)
     pj.add_argument("--cell", type=float, default=1.0)
     pj.add_argument("--jobs", type=int, default=2)
+    cp = sub.add_parser("compare", help="two DTM GeoTIFFs node for node (the 1 mm check of a speed change)")
+    cp.add_argument("new", type=Path)
+    cp.add_argument("old", type=Path)
     lv = sub.add_parser("levels", help="remnants and pits in the DTMs of the raw sites CSite1, FSite5, FSite8")
     lv.add_argument("--auto", action="store_true", help="aldpat dtm --auto")
     lv.add_argument("--filter-params", help="aldpat dtm --filter-params FILE")
@@ -355,6 +363,10 @@ def main() -> None:
         run_levels(args.auto, args.filter_params, args.keep)
     elif args.command == "project":
         run_project(args.site, args.width, args.buffer, args.cell, args.jobs)
+    elif args.command == "compare":
+        from bench_pdal import compare_dtms
+
+        print(compare_dtms(args.new, args.old))
     else:
         run_speed(args.tiles, args.cell)
 

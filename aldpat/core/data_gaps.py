@@ -8,9 +8,9 @@ input, whatever its class: a node with no point within ``gap`` of it is blank.
 
 The test is made on the DTM's own lattice: an occupancy grid (a node is occupied when a point lies
 in its cell, half a cell either side) is filled chunk by chunk as points are read -- a byte a node,
-whatever the point count -- and ``scipy.ndimage.distance_transform_edt`` gives every node its
-distance to the nearest occupied one (exact Euclidean distance between node centres; a point lies
-at most half a cell diagonal from its node's centre).
+whatever the point count -- and a node is in a gap when no occupied node lies within ``gap`` of it
+(exact Euclidean distance between node centres, rounded as ``scipy.ndimage.distance_transform_edt``
+rounds it; a point lies at most half a cell diagonal from its node's centre).
 
 The default gap is :data:`GAP_SPACINGS` mean point spacings (the spacing from the point count and
 the area the points actually cover, :func:`mean_spacing`), and at least :data:`GAP_CELLS` cells.
@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aldpat.core.compiled import compiled
 from aldpat.core.grid_extent import GridSpec
 
 #: The default gap in mean point spacings. In points spread at random with that mean spacing s,
@@ -109,37 +110,75 @@ def default_gap(spacing: float | None, cell: float) -> float:
     return max(GAP_SPACINGS * (spacing or 0.0), GAP_CELLS * cell)
 
 
-#: Rows of the occupancy grid whose distances are found at once: the distance transform needs
-#: about 33 bytes a node (its distances and feature indices), so a band, not the whole grid, is
-#: held -- 8.5 MB per 1,000 nodes of width, and the halo -- however large the DTM.
-BAND_ROWS = 256
-
-
 def gap_nodes(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
     """The nodes farther than ``gap`` (metres) from every occupied node of ``occupied`` (all of
     them when none is occupied).
 
-    Found band by band (:data:`BAND_ROWS`), each with a halo of ``gap`` on either side: an
-    occupied node that decides whether a node lies within ``gap`` is less than ``gap`` away, so
-    it lies in the band or its halo, and a band's answer is the whole grid's."""
-    far = np.ones(occupied.shape, bool)
-    rows = occupied.shape[0]
-    halo = min(rows, math.ceil(gap / cell) + 1)
-    for start in range(0, rows, BAND_ROWS):
-        stop = min(start + BAND_ROWS, rows)
-        lo, hi = max(start - halo, 0), min(stop + halo, rows)
-        far[start:stop] = _far_from(occupied[lo:hi], gap, cell)[start - lo:stop - lo]
+    The distance between nodes ``dr`` rows and ``dc`` columns apart is taken as a Euclidean
+    distance transform gives it (``scipy.ndimage.distance_transform_edt`` with ``sampling=cell``:
+    ``sqrt((dr cell)^2 + (dc cell)^2)`` in float64, compared in float32), so a node is far
+    exactly where the transform says so. It is found without the transform's distances and
+    feature indices (33 bytes a node): for each row offset ``dr`` within the gap the widest
+    column offset still inside it (:func:`_disc_widths`), then, row by row, every node's column
+    distance to the nearest occupied node of each row around it (:func:`_far_rows`) -- a few
+    rows of integers held, whatever the DTM's size."""
+    widths = _disc_widths(gap, cell)
+    far = np.empty(occupied.shape, bool)
+    if occupied.size:
+        _far_rows(np.ascontiguousarray(occupied), widths, far)
     return far
 
 
-def _far_from(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
-    """:func:`gap_nodes` of one band, by a Euclidean distance transform."""
-    from scipy.ndimage import distance_transform_edt
+def _disc_widths(gap: float, cell: float) -> np.ndarray:
+    """``widths[dr]``: the largest column offset ``dc`` whose node ``dr`` rows away lies within
+    ``gap`` (-1: none) -- the distances computed as the transform computes them, so rounding
+    decides alike at the disc's edge."""
+    limit = np.float32(gap)
+    reach = math.floor(gap / cell) + 2  # a node farther than this in rows or columns is out
+    offsets = np.arange(reach + 1, dtype=np.float64) * cell
+    squares = offsets * offsets
+    inside = np.sqrt(squares[:, None] + squares[None, :]).astype(np.float32) <= limit
+    widths = np.where(inside.any(axis=1), reach - np.argmax(inside[:, ::-1], axis=1), -1)
+    return widths[: int(np.max(np.flatnonzero(widths >= 0), initial=0)) + 1].astype(np.int64)
 
-    if not occupied.any():
-        return np.ones(occupied.shape, bool)
-    distance = distance_transform_edt(~occupied, sampling=cell).astype(np.float32)
-    return distance > np.float32(gap)
+
+@compiled(nogil=True)
+def _far_rows(occupied, widths, far):
+    """``far[r, c]``: no occupied node at row offset ``dr`` (|dr| < len(widths)) and column offset
+    at most ``widths[|dr|]`` from (r, c). Each row's column distance to its nearest occupied node
+    is found once, kept in a ring of 2 len(widths) - 1 rows."""
+    rows, cols = occupied.shape
+    reach = len(widths) - 1
+    ring = 2 * reach + 1
+    span = np.empty((ring, cols), np.int64)
+    none = cols + widths.max() + 1  # a row without an occupied node: farther than any width
+    near = np.empty(cols, np.bool_)
+    for r in range(-reach, rows):
+        if r + reach < rows:  # the row entering the ring: r + reach
+            rr = r + reach
+            line = span[rr % ring]
+            last = -none
+            for c in range(cols):
+                if occupied[rr, c]:
+                    last = c
+                line[c] = c - last
+            last = cols - 1 + none
+            for c in range(cols - 1, -1, -1):
+                if occupied[rr, c]:
+                    last = c
+                line[c] = min(line[c], last - c)
+        if r < 0:
+            continue
+        near[:] = False
+        for dr in range(-reach, reach + 1):
+            q = r + dr
+            if 0 <= q < rows:
+                width = widths[abs(dr)]
+                line = span[q % ring]
+                for c in range(cols):
+                    near[c] |= line[c] <= width
+        for c in range(cols):
+            far[r, c] = not near[c]
 
 
 def blank_gaps(values: np.ndarray, spec: GridSpec, occupancy: Occupancy, gap: float) -> int:

@@ -102,13 +102,42 @@ def _rasterise(px, py, pz, tv, n_tri, gx0, gy0, dx, dy, c0, c1, r0, r1, max_edge
                         out[row, col] = l1 * z1 + l2 * z2 + l3 * z3
 
 
+@compiled(nogil=True)
+def _square_keys(x, y, square):
+    """Each point's square (row, then column: east to west in odd rows) as one number, and the
+    count of numbers."""
+    row = np.floor((y - y.min()) / square).astype(np.int64)
+    col = np.floor((x - x.min()) / square).astype(np.int64)
+    last = col.max()
+    width = last + 1
+    key = np.empty(len(x), np.int64)
+    for i in range(len(x)):
+        key[i] = row[i] * width + (last - col[i] if row[i] % 2 == 1 else col[i])
+    return key, (row.max() + 1) * width
+
+
+@compiled(nogil=True)
+def _counting_order(key, size):
+    """The stable order of ``key`` (0 .. size - 1), by counting."""
+    starts = np.zeros(size + 1, np.int64)
+    for k in key:
+        starts[k + 1] += 1
+    for k in range(size):
+        starts[k + 1] += starts[k]
+    order = np.empty(len(key), np.int64)
+    for i in range(len(key)):
+        order[starts[key[i]]] = i
+        starts[key[i]] += 1
+    return order
+
+
 def insertion_order(x: np.ndarray, y: np.ndarray, square: float) -> np.ndarray:
     """A serpentine order of ``square``-sized squares (rows of squares south to north, every
     other row east to west): consecutive points lie close together."""
-    row = np.floor((y - y.min()) / square).astype(np.int64)
-    col = np.floor((x - x.min()) / square).astype(np.int64)
-    col = np.where(row % 2 == 1, col.max() - col, col)
-    return np.lexsort((col, row))
+    key, size = _square_keys(x, y, square)
+    if size <= 4 * len(x) + 1024:
+        return _counting_order(key, size)
+    return np.argsort(key, kind="stable")
 
 
 def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float, dy: float, cols: tuple[int, int], rows: tuple[int, int],

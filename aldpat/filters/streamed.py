@@ -221,6 +221,12 @@ def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None, seen
         lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
         hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
     del classes
-    empty = np.zeros(0)
-    return (np.concatenate(xs or [empty]), np.concatenate(ys or [empty]), np.concatenate(zs or [empty]), count,
-            (lo[0], lo[1], hi[0], hi[1]))
+    return _joined(xs), _joined(ys), _joined(zs), count, (lo[0], lo[1], hi[0], hi[1])
+
+
+def _joined(parts: list[np.ndarray]) -> np.ndarray:
+    """The chunks' arrays as one, each chunk let go once copied: joining x, y and z in turn holds
+    one coordinate twice, not all three."""
+    out = np.concatenate(parts) if parts else np.zeros(0)
+    parts.clear()
+    return out

@@ -27,9 +27,9 @@ import numpy as np
 
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.paths import not_local
-from aldpat.errors import InputFormatError, UsageError, one_line
+from aldpat.core.threads import thread_budget
+from aldpat.errors import DataError, InputFormatError, UsageError, one_line
 from aldpat.io.atomic import atomic_output
-from aldpat.io.esri_grid import filled_with_nodata
 
 #: ``--grid-format`` / ``--to`` name -> file extension
 FORMATS = {"geotiff": ".tif", "cog": ".tif"}
@@ -77,9 +77,18 @@ class Raster:
         from aldpat.core.crs import parse_crs
 
         nodata = DEFAULT_NODATA if nodata is None else float(nodata)
-        band = filled_with_nodata(values, spec, nodata, Path(path or "grid")).astype(np.float32)[::-1]
+        values = np.asarray(values)
+        if values.shape != spec.shape:
+            raise ValueError(f"values have shape {values.shape}, grid is {spec.shape}")
+        # one float32 copy, north row first; a value equal to nodata once stored as float32
+        # would read back as blank (NaN equals nothing, so blank nodes never match)
+        band = np.ascontiguousarray(values[::-1], dtype=np.float32)
+        if np.any(band == np.float32(nodata)):
+            raise DataError(f"a node holds the nodata value {nodata:g} itself; choose another nodata value",
+                            path=Path(path or "grid"))
+        np.copyto(band, np.float32(nodata), where=np.isnan(band))
         gt = spec.corner_transform()
-        return cls(np.ascontiguousarray(band), (gt[1], gt[2], gt[0], gt[4], gt[5], gt[3]),
+        return cls(band, (gt[1], gt[2], gt[0], gt[4], gt[5], gt[3]),
                    parse_crs(crs) if crs is not None else None, nodata)
 
     @property
@@ -124,6 +133,8 @@ def _write_band(path: Path, raster: Raster, *, cog: bool, overwrite: bool) -> No
         "transform": rasterio.transform.Affine(*raster.transform),
         "crs": raster.crs.to_wkt() if raster.crs is not None else None,
         "compress": "deflate", "predictor": 3,
+        # tiles compressed on the process's threads (the same bytes as on one)
+        "num_threads": thread_budget(),
     }
     band = raster.array.astype(np.float32, copy=False)
     if cog:

@@ -49,7 +49,7 @@ from aldpat.core import units
 from aldpat.core.crs import output_crs
 from aldpat.core.data_gaps import GAP_CELLS, GAP_SPACINGS, Occupancy, blank_gaps, default_gap, mean_spacing
 from aldpat.core.grid_extent import GridSpec
-from aldpat.core.interpolate import interpolate
+from aldpat.core.interpolate import linear
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.options import LowOutlierOption
@@ -339,7 +339,9 @@ def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, 
         raise DataError(f"no ground point found by {_how(params)}: no terrain to grid", path=where)
     check_spread(x, y, "linear", where)
     units.stage("triangulate")
-    values = interpolate(x, y, z, spec, method="linear", max_distance=params.max_distance)
+    # float32 nodes: the values the GeoTIFF holds (each rounded once, from the TIN's float64
+    # arithmetic), in half the memory of float64 ones
+    values = linear(x, y, z, spec, max_distance=params.max_distance, dtype=np.float32)
     if occupancy is not None:
         gap, how = gap_distance(params, lambda: mean_spacing(occupancy))
         if gap is not None:

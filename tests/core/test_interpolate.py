@@ -164,3 +164,47 @@ def test_every_method_is_dispatched_and_unknown_is_refused():
         interpolate(x, y, plane(x, y), SPEC, method="spline")
     with pytest.raises(DataError):
         interpolate([], [], [], SPEC, method="nearest")
+
+
+def test_linear_in_float32_is_the_float64_grid_rounded_once():
+    x, y = scattered(margin=-4.0)
+    z = 300.0 + surface(x, y)
+    wide = linear(x, y, z, SPEC, block_points=2000)
+    narrow = linear(x, y, z, SPEC, block_points=2000, dtype=np.float32)
+    assert narrow.dtype == np.float32
+    np.testing.assert_array_equal(narrow, wide.astype(np.float32))  # NaN where NaN
+    assert np.isnan(narrow).any() and not np.isnan(narrow).all()
+
+
+def test_block_order_is_the_stable_sort_of_the_block_numbers():
+    # what the blocks gather by index: the points near the grid, by block, each block's points in
+    # their own order (numpy's stable argsort of the block numbers)
+    from aldpat.core.interpolate import _block_order
+
+    rng = np.random.default_rng(5)
+    x = np.round(rng.uniform(-20, 120, 5000), 2)
+    y = np.round(rng.uniform(-20, 90, 5000), 2)
+    x[:50] = np.round(x[:50])  # points on block edges
+    spec = GridSpec(0.0, 0.0, 1.0, 1.0, 100, 70)
+    lo_x, hi_x, lo_y, hi_y = -10.5, 109.5, -3.5, 72.5
+    nbx, nby = 8, 5
+    order, starts = _block_order(x, y, lo_x, hi_x, lo_y, hi_y, spec.xmin, spec.ymin, 0.5, 0.5, 13.0, 14.0, nbx, nby)
+    near = np.flatnonzero((x >= lo_x) & (x <= hi_x) & (y >= lo_y) & (y <= hi_y))
+    bx = np.clip(np.floor((x[near] - spec.xmin + 0.5) / 13.0).astype(np.int64), 0, nbx - 1)
+    by = np.clip(np.floor((y[near] - spec.ymin + 0.5) / 14.0).astype(np.int64), 0, nby - 1)
+    key = by * nbx + bx
+    expected = np.argsort(key, kind="stable")
+    np.testing.assert_array_equal(order, near[expected])
+    np.testing.assert_array_equal(starts, np.searchsorted(key[expected], np.arange(nbx * nby + 1)))
+
+
+def test_insertion_order_is_the_serpentine_of_squares():
+    from aldpat.core.tin_raster import insertion_order
+
+    rng = np.random.default_rng(2)
+    for n, square in ((1, 1.0), (300, 0.01), (5000, 0.7), (5000, 3.0), (5000, 1e6)):
+        x, y = np.round(rng.uniform(0, 50, n), 2), np.round(rng.uniform(0, 30, n), 2)
+        row = np.floor((y - y.min()) / square).astype(np.int64)
+        col = np.floor((x - x.min()) / square).astype(np.int64)
+        col = np.where(row % 2 == 1, col.max() - col, col)
+        np.testing.assert_array_equal(insertion_order(x, y, square), np.lexsort((col, row)))

@@ -174,18 +174,23 @@ def test_max_gap_is_checked_when_given():
             DtmParams(max_gap=bad)
 
 
-@pytest.mark.parametrize("gap", [0.5, 4.0, 30.0])
-def test_gaps_found_band_by_band_are_the_whole_grids(monkeypatch, gap):
-    """The distance transform runs over bands of rows with a halo of the gap (memory bounded by a
-    band, whatever the DTM's size); every node's answer is that of one transform of the grid."""
+@pytest.mark.parametrize("cell", [1.0, 1.5, 0.3])
+@pytest.mark.parametrize("gaps", [(0.5, 4.0, 30.0), (2.0, 3.0, 5.0), (2 ** 0.5, 5 ** 0.5, 13 ** 0.5)])
+def test_gaps_are_those_of_a_distance_transform(cell, gaps):
+    """A node is far exactly where a Euclidean distance transform of the grid puts it farther
+    than the gap -- the gaps in cells, and the diagonals sqrt(2), sqrt(5), sqrt(13) cells, lie on
+    its rounding edge -- on grids wider and narrower than the gap, with rows of no point."""
     from scipy.ndimage import distance_transform_edt
 
     from aldpat.core import data_gaps
 
     rng = np.random.default_rng(5)
-    occupied = rng.random((203, 57)) < 0.02
-    occupied[40:90] = False  # a band of rows without a point, wider than a band
-    whole = distance_transform_edt(~occupied, sampling=1.5).astype(np.float32) > np.float32(gap)
-    monkeypatch.setattr(data_gaps, "BAND_ROWS", 16)
-    np.testing.assert_array_equal(data_gaps.gap_nodes(occupied, gap, 1.5), whole)
-    assert data_gaps.gap_nodes(np.zeros((40, 5), bool), gap, 1.5).all()  # no point: every node
+    for shape in ((203, 57), (40, 3), (1, 30)):
+        occupied = rng.random(shape) < 0.02
+        occupied[shape[0] // 5:shape[0] // 2] = False  # rows without a point
+        occupied[-1, -1] = True
+        for gap in gaps:
+            gap *= cell if gaps[0] != 0.5 else 1.0
+            whole = distance_transform_edt(~occupied, sampling=cell).astype(np.float32) > np.float32(gap)
+            np.testing.assert_array_equal(data_gaps.gap_nodes(occupied, gap, cell), whole)
+            assert data_gaps.gap_nodes(np.zeros(shape, bool), gap, cell).all()  # no point: every node
