@@ -223,11 +223,12 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     if made is None:
         made = _ground_in_memory(source, reader, params, ctx)
     x, y, z, spec, count, own_ground, occupancy = made
+    del made  # the points go with x, y, z below, before the raster is written
     ctx.note(f"{own_ground} ground ({_how(params)})")
     out = ctx.outputs_for(source)[0].path
     raster, blank = terrain_raster(x, y, z, spec, params, crs=output_crs(params.crs, reader.crs, out, ctx.warn),
                                    where=source, occupancy=occupancy, note=ctx.note)
-    del x, y, z
+    del x, y, z, occupancy
     units.stage("write")
     raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
     log.info("%s: %d x %d nodes at %g m (%d blank)", out, spec.nx, spec.ny, params.cell, blank)
