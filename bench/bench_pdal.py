@@ -22,7 +22,10 @@ process tree (``ru_maxrss`` of the waited-for children):
   ``Classification[2:2]`` -> ``writers.gdal`` (``idw``, 1 m);
 * ``multipass`` and ``outlier`` (only when named in ``--rows``: PDAL has neither):
   ``aldpat filter multipass FILE --cell 1 --result classified`` and the same for ``outlier``,
-  their own defaults otherwise.
+  their own defaults otherwise;
+* ``grid-linear`` (only when named): ``aldpat grid FILE --method linear --cell 1``, the TIN of
+  every point (Surfer 7 grid, the default format); with ``gapm-defaults`` in the same run the
+  bench prints its time over the filter's.
 
 Ratios: PDAL's time over aldpat's (gapm rows against ``pdal-smrf``, ``dtm`` against
 ``pdal-dtm``) and aldpat's peak memory over PDAL's. The load average is printed before and after
@@ -69,13 +72,13 @@ OUT = WORK / "out_pdal"
 POINTS = 10_053_120
 CELL = 1.0
 SET01 = REPO / "jobs" / "params" / "gapm-isprs-set01.toml"
-ALDPAT_ROWS = ("gapm-defaults", "gapm-set01", "dtm", "multipass", "outlier")
+ALDPAT_ROWS = ("gapm-defaults", "gapm-set01", "dtm", "multipass", "outlier", "grid-linear")
 #: rows of filters PDAL has no counterpart of, measured alone (not run unless asked: ``--rows``)
-OWN_ROWS = ("multipass", "outlier")
+OWN_ROWS = ("multipass", "outlier", "grid-linear")
 PDAL_ROWS = ("pdal-smrf", "pdal-dtm")
 #: each aldpat row and the PDAL row it is compared with
 PEER_OF = {"gapm-defaults": "pdal-smrf", "gapm-set01": "pdal-smrf", "dtm": "pdal-dtm", "multipass": None,
-           "outlier": None}
+           "outlier": None, "grid-linear": None}
 
 #: PDAL 2.8.4 on this file when no PDAL runs here: (seconds, peak bytes, when and how measured).
 STORED = {
@@ -126,6 +129,9 @@ def pdal_pipeline(row: str, las: Path) -> list[dict]:
 
 def aldpat_command(row: str, las: Path, odir: Path) -> list[str]:
     cmd = [sys.executable, "-m", "aldpat"]
+    if row == "grid-linear":
+        return [*cmd, "grid", str(las), "--method", "linear", "--cell", f"{CELL:g}", "--odir", str(odir),
+                "--overwrite", "-q"]
     if row == "dtm":
         return [*cmd, "dtm", str(las), "--cell", f"{CELL:g}", "--odir", str(odir), "--overwrite", "-q"]
     algorithm = row if row in OWN_ROWS else "gapm"
@@ -162,6 +168,8 @@ def timed(cmd: list[str], env: dict | None = None, stdin: str | None = None) -> 
 
 
 def output_of(row: str, las: Path, odir: Path) -> Path:
+    if row == "grid-linear":
+        return next(p for p in sorted(odir.iterdir()) if p.name.startswith(las.stem))
     if row == "dtm":
         return odir / f"{las.stem}_dtm.tif"
     return odir / f"{las.stem}_{row if row in OWN_ROWS else 'gapm'}{las.suffix}"
@@ -183,6 +191,8 @@ def nodes_of(path: Path) -> tuple[np.ndarray, tuple]:
 
 def fingerprint(row: str, path: Path) -> str:
     """A short hash of what the row produced: the classes, or the DTM's nodes to the millimetre."""
+    if row == "grid-linear":
+        return f"{path.name}, {path.stat().st_size:,} bytes"
     if row == "dtm":
         z, transform = nodes_of(path)
         mm = np.where(np.isnan(z), -(2**62), np.round(z * 1000)).astype(np.int64)
@@ -198,6 +208,8 @@ def compare(row: str, new: Path, old: Path) -> str:
     it on the same nodes (DTM)."""
     if row == "dtm":
         return compare_dtms(new, old)
+    if row == "grid-linear":
+        return "same bytes" if new.read_bytes() == old.read_bytes() else "bytes differ (not compared node by node)"
     a, b = classes_of(new), classes_of(old)
     if a.shape != b.shape:
         return f"{len(a):,} points against {len(b):,}: FAILS"
@@ -308,6 +320,10 @@ def run(rows: list[str], against: str | None, repeat: int, file: Path | None) ->
                      + compare(row, output_of(row, las, odir), output_of(row, las, old_dir)))
         peer = PEER_OF[row]
         print(row_line(row, points, m, note, measured.get(peer) if peer else None, peer in stored), flush=True)
+    if "grid-linear" in measured and "gapm-defaults" in measured:
+        ratio = measured["grid-linear"]["seconds"] / measured["gapm-defaults"]["seconds"]
+        print(f"\ngrid --method linear took {ratio:.2f} x the time of gapm's defaults (the filter's own time) "
+              f"in this run")
     print(f"\nbest of {repeat} for the aldpat rows (largest peak); PDAL once. Ratios: PDAL's wall time over "
           "aldpat's, aldpat's peak over PDAL's.")
 
