@@ -10,6 +10,7 @@ column order of the 9-column tapes (task 1: "t, x2, y2, z2, i2, x1, y1, z1, i1" 
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -129,13 +130,20 @@ class ChunkOption(SharedOption, Checked):
         super().check()
         if self.catalog and self.chunk is None:
             raise ParamError("catalog: takes the inputs together in chunks; give --chunk SIZE too")
-        if self.chunk_buffer != "auto":
-            try:
-                value = float(self.chunk_buffer)
-            except ValueError:
-                raise ParamError(f"chunk_buffer: expected metres or auto, got {self.chunk_buffer!r}") from None
-            if not value >= 0:
-                raise ParamError(f"chunk_buffer: must be at least 0, got {self.chunk_buffer}")
+        self.buffer_metres()
+
+    def buffer_metres(self) -> float | None:
+        """``chunk_buffer`` in metres, or None for ``auto`` (what the filter or the grid needs):
+        the one place it is read, so a bad value is refused when the parameters are made."""
+        if self.chunk_buffer == "auto":
+            return None
+        try:
+            value = float(self.chunk_buffer)
+        except ValueError:
+            raise ParamError(f"chunk_buffer: expected metres or auto, got {self.chunk_buffer!r}") from None
+        if not (math.isfinite(value) and value >= 0):
+            raise ParamError(f"chunk_buffer: must be at least 0, got {self.chunk_buffer}")
+        return value
 
 
 @dataclass(frozen=True)

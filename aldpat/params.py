@@ -330,12 +330,11 @@ def _check_bounds(spec: Spec, v: Any, where: str) -> None:
         raise ParamError(f"{where}{spec.name}: {format_value(v)} is out of range (must be >= {-LARGEST:g})")
 
 
-def coerce(spec: Spec, value: Any, where: str = "") -> Any:
-    """Validate and convert ``value`` for ``spec``; raise :class:`ParamError` naming the key.
-
-    Accepts native TOML values and command-line strings (sequences as ``1,2,3``).
-    ``where`` prefixes the message (e.g. ``"job 2: "``).
-    """
+def convert(spec: Spec, value: Any, where: str = "") -> Any:
+    """``value`` as ``spec``'s kind: a native TOML value or a command-line string (sequences as
+    ``1,2,3``), an earlier spelling of a choice replaced; a :class:`ParamError` naming the key
+    (``where`` prefixes it, e.g. ``"job 2: "``) when it is not of that kind. Whether it is in
+    range is the params instance's to say, once, when it is made (:func:`check_value`)."""
     if value is None or (isinstance(value, str) and value.lower() == "none" and spec.optional):
         if spec.optional:
             return None
@@ -348,21 +347,42 @@ def coerce(spec: Spec, value: Any, where: str = "") -> Any:
             items = list(value)
         else:
             items = [value]
-        out = tuple(_scalar(item_kind, it, spec, where) for it in items)
-        if spec.length is not None and len(out) != spec.length:
-            raise ParamError(f"{where}{spec.name}: expected {spec.length} values, got {len(out)}")
-        if not out and spec.length is None and not spec.optional:
-            raise ParamError(f"{where}{spec.name}: expected at least one value")
-        for v in out:
-            _check_bounds(spec, v, where)
-        return out
+        return tuple(_scalar(item_kind, it, spec, where) for it in items)
     v = _scalar(spec.kind, value, spec, where)
-    if isinstance(v, str):
-        v = _renamed_value(spec, v, where)
-        if spec.path and (why := not_local(v)) is not None:
-            raise ParamError(f"{where}{spec.name}: {shown(v)} is {why}")
+    return _renamed_value(spec, v, where) if isinstance(v, str) else v
+
+
+def check_value(spec: Spec, v: Any, where: str = "") -> None:
+    """A :class:`ParamError` naming the key when the converted value ``v`` is out of
+    ``spec``'s range: bounds, choices, a sequence's length, a path that is not a local file."""
+    if v is None:
+        return
+    if spec.is_sequence:
+        if spec.length is not None and len(v) != spec.length:
+            raise ParamError(f"{where}{spec.name}: expected {spec.length} values, got {len(v)}")
+        if not v and spec.length is None and not spec.optional:
+            raise ParamError(f"{where}{spec.name}: expected at least one value")
+        for item in v:
+            _check_bounds(spec, item, where)
+        return
+    if isinstance(v, str) and spec.path and (why := not_local(v)) is not None:
+        raise ParamError(f"{where}{spec.name}: {shown(v)} is {why}")
     _check_bounds(spec, v, where)
+
+
+def coerce(spec: Spec, value: Any, where: str = "") -> Any:
+    """Validate and convert ``value`` for ``spec`` (:func:`convert`, then :func:`check_value`);
+    raise :class:`ParamError` naming the key. ``where`` prefixes the message (e.g. ``"job 2: "``)."""
+    v = convert(spec, value, where)
+    check_value(spec, v, where)
     return v
+
+
+def check_values(obj: Any) -> None:
+    """Every parameter of the params instance ``obj`` of its kind and in its range: what
+    :class:`Checked` does when an instance is made, before its own rules."""
+    for s in specs(type(obj)):
+        check_value(s, convert(s, getattr(obj, s.name)))
 
 
 def _renamed_value(spec: Spec, value: str, where: str) -> str:
@@ -440,26 +460,30 @@ def resolve(params_cls: type, layers: Sequence[tuple[str, Mapping[str, Any]]], w
                 if allow_unknown:
                     continue
                 raise unknown_key_error(raw_key, smap, where)
-            values[key] = coerce(spec, raw, where)
+            values[key] = convert(spec, raw, where)  # in range: checked once, when the instance is made
             sources[key] = source
     for name, spec in smap.items():
         if spec.required and values[name] is None:
             raise ParamError(f"{where}{name}: required ({spec.option} on the command line)")
     try:
-        obj = params_cls(**values)  # runs Checked.check
+        obj = params_cls(**values)  # a Checked class checks its values and rules as it is made
+        if not isinstance(obj, Checked):
+            check_values(obj)
     except ParamError as exc:
         raise ParamError(f"{where}{exc.message}") from None
     return Resolved(obj, sources)
 
 
 class Checked:
-    """Base of a params class with rules that relate several parameters or need more than a
-    bound (series that must fit together, a CRS or geoid that must exist): it overrides
-    :meth:`check`, calling ``super().check()``. The one hook runs whenever an instance is made --
-    by :func:`resolve` (which names the job in the error, so ``aldpat run --dry-run`` reports
-    it before any input is read) or in Python."""
+    """Base of a params class whose instances are checked as they are made, once, wherever they
+    are made -- by :func:`resolve` (which names the job in the error, so ``aldpat run --dry-run``
+    reports it before any input is read), by ``dataclasses.replace`` or in Python: every value
+    of its kind and in its range (:func:`check_values`), then the class's rules that relate
+    several parameters or need more than a bound (series that must fit together, a CRS or geoid
+    that must exist), which it states by overriding :meth:`check`, calling ``super().check()``."""
 
     def __post_init__(self) -> None:
+        check_values(self)
         self.check()
 
     def check(self) -> None:
@@ -469,11 +493,3 @@ class Checked:
 class SharedOption:
     """Direct base of an option several params classes take by inheritance (:mod:`aldpat.options`):
     its fields are listed after the class's own in ``--help`` and logs."""
-
-
-def validate_instance(obj: Any) -> Any:
-    """Re-check the bounds of a params instance built directly in Python (keyword arguments);
-    its :meth:`Checked.check` already ran when it was made."""
-    for s in specs(type(obj)):
-        coerce(s, getattr(obj, s.name))
-    return obj

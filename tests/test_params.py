@@ -3,7 +3,7 @@ from dataclasses import dataclass
 import pytest
 
 from aldpat.errors import ParamError
-from aldpat.params import coerce, param, resolve, spec_map, specs
+from aldpat.params import Checked, check_value, coerce, convert, param, resolve, spec_map, specs
 
 
 @dataclass(frozen=True)
@@ -65,3 +65,73 @@ def test_unknown_key_suggests_the_closest():
         resolve(Demo, [("worksheet", {"windos": [1]})], where="job 3: ")
     # dashes and underscores are the same key
     assert resolve(Demo, [("cli", {"cell": 2})]).values.cell == 2.0
+
+
+# ---------------------------------------------------------------------------- checked once
+
+
+@dataclass(frozen=True)
+class CheckedDemo(Checked):
+    cell: float = param(1.0, "grid cell size", unit="m", gt=0)
+    windows: tuple[int, ...] = param((1, 2, 4), "half windows", unit="cells", ge=1)
+
+    def check(self) -> None:
+        super().check()
+        if self.windows[-1] * self.cell > 100:
+            raise ParamError("windows: the largest reaches past 100 m")
+
+
+def test_convert_gives_the_kind_and_check_value_the_range():
+    cell = spec_map(CheckedDemo)["cell"]
+    assert convert(cell, "-2") == -2.0  # of its kind; whether it is in range is the instance's to say
+    with pytest.raises(ParamError, match="cell: expected a number"):
+        convert(cell, "abc")
+    with pytest.raises(ParamError, match=r"cell: -2 is out of range \(must be > 0\)"):
+        check_value(cell, -2.0)
+
+
+def test_an_instance_is_checked_once_wherever_it_is_made(monkeypatch):
+    import dataclasses
+
+    import aldpat.params as params_module
+
+    seen: list[str] = []
+    checked = params_module._check_bounds
+    monkeypatch.setattr(params_module, "_check_bounds", lambda spec, v, where: (seen.append(spec.name),
+                                                                                checked(spec, v, where)))
+    resolve(CheckedDemo, [("cli", {"cell": "2", "windows": "1,3"})])
+    assert sorted(seen) == ["cell", "windows", "windows"]  # each value once (a sequence: each item)
+    with pytest.raises(ParamError, match=r"job 3: cell: -1 is out of range"):
+        resolve(CheckedDemo, [("worksheet", {"cell": -1})], where="job 3: ")
+    # made in Python, or replaced: the same checks, values and rules alike
+    with pytest.raises(ParamError, match=r"cell: 0 is out of range"):
+        CheckedDemo(cell=0)
+    with pytest.raises(ParamError, match="windows: 0 is out of range"):
+        dataclasses.replace(CheckedDemo(), windows=(0, 2))
+    with pytest.raises(ParamError, match="the largest reaches past 100 m"):
+        dataclasses.replace(CheckedDemo(), cell=50.0)
+
+
+def test_a_class_without_rules_is_checked_by_resolve():
+    with pytest.raises(ParamError, match=r"job 1: count: 11 is out of range"):
+        resolve(Demo, [("worksheet", {"count": 11})], where="job 1: ")
+
+
+@pytest.mark.parametrize("given, metres", [("auto", None), ("12.5", 12.5), ("0", 0.0)])
+def test_chunk_buffer_is_read_in_one_place(given, metres):
+    from aldpat.options import ChunkOption
+
+    assert ChunkOption(chunk_buffer=given).buffer_metres() == metres
+
+
+@pytest.mark.parametrize("given, message", [
+    ("abc", "chunk_buffer: expected metres or auto, got 'abc'"), ("-1", "chunk_buffer: must be at least 0"),
+    ("inf", "chunk_buffer: must be at least 0"), ("nan", "chunk_buffer: must be at least 0"),
+])
+def test_a_bad_chunk_buffer_is_refused_when_the_parameters_are_made(given, message):
+    from aldpat.options import ChunkOption
+
+    with pytest.raises(ParamError, match=message):
+        ChunkOption(chunk_buffer=given)
+    with pytest.raises(ParamError, match="job 2: " + message):
+        resolve(ChunkOption, [("worksheet", {"chunk_buffer": given})], where="job 2: ")

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.low_points import point_spacing
-from aldpat.errors import UsageError
+from aldpat.errors import ParamError
 from aldpat.filters.driver import ground_filter
 from aldpat.filters.grid_stage import low_outlier_reach
 from aldpat.filters.registry import get_filter
@@ -46,25 +46,33 @@ class ChunkPlan:
     buffer_cells: int
 
 
-def chunk_plan(algorithm: str, params: Any, size: float, buffer: float | str) -> ChunkPlan:
-    """Chunks of ``size`` m (rounded to whole cells) with a buffer of ``buffer`` m (rounded up to
-    whole cells), or with ``"auto"`` the filter's reach."""
+def chunk_plan(algorithm: str, params: Any) -> ChunkPlan:
+    """The chunks of ``params.chunk`` m (rounded to whole cells) with a buffer of
+    ``params.chunk_buffer`` m (rounded up to whole cells), or with ``auto`` what the filter needs
+    (its reach, or its own buffer). A :class:`ParamError` when the options cannot make chunks:
+    ``auto`` for a filter that knows no buffer, or buffers that copy each point too many times
+    (:meth:`ChunkLattice.check_copies`). The filter task checks this plan with its parameters
+    (:func:`aldpat.tasks.filter.check_filter_run`), so a dry run refuses what the run would."""
+    assert params.chunk is not None
     cell = float(getattr(params, "cell", None) or 1.0)  # point filters' chunks: on whole metres
-    cells = max(1, round(size / cell))
+    cells = max(1, round(params.chunk / cell))
     spec = get_filter(algorithm)
-    if buffer == "auto" and spec.reach is not None:
+    given = params.buffer_metres()
+    if given is not None:
+        buffer_cells = math.ceil(given / cell - 1e-9)
+    elif spec.reach is not None:
         # empty cells are filled from their nearest point: for a cell within the reach of a point
         # that point lies within twice the reach, so twice the reach sees every value used
         buffer_cells = 2 * int(spec.reach(params)) + 1
-    elif buffer == "auto":
-        if spec.buffer is None:
-            raise UsageError(f"--chunk-buffer auto: {algorithm} has no bounded reach; give the buffer in metres")
+    elif spec.buffer is not None:
         # and the low-outlier test's reach, doubled as the grid filters' (it fills empty cells)
         buffer_cells = math.ceil(spec.buffer(params) / cell - 1e-9) + 2 * low_outlier_reach(params)
     else:
-        buffer_cells = math.ceil(float(buffer) / cell - 1e-9)
+        raise ParamError(f"chunk_buffer: {algorithm} has no bounded reach to size an auto buffer; give the buffer in metres")
     origin = getattr(params, "origin", None) or (0.0, 0.0)
-    return ChunkPlan(ChunkLattice(cells * cell, buffer_cells * cell, origin), cells, buffer_cells)
+    lattice = ChunkLattice(cells * cell, buffer_cells * cell, origin)
+    lattice.check_copies()
+    return ChunkPlan(lattice, cells, buffer_cells)
 
 
 def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, plan: ChunkPlan, scratch: Path, *,

@@ -31,7 +31,6 @@ from aldpat.filters.classify import CellHeights, FilterResult
 from aldpat.filters.grid_stage import cell_classes, low_outlier_points, points_spacing
 from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_LOW_OUTLIER
 from aldpat.filters.registry import FilterSpec, get_filter
-from aldpat.params import validate_instance
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +83,7 @@ def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None
         params = spec.params()
     elif not isinstance(params, spec.params):
         raise ParamError(f"filter {algorithm!r} takes {spec.params.__name__}, got {type(params).__name__}")
-    validate_instance(params)
+    # its values and rules were checked when it was made (aldpat.params.Checked)
     x = np.ascontiguousarray(x, dtype=np.float64)
     y = np.ascontiguousarray(y, dtype=np.float64)
     z = np.ascontiguousarray(z, dtype=np.float64)

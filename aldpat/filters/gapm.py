@@ -364,7 +364,20 @@ def gapm_reach(p: GapmParams) -> int:
     return sum(2 * k for k in p.window_series) + max(rows, columns) + spans + low_outlier_reach(p)
 
 
+def gapm_needs_every_point(p: GapmParams) -> str | None:
+    """Why gapm must see every point at once: ``--auto`` derives its cell and windows from them."""
+    return "--auto derives the cell and windows from all the points at once" if p.auto else None
+
+
+def gapm_with_points(p: GapmParams, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[GapmParams, str]:
+    """``--auto`` applied to the points (:func:`with_auto`), and what the job's log says of it."""
+    p = with_auto(p, x, y, z)
+    return p, (f"--auto: cell = {p.cell:g} m, window_series = {list(p.window_series)}, "
+               f"row_windows = {list(p.row_windows or ())}, column_windows = {list(p.column_windows or ())}")
+
+
 @register_filter("gapm", params=GapmParams, reach=gapm_reach, takes_codes=True,
+                 needs_every_point=gapm_needs_every_point, with_points=gapm_with_points,
                  summary="generalized adaptive morphological filter with cluster and trend analysis "
                          "(dissertation ch. 6)")
 def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams, *, in_place: bool = False, decode=None

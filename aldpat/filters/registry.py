@@ -24,6 +24,11 @@ FilterFn = Callable[[np.ndarray, np.ndarray, object], np.ndarray]
 PointFilterFn = Callable[[np.ndarray, np.ndarray, np.ndarray, LowestGrid, object], np.ndarray]
 
 
+def _needs_no_more(params: Any) -> str | None:
+    """A filter that takes its points as they come (chunk by chunk, streamed): no reason to see them all."""
+    return None
+
+
 @dataclass(frozen=True)
 class FilterSpec:
     """A registered filter: a grid filter (``fn`` on a mark matrix) or, when ``on_points``, a
@@ -52,6 +57,14 @@ class FilterSpec:
     #: codes (:mod:`aldpat.core.height_codes`; ``decode`` gives their heights), and may overwrite
     #: them when ``in_place``: the filter's working surface at the codes' size, no float64 copy.
     takes_codes: bool = False
+    #: ``needs_every_point(params) -> why | None``: why the filter with these params must see
+    #: every point of a file at once before it runs (gapm's ``--auto`` derives its cell and
+    #: windows from them), None when it need not. Such a run is neither streamed nor chunked, and
+    #: :attr:`with_points` completes its params first.
+    needs_every_point: Callable[[Any], str | None] = _needs_no_more
+    #: ``with_points(params, x, y, z) -> (params, note)``: the params derived from every point
+    #: where :attr:`needs_every_point` says so, and what the job's log says of them.
+    with_points: Callable[..., tuple[Any, str]] | None = None
 
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
@@ -61,19 +74,24 @@ FILTERS: dict[str, FilterSpec] = {}
 def register_filter(name: str, *, params: type, summary: str,
                     rotations: Callable[[Any], Sequence[float]] | None = None, on_points: bool = False,
                     noise: Callable[..., np.ndarray] | None = None, reach: Callable[[Any], int] | None = None,
-                    buffer: Callable[[Any], float] | None = None, takes_codes: bool = False):
+                    buffer: Callable[[Any], float] | None = None, takes_codes: bool = False,
+                    needs_every_point: Callable[[Any], str | None] | None = None,
+                    with_points: Callable[..., tuple[Any, str]] | None = None):
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
     if not (isinstance(params, type) and issubclass(params, base)):
         raise TypeError(f"filter {name!r}: params must subclass {base.__name__}")
+    if (needs_every_point is None) != (with_points is None):
+        raise TypeError(f"filter {name!r}: needs_every_point and with_points go together")
 
     def deco(fn: Callable) -> Callable:
         if name in FILTERS and FILTERS[name].fn is not fn:
             raise ValueError(f"filter {name!r} is registered twice")
         FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
                                    on_points=on_points, noise=noise, reach=reach,
-                                   buffer=buffer, takes_codes=takes_codes)
+                                   buffer=buffer, takes_codes=takes_codes,
+                                   needs_every_point=needs_every_point or _needs_no_more, with_points=with_points)
         return fn
 
     return deco

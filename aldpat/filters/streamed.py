@@ -10,7 +10,8 @@ memory: the same cells, the same grid stage (:func:`aldpat.filters.grid_stage.ce
 per-point tests.
 
 Which runs can go this way (:func:`streamable`): a grid filter without rotations (each needs every
-point at once), on heights given as scaled integers. The low-outlier test decides from the grid
+point at once) that needs no parameter derived from every point (``FilterSpec.needs_every_point``),
+on heights given as scaled integers. The low-outlier test decides from the grid
 (:mod:`aldpat.core.low_points`), so it streams too. So does the noise of a filter that finds noise
 (``outlier``, dissertation §4.1.1): a point's noise class depends only on its own height, its cell's
 mark and the final ground surface at its cell (:class:`ChunkNoise`), all known after pass one --
@@ -54,7 +55,7 @@ def streamable(algorithm: str, params) -> bool:
         return False  # the surface test may give a cell's lowest point another mark than the cell's
     if spec.rotations is not None and any(float(a) % 360.0 for a in spec.rotations(params)):
         return False
-    return not getattr(params, "auto", False)
+    return spec.needs_every_point(params) is None
 
 
 def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHeights, cell: float,

@@ -28,7 +28,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.core.resources import check_disk, count_text
 from aldpat.core.workers import WorkerPool
-from aldpat.errors import UsageError
+from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import scratch_dir
 
 #: one spilled point: its row in the input, and its coordinates
@@ -45,6 +45,20 @@ class ChunkLattice:
         """Column and row of the chunk each point belongs to."""
         ox, oy = self.origin
         return (np.floor((x - ox) / self.size).astype(np.int64), np.floor((y - oy) / self.size).astype(np.int64))
+
+    @property
+    def copies(self) -> float:
+        """How many chunks hold each point, its own and those whose buffers reach it (on average)."""
+        return ((self.size + 2 * self.buffer) / self.size) ** 2
+
+    def check_copies(self) -> None:
+        """Refuse (:class:`ParamError`: the options ask for it) chunks whose buffers copy each
+        point more than :data:`MOST_COPIES` times: a rule of the options alone, checked with them."""
+        if not self.copies <= MOST_COPIES:
+            least = 2 * self.buffer / (math.sqrt(MOST_COPIES) - 1)
+            raise ParamError(f"--chunk {self.size:g} m with a {self.buffer:g} m buffer copies every point "
+                             f"into {self.copies:,.0f} chunks (at most {MOST_COPIES}); use a --chunk of at least "
+                             f"{least:.4g} m or a smaller --chunk-buffer")
 
 
 #: The most copies of a point a chunked run may spill (the area of a chunk with its buffer over
@@ -70,18 +84,12 @@ def expected_points(reader) -> int:
 
 
 def check_spill(lattice: ChunkLattice, readers, folder: Path, path: Path | None = None) -> None:
-    """Refuse, before a byte is spilled, chunks whose buffers copy each point more than
-    :data:`MOST_COPIES` times (a usage error: the options ask for it) and spill files larger than
-    the free disk of ``folder``; ``path`` is the input named."""
-    copies = ((lattice.size + 2 * lattice.buffer) / lattice.size) ** 2
-    if not copies <= MOST_COPIES:
-        least = 2 * lattice.buffer / (math.sqrt(MOST_COPIES) - 1)
-        raise UsageError(f"--chunk {lattice.size:g} m with a {lattice.buffer:g} m buffer copies every point into "
-                         f"{copies:,.0f} chunks (at most {MOST_COPIES}); use a --chunk of at least {least:.4g} m "
-                         "or a smaller --chunk-buffer", path=path)
+    """Refuse, before a byte is spilled, spill files larger than the free disk of ``folder``;
+    ``path`` is the input named. (How many copies the buffers make the options decide, and
+    :meth:`ChunkLattice.check_copies` refuses with them.)"""
     points = sum(expected_points(r) for r in readers)
-    check_disk(points * copies * RECORD.itemsize, folder,
-               f"spilling {count_text(points)} points into chunks with buffers ({copies:.1f} copies each)",
+    check_disk(points * lattice.copies * RECORD.itemsize, folder,
+               f"spilling {count_text(points)} points into chunks with buffers ({lattice.copies:.1f} copies each)",
                "give --tmpdir on a disk with room, a larger --chunk or a smaller --chunk-buffer", path=path)
 
 

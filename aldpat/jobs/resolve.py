@@ -7,6 +7,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from aldpat.errors import ParamError
 from aldpat.jobs.task import Task
 from aldpat.options import InputParams, OutputParams, RunParams
 from aldpat.params import Resolved, renamed_keys, resolve, specs, with_current_names
@@ -36,7 +37,8 @@ class ResolvedRun:
 
 
 def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], where: str = "") -> ResolvedRun:
-    """Split raw values among the task's params classes, validating each (unknown keys -> error)."""
+    """Split raw values among the task's params classes, validating each (unknown keys -> error),
+    then the task's own rules (:attr:`Task.check`)."""
     known = {s.name for s in task.all_specs()}
     renames = renamed_keys(task.all_specs())
     layers = [(source, with_current_names(mapping, renames, where)) for source, mapping in layers]
@@ -51,5 +53,10 @@ def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], whe
         names = {s.name for s in specs(cls)}
         sub = [(src, {k: v for k, v in m.items() if k.replace("-", "_") in names}) for src, m in layers]
         parts[cls] = resolve(cls, sub, where)
+    if task.check is not None:
+        try:
+            task.check(parts[task.params].values)
+        except ParamError as exc:
+            raise ParamError(f"{where}{exc.message}") from None
     output = next((part for cls, part in parts.items() if issubclass(cls, OutputParams)), None)
     return ResolvedRun(task, parts[task.params], output, parts.get(InputParams), parts[RunParams])

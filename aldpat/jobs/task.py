@@ -13,6 +13,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from aldpat.options import InputParams, OutputParams, PointOutputParams, RunParams
 from aldpat.params import specs
@@ -77,6 +78,12 @@ class Task:
     #: ``ctx.output_path`` before anything runs; the run function takes its names from it
     #: (``ctx.outputs_for(source)``). An output made from every input (a mosaic) has no source.
     outputs: Callable | None = None
+    #: ``check(params)``: the task's rules that relate its parameters to what their class cannot
+    #: see itself (``aldpat filter``: the filter's registered reach, whether it needs every point
+    #: at once), raising :class:`~aldpat.errors.ParamError`; run when a run's parameters are
+    #: resolved, right after the class's own :meth:`~aldpat.params.Checked.check`, so a dry run
+    #: refuses what the run would. Rules of the parameters alone belong in that class.
+    check: Callable[[Any], None] | None = None
 
     @property
     def key(self) -> str:

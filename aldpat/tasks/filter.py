@@ -30,7 +30,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.crs import output_crs
-from aldpat.errors import UsageError
+from aldpat.errors import ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.marks import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
@@ -76,18 +76,42 @@ def with_noise(cls: np.ndarray, kind: np.ndarray) -> np.ndarray:
     return cls
 
 
-def apply_auto(params, x: np.ndarray, y: np.ndarray, z: np.ndarray, note: Callable[[str], None] | None = None):
-    """``params`` with ``--auto``'s cell and windows derived from the points (gapm), told to
-    ``note`` (a job's log: ``ctx.note``; else this module's logger); unchanged without ``auto``."""
-    if not getattr(params, "auto", False):
+def with_every_point(algorithm: str, params, x: np.ndarray, y: np.ndarray, z: np.ndarray,
+                     note: Callable[[str], None] | None = None):
+    """``params`` completed from every point where the filter needs them all
+    (:attr:`~aldpat.filters.registry.FilterSpec.needs_every_point`: gapm's ``--auto`` derives its
+    cell and windows), told to ``note`` (a job's log: ``ctx.note``; else this module's logger);
+    unchanged otherwise."""
+    spec = FILTERS[algorithm]
+    if spec.with_points is None or spec.needs_every_point(params) is None:
         return params
-    from aldpat.filters.gapm import with_auto
-
-    params = with_auto(params, x, y, z)
-    (note or log.info)(f"--auto: cell = {params.cell:g} m, window_series = {list(params.window_series)}, "
-                       f"row_windows = {list(params.row_windows or ())}, column_windows = "
-                       f"{list(params.column_windows or ())}")
+    params, told = spec.with_points(params, x, y, z)
+    (note or log.info)(told)
     return params
+
+
+def check_filter_run(params, *, algorithm: str) -> None:
+    """The rules of ``aldpat filter ALGO`` that relate its options to the filter's declaration
+    (:class:`~aldpat.filters.registry.FilterSpec`), which its params class cannot see: checked
+    when a run's parameters are resolved (``Task.check``), so that ``--dry-run`` and ``aldpat run
+    --dry-run`` refuse, with the same message, what the run would refuse before reading a point.
+
+    ``--chunk`` filters each chunk with its buffer on its own: not with ``--data-mode center``
+    (one point per cell of the whole file) nor with parameters derived from every point at once;
+    and its chunks must be ones the options can make (:func:`aldpat.filters.chunked.chunk_plan`).
+    """
+    from aldpat.filters.chunked import chunk_plan
+
+    if params.chunk is None:
+        return
+    if params.data_mode == "center":
+        raise ParamError("chunk: --data-mode center writes one point per cell of the whole file; run it whole "
+                         "(without --chunk)")
+    why = FILTERS[algorithm].needs_every_point(params)
+    if why is not None:
+        raise ParamError(f"chunk: a chunk holds only some of the points, and {why}; run the file whole, or run it "
+                         "once whole and pass what its log says was derived")
+    chunk_plan(algorithm, params)
 
 
 def classify_points(table: PointTable, algorithm: str, params, note: Callable[[str], None] | None = None
@@ -98,7 +122,7 @@ def classify_points(table: PointTable, algorithm: str, params, note: Callable[[s
     (:func:`~aldpat.filters.survey.taking_part`); the others are unclassified here."""
     part = taking_part(table, params)  # withheld points and ignored classes take no part
     taken = table if part is None else table.take(part)
-    params = apply_auto(params, taken.x, taken.y, taken.z, note)
+    params = with_every_point(algorithm, params, taken.x, taken.y, taken.z, note)
     res = ground_filter(taken.x, taken.y, taken.z, algorithm, params)
     return res, _every_point(point_classes(res, taken.z, params, algorithm), part, UNCLASSIFIED)
 
@@ -283,15 +307,11 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     from aldpat.filters.chunked import chunk_plan, filter_chunks
     from aldpat.io.chunks import check_spill, scratch_folder
 
-    if params.data_mode == "center":
-        raise UsageError("--chunk: --data-mode center writes one point per cell of the whole file; run it whole")
-    if getattr(params, "auto", False):
-        raise UsageError("--chunk with --auto: --auto derives its windows from all the points; derive them once "
-                         "(aldpat filter gapm --auto on the file writes them to its log) and pass them")
+    # --data-mode center and filters needing every point were refused with the parameters (check_filter_run)
     sources = [source, *ctx.neighbours]  # the catalog's other inputs (--catalog), else none
     readers = [ctx.open_input(s) for s in sources]
     params = with_result(params, source, ctx, readers[0])
-    plan = chunk_plan(algorithm, params, params.chunk, params.chunk_buffer)
+    plan = chunk_plan(algorithm, params)
     outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers, strict=False)]
     check_spill(plan.lattice, readers, Path(params.tmpdir) if params.tmpdir else outputs[0][0][0].parent, source)
     for path, _ in (o for outs in outputs for o in outs):  # refuse an existing output before the long part
@@ -390,6 +410,7 @@ def _register_all() -> None:
 
         register_task(Task(name=name, group="filter", summary=spec.summary, params=spec.params,
                            run_one=run, plan=plan_catalog, examples=filter_examples(name, spec.params),
+                           check=functools.partial(check_filter_run, algorithm=name),
                            outputs=functools.partial(filter_outputs, algorithm=name)))
 
 

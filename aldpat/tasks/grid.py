@@ -114,6 +114,8 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
                 raise ParamError(f"bounds: maximum must exceed minimum (got {minx:g} {miny:g} {maxx:g} {maxy:g})")
         if self.nodata is not None and self.grid_format in ("surfer6", "surfer6-ascii"):
             raise ParamError("nodata: applies to surfer7 and GeoTIFF grids; Surfer 6 grids always use 1.70141e38")
+        if self.chunk is not None:
+            ChunkLattice(chunk_cells(self) * self.cell, chunk_buffer_for(self)).check_copies()
 
 
 def grid_spec_for(params, xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
@@ -337,11 +339,19 @@ def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
 
 
 def chunk_buffer_for(params: GridParams) -> float:
-    """``--chunk-buffer auto`` of a grid: the search radius or blanking distance where one is
-    given, else ten cells (a TIN, nearest point or IDW over data spaced less than that apart)."""
-    if params.chunk_buffer != "auto":
-        return float(params.chunk_buffer)
+    """``--chunk-buffer`` of a grid in metres; ``auto``: the search radius or blanking distance
+    where one is given, else ten cells (a TIN, nearest point or IDW over data spaced less than
+    that apart)."""
+    given = params.buffer_metres()
+    if given is not None:
+        return given
     return max(params.radius or 0.0, params.max_distance or 0.0, 10.0 * params.cell)
+
+
+def chunk_cells(params: GridParams) -> int:
+    """The side of a ``--chunk`` in whole cells."""
+    assert params.chunk is not None
+    return max(1, round(params.chunk / params.cell))
 
 
 def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None
@@ -350,7 +360,7 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
     points of its square and its buffer only (:mod:`aldpat.io.chunks`); memory is a chunk's points
     and the grid. Returns the grid and the number of points."""
     assert params.chunk is not None  # grid_one calls this only with --chunk
-    k = max(1, round(params.chunk / params.cell))
+    k = chunk_cells(params)
     buffer = chunk_buffer_for(params)
     # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1
     lattice = ChunkLattice(k * params.cell, buffer, (spec.xmin - params.cell / 2, spec.ymin - params.cell / 2))

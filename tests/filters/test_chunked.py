@@ -88,14 +88,14 @@ def test_the_other_filters_agree_on_a_real_strip(tmp_path, algorithm):
 def test_point_filters_take_their_own_buffer_with_auto(tmp_path):
     """slope: its search radius and two cells; ipf and poly2: three first windows; atin: the
     manual's Tile Buffer; each with twice the low-outlier test's terrain (20 m at 1 m cells)."""
-    buffers = {name: chunk_plan(name, FILTERS[name].params(), 100.0, "auto").lattice.buffer
+    buffers = {name: chunk_plan(name, FILTERS[name].params(chunk=100.0)).lattice.buffer
                for name in ("slope", "ipf", "poly2", "atin")}
     assert buffers == {"slope": 50.0, "ipf": 130.0, "poly2": 160.0, "atin": 140.0}
-    bare = {name: chunk_plan(name, FILTERS[name].params(low_outliers=None), 100.0, "auto").lattice.buffer
+    bare = {name: chunk_plan(name, FILTERS[name].params(low_outliers=None, chunk=100.0)).lattice.buffer
             for name in ("slope", "ipf", "poly2", "atin")}
     assert bare == {"slope": 10.0, "ipf": 90.0, "poly2": 120.0, "atin": 100.0}
-    wide = FILTERS["ipf"].params(init_window_length=50.0, cell=2.0)
-    assert chunk_plan("ipf", wide, 100.0, "auto").lattice.buffer == 150.0 + 40.0
+    wide = FILTERS["ipf"].params(init_window_length=50.0, cell=2.0, chunk=100.0)
+    assert chunk_plan("ipf", wide).lattice.buffer == 150.0 + 40.0
     report = get_task("filter", "slope")([SAMPLE], odir=str(tmp_path), chunk=50.0)
     assert report.exit_code == 0
     assert "with 50 m buffers" in (tmp_path / "samp24_slope.log").read_text()
@@ -106,12 +106,12 @@ def test_a_filter_without_reach_or_buffer_asks_for_metres(monkeypatch):
 
     monkeypatch.setitem(FILTERS, "slope", dataclasses.replace(FILTERS["slope"], buffer=None))
     with pytest.raises(UsageError, match="give the buffer in metres"):
-        chunk_plan("slope", FILTERS["slope"].params(), 100.0, "auto")
-    assert chunk_plan("slope", FILTERS["slope"].params(), 100.0, "25").lattice.buffer == 25.0
+        chunk_plan("slope", FILTERS["slope"].params(chunk=100.0))
+    assert chunk_plan("slope", FILTERS["slope"].params(chunk=100.0, chunk_buffer="25")).lattice.buffer == 25.0
 
 
 def test_chunks_are_whole_cells_on_the_files_lattice():
-    plan = chunk_plan("gapm", FILTERS["gapm"].params(), 100.0, "10")
+    plan = chunk_plan("gapm", FILTERS["gapm"].params(chunk=100.0, chunk_buffer="10"))
     assert plan.cells == 133 and plan.lattice.size == pytest.approx(99.75)  # 0.75 m cells
     assert plan.buffer_cells == 14 and plan.lattice.buffer == pytest.approx(10.5)
 
@@ -225,3 +225,32 @@ def test_chunks_have_the_files_grid_edges(tmp_path, algorithm):
     chunks = laspy.read(tmp_path / "chunks" / name)
     np.testing.assert_array_equal(np.asarray(chunks.classification), np.asarray(whole.classification))
     np.testing.assert_array_equal(np.asarray(chunks["mark"]), np.asarray(whole["mark"]))
+
+
+def test_only_a_filter_needing_every_point_says_so():
+    """The filter's own hook, not a parameter's name, says a run needs every point at once."""
+    from aldpat.filters.streamed import streamable
+    from aldpat.tasks.filter import with_every_point
+
+    auto = FILTERS["gapm"].params(auto=True)
+    assert "--auto" in FILTERS["gapm"].needs_every_point(auto)
+    assert not streamable("gapm", auto)
+    assert all(spec.needs_every_point(spec.params()) is None for spec in FILTERS.values())
+    plain = FILTERS["pm"].params()
+    assert with_every_point("pm", plain, np.zeros(3), np.zeros(3), np.zeros(3)) is plain
+
+
+@pytest.mark.parametrize("algorithm, options, message", [
+    ("gapm", {"auto": True}, "chunk: a chunk holds only some of the points, and --auto derives"),
+    ("pm", {"data_mode": "center"}, "chunk: --data-mode center writes one point per cell"),
+    ("slope", {"data_mode": "center"}, "chunk: --data-mode center writes one point per cell"),
+    ("pm", {"chunk": 1.0}, r"--chunk 1 m with a \d+ m buffer copies every point into"),
+])
+def test_the_rules_of_chunks_are_checked_with_the_parameters(algorithm, options, message):
+    """Refused as the run's parameters are resolved (a worksheet job's number in front), before
+    any input is looked at."""
+    from aldpat.jobs.resolve import resolve_run
+
+    with pytest.raises(UsageError, match="job 4: " + message):
+        resolve_run(get_task("filter", algorithm), [("worksheet", {"chunk": 50.0, **options})], where="job 4: ")
+    resolve_run(get_task("filter", algorithm), [("worksheet", {k: v for k, v in options.items() if k != "chunk"})])
