@@ -36,7 +36,7 @@ def test_cli_options_are_derived_from_the_declaration(key):
         assert spec.option in options, f"{key}: {spec.option} missing from the command line"
         param = next(p for p in cmd.params if spec.option in p.opts)
         assert spec.help.rstrip(".") in param.help
-    declared = {s.name for s in task.all_specs()} | {"inputs", "params_file", "verbose", "quiet"}
+    declared = {s.name for s in task.all_specs()} | {"inputs", "params_file", "verbose", "quiet", "dry_run"}
     renamed = {old for s in task.all_specs() for old in s.renamed_from}  # earlier names, hidden
     assert {p.name for p in cmd.params if not getattr(p, "hidden", False)} == declared
     assert {p.name for p in cmd.params if getattr(p, "hidden", False)} == renamed

@@ -11,7 +11,7 @@ import click
 
 from aldpat.params import LEVELS
 
-#: Options of every command that are not parameters (``--params``, ``-v``, ``-q``, ``--help``):
+#: Options of every command that are not parameters (``--params``, ``--dry-run``, ``-v``, ``-q``, ``--help``):
 #: listed with the common ones.
 DEFAULT_LEVEL = "common"
 

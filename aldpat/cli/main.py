@@ -23,7 +23,7 @@ from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.io.toml import load_toml
-from aldpat.jobs.run import run_task
+from aldpat.jobs.run import PlannedRun, plan_run, run_task
 from aldpat.jobs.task import Task
 from aldpat.params import renamed_keys, spec_map
 from aldpat.tasks import TASKS
@@ -59,7 +59,7 @@ def make_command(task: Task) -> click.Command:
     specs = task.all_specs()
 
     @click.pass_context
-    def callback(ctx: click.Context, inputs=(), params_file=None, verbose=0, quiet=0, **raw):
+    def callback(ctx: click.Context, inputs=(), params_file=None, verbose=0, quiet=0, dry_run=False, **raw):
         from click.core import ParameterSource
 
         root = ctx.find_root().params
@@ -74,6 +74,8 @@ def make_command(task: Task) -> click.Command:
             if params_file:
                 layers.append(("params file", load_toml(params_file)))
             layers.append(("cli", given))
+            if dry_run:
+                sys.exit(show_plan(task, plan_run(task, list(inputs), layers)))
             with job_progress(task, enabled=not quiet) as progress:
                 report = run_task(task, list(inputs), layers, command=command_line(task, inputs, given, params_file),
                                   progress=progress)
@@ -98,6 +100,8 @@ def make_command(task: Task) -> click.Command:
     params += [option_for(s) for s in specs]
     params += [renamed_option(s, old) for s in specs for old in s.renamed_from]
     params.append(params_file_opt)
+    params.append(click.Option(["--dry-run"], is_flag=True, help="check the parameters, inputs and outputs, and show "
+                               "the jobs as they would run; read and write nothing"))
     params.append(click.Option(["-v", "--verbose"], count=True, help="more detail on stderr"))
     params.append(click.Option(["-q", "--quiet"], count=True, help="only errors on stderr, no progress or summary"))
     return GuidedCommand(
@@ -105,6 +109,23 @@ def make_command(task: Task) -> click.Command:
         short_help=task.summary.rstrip("."), context_settings={"max_content_width": 110},
         no_args_is_help=task.inputs != "none", examples=task.examples,
     )
+
+
+def show_plan(task: Task, plan: PlannedRun) -> int:
+    """``--dry-run``: the jobs, the outputs they would write and every parameter with its source,
+    on stdout; the exit status (1 when an input cannot be found, as the run would end)."""
+    click.echo(f"# aldpat {task.key}: {len(plan.jobs)} job(s) as they would run; nothing read or written")
+    for number, job in enumerate(plan.jobs, 1):
+        click.echo(f"# job {number}: {', '.join(job) if job else '(no input)'}")
+        for out in plan.outputs:
+            if out.source is not None and job and str(out.source) == job[0]:
+                click.echo(f"#   writes {out.path}")
+    for out in plan.outputs:
+        if out.source is None:
+            click.echo(f"# writes {out.path} (from every input)")
+    for name, value, source in plan.run.record():
+        click.echo(f"{name} = {value}    # {source}")
+    return 1 if plan.input_errors else 0
 
 
 #: ``aldpat --help`` lists the commands in the order of ALDPAT's workflow (the README's table),

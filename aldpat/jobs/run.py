@@ -22,7 +22,7 @@ from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.outputs import check_outputs, forget_folders
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
-from aldpat.jobs.task import Task
+from aldpat.jobs.task import Planned, Task
 
 log = logging.getLogger(__name__)
 
@@ -58,12 +58,23 @@ def plan_jobs(task: Task, sources: list[Path], run: ResolvedRun) -> list[list[st
     return [[str(s) for s in sources]]
 
 
-def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
-             command: str | None = None, base: Path | None = None, progress: Progress | None = None,
-             resolved: ResolvedRun | None = None) -> RunReport:
-    """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
+@dataclass
+class PlannedRun:
+    """What a run would do, everything checked that can be before a point is read."""
+
+    run: ResolvedRun
+    sources: list[Path]
+    input_errors: list[str]
+    jobs: list[list[str]]  # the inputs of each job
+    outputs: list[Planned]
+
+
+def plan_run(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
+             base: Path | None = None, resolved: ResolvedRun | None = None) -> PlannedRun:
+    """Resolve and check the parameters (the task's rules too), expand the inputs, refuse an
+    output that would replace an input or another output, and plan the jobs: what
+    :func:`run_task` does before running anything, and all that ``--dry-run`` does."""
     run = resolved or resolve_run(task, layers)
-    command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
     skipped: list[str] = []
     sources, errors = expand_inputs(inputs, base, skipped) if task.inputs != "none" else ([], [])
     for line in skipped:
@@ -74,10 +85,22 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     if task.inputs == "many" and not sources:
         if not input_errors:
             raise UsageError("no inputs given")
-        return RunReport(task.key, [], input_errors)
+        return PlannedRun(run, [], input_errors, [], [])
     forget_folders()
-    check_outputs(task, sources, run)  # before anything runs: no output replaces an input or another
+    outputs = check_outputs(task, sources, run)  # before anything runs: no output replaces an input or another
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
+    return PlannedRun(run, sources, input_errors, jobs, outputs)
+
+
+def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
+             command: str | None = None, base: Path | None = None, progress: Progress | None = None,
+             resolved: ResolvedRun | None = None) -> RunReport:
+    """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
+    plan = plan_run(task, inputs, layers, base=base, resolved=resolved)
+    run, sources, input_errors, jobs = plan.run, plan.sources, plan.input_errors, plan.jobs
+    command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
+    if task.inputs == "many" and not sources:
+        return RunReport(task.key, [], input_errors)
     first = task.first(sources, run.params.values, run.input.values if run.input else None) \
         if task.first is not None and sources else []
     wanted = run.run.values.jobs or (os.cpu_count() or 1)

@@ -1,0 +1,87 @@
+"""``--dry-run`` refuses what the run refuses, with the same one-line message, before a point is read.
+
+Every rule that can refuse a combination of options runs when the parameters are resolved (the
+params class's own check, a task's ``check``): so ``aldpat COMMAND ... --dry-run`` and ``aldpat run
+--dry-run`` on a worksheet holding the same job see it, and the run refuses it the same way
+before reading anything. Each case runs three ways in a fresh process: the command, the command
+with ``--dry-run``, and a worksheet job with ``aldpat run --dry-run``.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from tests.cli.fresh import DATA, aldpat, aldpat_batch
+
+SAMPLE = DATA / "samp24.txt"
+
+#: (command line after ``aldpat``, the refusal): each a combination of options the run refuses
+REFUSED = [
+    (["filter", "gapm", "--auto", "--chunk", "50"],
+     r"chunk: a chunk holds only some of the points, and --auto derives the cell and windows from all the points"),
+    (["filter", "pm", "--data-mode", "center", "--chunk", "50"],
+     r"chunk: --data-mode center writes one point per cell of the whole file; run it whole"),
+    (["filter", "atin", "--data-mode", "center", "--chunk", "50"],
+     r"chunk: --data-mode center writes one point per cell of the whole file; run it whole"),
+    (["filter", "pm", "--chunk", "1"], r"--chunk 1 m with a \d+ m buffer copies every point into [\d,]+ chunks"),
+    (["filter", "slope", "--chunk", "10", "--chunk-buffer", "500"],
+     r"--chunk 10 m with a 500 m buffer copies every point into 10,201 chunks"),
+    (["filter", "etew", "--chunk", "50", "--chunk-buffer", "inf"], r"chunk_buffer: must be at least 0, got inf"),
+    (["filter", "pm", "--chunk", "50", "--chunk-buffer", "ten"], r"chunk_buffer: expected metres or auto, got 'ten'"),
+    (["filter", "pm", "--catalog"], r"catalog: takes the inputs together in chunks; give --chunk SIZE too"),
+    (["grid", "--chunk", "1", "--chunk-buffer", "40"], r"--chunk 1 m with a 40 m buffer copies every point into 6,561"),
+    (["dtm", "--auto", "--algorithm", "pm"], r"auto: derives gapm's parameters; --algorithm is pm"),
+]
+
+
+def _job(words: list[str]) -> str:
+    """The worksheet job of a command line: ``--key value`` as ``key = "value"``, a flag as true."""
+    task, rest = words[0], words[1:]
+    lines = ["[[job]]", f'task = "{task}"']
+    if task == "filter":
+        lines.append(f'algorithm = "{rest.pop(0)}"')
+    lines += ['inputs = ["samp24.txt"]', 'odir = "out"']
+    while rest:
+        key = rest.pop(0)[2:].replace("-", "_")
+        value = "true" if not rest or rest[0].startswith("--") else f'"{rest.pop(0)}"'
+        lines.append(f"{key} = {value}")
+    return "\n".join(lines) + "\n"
+
+
+def test_dry_run_refuses_what_the_run_refuses(tmp_path):
+    (tmp_path / "samp24.txt").write_bytes(SAMPLE.read_bytes())
+    cases = []
+    for i, (words, _) in enumerate(REFUSED):
+        (tmp_path / f"job{i}.toml").write_text(_job(words), encoding="utf-8")
+        command = [*words[:2 if words[0] == "filter" else 1], "samp24.txt", *words[2 if words[0] == "filter" else 1:],
+                   "--odir", "out"]
+        cases += [{"args": command, "cwd": tmp_path}, {"args": [*command, "--dry-run"], "cwd": tmp_path},
+                  {"args": ["run", f"job{i}.toml", "--dry-run"], "cwd": tmp_path}]
+    done = aldpat_batch(cases)
+    for i, (_, message) in enumerate(REFUSED):
+        run, dry, sheet = done[3 * i:3 * i + 3]
+        for case in (run, dry, sheet):
+            assert case["status"] == 2, (case["args"], case["status"], case["stderr"])
+            assert case["stderr"].count("\n") == 1, case["stderr"]  # one line
+            assert case["stdout"] == "", case["stdout"]
+        assert re.fullmatch(rf"aldpat: error: {message}.*\n", run["stderr"]), run["stderr"]
+        assert dry["stderr"] == run["stderr"]  # the same message
+        assert sheet["stderr"] == run["stderr"].replace("aldpat: error: ", f"aldpat: error: {tmp_path / f'job{i}.toml'}: "
+                                                         "job 1: ")
+    # nothing written: no output, no log, no scratch folder
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["samp24.txt", *(f"job{i}.toml" for i in
+                                                                                 range(len(REFUSED)))])
+
+
+@pytest.mark.parametrize("words", [["filter", "gapm", "--auto"], ["filter", "pm", "--chunk", "100"]])
+def test_dry_run_shows_the_jobs_and_writes_nothing(tmp_path, words):
+    (tmp_path / "samp24.txt").write_bytes(SAMPLE.read_bytes())
+    done = aldpat(*words[:2], "samp24.txt", *words[2:], "--odir", "out", "--dry-run", cwd=tmp_path).ok()
+    lines = done.stdout.splitlines()
+    assert lines[:3] == [f"# aldpat {' '.join(words[:2])}: 1 job(s) as they would run; nothing read or written",
+                         "# job 1: samp24.txt", f"#   writes out/samp24_{words[1]}.txt"]
+    assert "odir = out    # cli" in lines and f"{words[2][2:]} = {'true' if len(words) == 3 else '100'}    # cli" in lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["samp24.txt"]
+
