@@ -161,9 +161,9 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path,
         task = get_task(name, algorithm if name == "filter" else None)
     except UsageError as exc:
         raise UsageError(f"{where}{exc}", path=wpath) from None
-    if algorithm and name != "filter":
-        raise UsageError(f"{where}key 'algorithm' belongs to task 'filter' only", path=wpath)
     specs = {s.name: s for s in task.all_specs()}
+    if algorithm and name != "filter" and "algorithm" not in specs:
+        raise UsageError(f"{where}key 'algorithm' belongs to task 'filter' only", path=wpath)
     inputs = raw.get("inputs", [])
     if isinstance(inputs, str):
         inputs = [inputs]
@@ -192,7 +192,8 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path,
         layers.append(("worksheet", rebased(params, folder)))
     elif params is not None:
         raise UsageError(f"{where}params: expected a file name or a table", path=wpath)
-    own = {k: v for k, v in raw.items() if k not in JOB_KEYS}
+    # ``algorithm`` names a filter task; of another task (dtm's ground filter) it is a parameter
+    own = {k: v for k, v in raw.items() if k not in JOB_KEYS or (k == "algorithm" and name != "filter")}
     layers.append(("worksheet", rebased(own, folder)))
     if given:
         layers.append(("cli", given))

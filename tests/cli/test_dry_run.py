@@ -85,3 +85,12 @@ def test_dry_run_shows_the_jobs_and_writes_nothing(tmp_path, words):
     assert "odir = out    # cli" in lines and f"{words[2][2:]} = {'true' if len(words) == 3 else '100'}    # cli" in lines
     assert sorted(p.name for p in tmp_path.iterdir()) == ["samp24.txt"]
 
+
+def test_a_worksheet_gives_dtm_its_algorithm(tmp_path):
+    """``algorithm`` names a filter task's filter; of ``dtm`` it is a parameter like any other, so
+    the job table a worksheet log replays (which spells it out) loads again."""
+    (tmp_path / "samp24.txt").write_bytes(SAMPLE.read_bytes())
+    (tmp_path / "w.toml").write_text('[[job]]\ntask = "dtm"\nalgorithm = "pm"\ninputs = ["samp24.txt"]\n',
+                                     encoding="utf-8")
+    done = aldpat("run", "w.toml", "--dry-run", cwd=tmp_path).ok()
+    assert 'algorithm = "pm"    # worksheet' in done.stdout.splitlines()
