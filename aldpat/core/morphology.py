@@ -167,13 +167,48 @@ def opening_along_trend(z: np.ndarray, k: int) -> np.ndarray:
     narrower than ``k`` is continued at the height of the ground beside it and opened away as
     before. Rows shorter than four cells, or ``k`` 0, are
     opened as :func:`opening` opens them. Only cells within ``2 k`` of an end can differ from
-    :func:`opening`, and only there can a value be one of the continuation's.
+    :func:`opening`, and only there can a value be one of the continuation's
+    (:func:`trend_opening_at_ends` gives those cells alone).
     """
     z = np.asarray(_check(z, k, "line", 1), dtype=np.float64)
-    rows, n = z.shape
+    n = z.shape[1]
     k = int(k)
     if k == 0 or n < 4:
         return opening(z, k, window="line", axis=1)
+    left, right = _trend_continuations(z, k)
+    padded = np.concatenate([left, z, right], axis=1)
+    return np.ascontiguousarray(opening(padded, k, window="line", axis=1)[:, k:k + n])
+
+
+def trend_opening_at_ends(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first and the last ``min(2 k, n)`` columns of :func:`opening_along_trend` of ``z``
+    (``n`` columns; ``k`` >= 1, ``n`` >= 4), the same values, from the ``4 k`` cells at each end.
+
+    Elsewhere the opening along the trend is the plain :func:`opening`: an opening of half
+    window ``k`` reads ``2 k`` cells either side of a cell, so only the cells within ``2 k`` of
+    an end see the continuation, and they read no further in than ``4 k`` cells. A filter that
+    has the plain opening already (on height codes, say) opens these end pieces alone instead of
+    a second, padded copy of every row.
+    """
+    z = np.asarray(_check(z, k, "line", 1), dtype=np.float64)
+    n = z.shape[1]
+    k = int(k)
+    reach = min(2 * k, n)
+    if n <= 4 * k:  # the end pieces would cover the row: open it whole
+        whole = opening_along_trend(z, k)
+        return whole[:, :reach], whole[:, n - reach:]
+    left, right = _trend_continuations(z, k)
+    inner = 4 * k
+    first = opening(np.concatenate([left, z[:, :inner]], axis=1), k, window="line", axis=1)[:, k:k + reach]
+    last = opening(np.concatenate([z[:, n - inner:], right], axis=1), k, window="line", axis=1)
+    return first, last[:, inner - reach:inner]
+
+
+def _trend_continuations(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` cells continuing every row of ``z`` past its first and its last cell along the
+    line through the lowest of its ``k`` end cells and the lowest of the ``k`` before them
+    (:func:`opening_along_trend`); ``z`` float64 of at least four columns."""
+    rows, n = z.shape
     span = min(k, n // 2)
     cols = np.arange(n)
     line = np.arange(rows)
@@ -191,5 +226,4 @@ def opening_along_trend(z: np.ndarray, k: int) -> np.ndarray:
     steps = np.arange(1, k + 1)
     right = continued(lowest(n - span, n), lowest(n - 2 * span, n - span), n - 1, steps)
     left = continued(lowest(0, span), lowest(span, 2 * span), 0, steps[::-1])
-    padded = np.concatenate([left, z, right], axis=1)
-    return np.ascontiguousarray(opening(padded, k, window="line", axis=1)[:, k:k + n])
+    return left, right

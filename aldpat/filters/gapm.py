@@ -215,10 +215,9 @@ def adaptive_step(zc, unfiltered, k, ct, rules: StepRules, axis: int = 1, decode
     init_bin, divisor, use_cluster_diff, edges = rules
     if edges == "trend":
         if axis == 1:
-            zo, diff = opened_along_trend(zc, k, decode)
+            zo, diff, zc = opened_along_trend(zc, k, decode)
         else:
-            zo, diff = (a.T for a in opened_along_trend(np.ascontiguousarray(zc.T), k, decode))
-        zc = decode(zc) if decode is not None else zc
+            zo, diff, zc = (a.T for a in opened_along_trend(np.ascontiguousarray(zc.T), k, decode))
     else:
         zo = morphology.opening(zc, k, window="line", axis=axis)
         if decode is not None:
@@ -252,37 +251,43 @@ def adaptive_step(zc, unfiltered, k, ct, rules: StepRules, axis: int = 1, decode
     return removed, zo
 
 
-def opened_along_trend(zc: np.ndarray, k: int, decode=None) -> tuple[np.ndarray, np.ndarray]:
+def opened_along_trend(zc: np.ndarray, k: int, decode=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The opening of every row of ``zc`` with a line window of half size ``k``, the rows continued
     past their ends along their trend (:func:`aldpat.core.morphology.opening_along_trend`): the
-    opened surface, as ``zc`` holds it (height codes when ``decode`` is given), and every cell's
-    height above the trend's opening (float64).
+    opened surface, as ``zc`` holds it (height codes when ``decode`` is given), every cell's
+    height above the trend's opening, and the heights of ``zc`` (both float64).
 
     The surface the next window opens must hold the grid's own values, so that codes and float64
     heights give the same classes bit for bit: the opening is the trend's except near the ends of
     a row, where it may take a value of the continuation. There each cell takes the highest of
     the row's own heights near the end that is not above it (the lowest, if all are): the trend's
     opening brought down to a height the grid holds.
+
+    The rows are opened once, as ``zc`` holds them; only the ``4 k`` cells at each end are opened
+    again along the trend (:func:`aldpat.core.morphology.trend_opening_at_ends`). Away from the
+    ends the trend's opening of the heights is the heights of that opening, value for value: an
+    opening only picks values, and decoding keeps their order.
     """
     heights = decode(zc) if decode is not None else np.asarray(zc, dtype=np.float64)
-    trend = morphology.opening_along_trend(heights, k)
-    diff = np.subtract(heights, trend)
-    zo = morphology.opening(zc, k, window="line", axis=1)  # the same away from the ends
+    zo = morphology.opening(zc, k, window="line", axis=1)
+    diff = np.subtract(heights, decode(zo) if decode is not None else zo)
     rows, n = heights.shape
-    reach = min(2 * k, n)  # the cells the continuation can reach
     if k == 0 or n < 4:
-        return zo, diff
+        return zo, diff, heights
+    reach = min(2 * k, n)  # the cells the continuation can reach
     pool = min(4 * k, n)  # the heights near an end a cell there may take
+    first, last = morphology.trend_opening_at_ends(heights, k)
     line = np.arange(rows)[:, None]
-    for ends, near in ((slice(n - reach, n), slice(n - pool, n)), (slice(0, reach), slice(0, pool))):
+    for ends, near, trend in ((slice(n - reach, n), slice(n - pool, n), last), (slice(0, reach), slice(0, pool), first)):
+        diff[:, ends] = heights[:, ends] - trend
         own = heights[:, near][:, None, :]  # (rows, 1, pool)
-        target = trend[:, ends][:, :, None]  # (rows, reach, 1)
+        target = trend[:, :, None]  # (rows, reach, 1)
         below = own <= target
         pick = np.where(below, own, -np.inf).argmax(axis=2)
         lowest = np.broadcast_to(own.argmin(axis=2), pick.shape)
         pick = np.where(below.any(axis=2), pick, lowest)
         zo[:, ends] = zc[:, near][line, pick]
-    return zo, diff
+    return zo, diff, heights
 
 
 def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = None, in_place: bool = False,

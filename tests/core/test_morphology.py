@@ -141,3 +141,19 @@ def test_opening_along_trend_keeps_a_slope_rising_to_the_edge():
     assert np.array_equal(opening_along_trend(z, 6)[:, 12:-12], opening(z, 6, window="line", axis=1)[:, 12:-12])
     short = rng.normal(size=(2, 3))
     assert np.array_equal(opening_along_trend(short, 2), opening(short, 2, window="line", axis=1))
+
+
+@pytest.mark.parametrize("k, n", [(1, 4), (1, 5), (2, 8), (2, 9), (3, 13), (6, 70), (8, 20), (20, 81)])
+def test_trend_opening_at_ends_is_the_whole_rows_opening_there(k, n):
+    """The end pieces opened alone give the very values of opening the whole rows along the
+    trend: on rows just longer than 4 k (the pieces' reach) and on rows the pieces cover."""
+    from aldpat.core.morphology import opening_along_trend, trend_opening_at_ends
+
+    rng = np.random.default_rng(k * 100 + n)
+    z = np.round(rng.normal(size=(7, n)).cumsum(axis=1), 2)
+    z[2] = np.linspace(0, 30, n)  # rising to the edge: the continuation's values get picked
+    whole = opening_along_trend(z, k)
+    first, last = trend_opening_at_ends(z, k)
+    reach = min(2 * k, n)
+    assert np.array_equal(first, whole[:, :reach])
+    assert np.array_equal(last, whole[:, n - reach:])
