@@ -31,7 +31,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from aldpat.core import morphology
+from aldpat.core import morphology, rise
 from aldpat.core.auto_windows import SET01_CELL, auto_windows
 from aldpat.core.progressive import mark_dtype
 from aldpat.core.threads import thread_budget
@@ -210,44 +210,31 @@ def adaptive_step(zc, unfiltered, k, ct, rules: StepRules, axis: int = 1, decode
     Returns (cells removed, opened surface). ``decode``: ``zc`` holds height codes
     (:mod:`aldpat.core.height_codes`) and the opened surface is returned as codes; an opening
     only moves values, so it is the same opening of the heights. ``edges="trend"``: the lines
-    are continued past their ends along their trend (:func:`opened_along_trend`).
+    are continued past their ends along their trend (:func:`opened_along_trend`). Columns are
+    the rows of the transposed grid (the filter hands its column passes blocks transposed).
     """
+    if axis == 0:
+        removed, zo = adaptive_step(np.ascontiguousarray(zc.T), np.ascontiguousarray(unfiltered.T), k, ct, rules,
+                                    decode=decode)
+        return removed.T, zo.T
     init_bin, divisor, use_cluster_diff, edges = rules
     if edges == "trend":
-        if axis == 1:
-            zo, diff, zc = opened_along_trend(zc, k, decode)
-        else:
-            zo, diff, zc = (a.T for a in opened_along_trend(np.ascontiguousarray(zc.T), k, decode))
+        zo, diff, zc = opened_along_trend(zc, k, decode)
     else:
-        zo = morphology.opening(zc, k, window="line", axis=axis)
-        if decode is not None:
-            zc = decode(zc)
-            diff = np.subtract(zc, decode(zo))
-        else:
-            diff = np.subtract(zc, zo)
-    if k >= init_bin:
-        # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines
-        # 16-20): beyond that band the answer is known without the analysis, so clusters and
-        # minima are evaluated only for the cells inside it.
-        cap = ct * k / divisor
-        removed = diff > cap
-        removed &= unfiltered
-        band = diff > min(ct, cap)
-        band &= unfiltered
-        band &= ~removed
-        r, c = np.nonzero(band)
-        if r.size:
-            if axis == 1:
-                thresh = candidate_thresholds(zc, unfiltered, r * zc.shape[1] + c, k, ct,
-                                              max_divisor=divisor, use_cluster_diff=use_cluster_diff)
-            else:  # the analysis runs along lines: hand it the transposed views
-                thresh = candidate_thresholds(zc.T, unfiltered.T, c * zc.shape[0] + r, k, ct,
-                                              max_divisor=divisor, use_cluster_diff=use_cluster_diff)
-            hit = diff[r, c] > thresh
-            removed[r[hit], c[hit]] = True
-    else:
-        removed = diff > ct
-        removed &= unfiltered
+        zo = morphology.opening(zc, k, window="line", axis=1)
+        zc, diff = rise.heights_and_rise(zc, zo, decode)
+    if k < init_bin:
+        removed, _ = rise.removed_and_band(diff, unfiltered, ct, math.inf)
+        return removed, zo
+    # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines 16-20):
+    # beyond that band the answer is known without the analysis, so clusters and minima are
+    # evaluated only for the cells inside it.
+    cap = ct * k / divisor
+    removed, band = rise.removed_and_band(diff, unfiltered, cap, min(ct, cap))
+    if band.size:
+        thresh = candidate_thresholds(zc, unfiltered, band, k, ct, max_divisor=divisor,
+                                      use_cluster_diff=use_cluster_diff)
+        removed.ravel()[band[diff.ravel()[band] > thresh]] = True
     return removed, zo
 
 
@@ -268,9 +255,8 @@ def opened_along_trend(zc: np.ndarray, k: int, decode=None) -> tuple[np.ndarray,
     ends the trend's opening of the heights is the heights of that opening, value for value: an
     opening only picks values, and decoding keeps their order.
     """
-    heights = decode(zc) if decode is not None else np.asarray(zc, dtype=np.float64)
     zo = morphology.opening(zc, k, window="line", axis=1)
-    diff = np.subtract(heights, decode(zo) if decode is not None else zo)
+    heights, diff = rise.heights_and_rise(zc, zo, decode)
     rows, n = heights.shape
     if k == 0 or n < 4:
         return zo, diff, heights
