@@ -192,30 +192,35 @@ def run_table(algos: list[str], threads: list[int | None], peers: bool, check: b
 
 def run_stages(repeat: int) -> None:
     """gapm's two runs with a timer around each step, in this process (after a first run that
-    loads every library)."""
-    from aldpat.core import segments, surface_check
+    loads every library): wall seconds and CPU seconds of the process (all its threads) in each
+    step. On a machine shared with other work the wall time stretches with the load; the CPU
+    time much less, so it is the figure to compare between two versions of a step there."""
+    from aldpat.core import segments, spans, surface_check
     from aldpat.filters import classify, gapm, grid_stage, streamed
     from aldpat.io import las as las_io
     from aldpat.tasks import get_task
 
     las = source_file()
-    spent: dict[str, float] = {}
+    spent: dict[str, tuple[float, float]] = {}
 
     def timed(owner, name: str, label: str):
         fn = getattr(owner, name)
 
         def wrapper(*args, **kwargs):
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             try:
                 return fn(*args, **kwargs)
             finally:
-                spent[label] = spent.get(label, 0.0) + time.perf_counter() - start
+                wall_before, cpu_before = spent.get(label, (0.0, 0.0))
+                spent[label] = (wall_before + time.perf_counter() - start, cpu_before + time.process_time() - cpu)
 
         setattr(owner, name, wrapper)
 
     timed(streamed, "lowest_codes", "pass 1: read and grid the lowest points")
+    timed(grid_stage, "find_low_outliers", "low-outlier test")
     timed(grid_stage, "fill_nearest", "fill the empty cells (nearest neighbour)")
     timed(segments, "raised_segments", "raised-segment test")
+    timed(spans, "raised_spans", "raised spans")
     timed(gapm, "adaptive_sequential", "gapm's row and column passes")
     timed(surface_check.SurfaceTest, "build", "provisional surface and slope")
     timed(classify.CellClasses, "classify", "pass 2: classify every point")
@@ -223,21 +228,24 @@ def run_stages(repeat: int) -> None:
     for row in ("gapm", "gapm-defaults"):
         algo, values = filter_and_params(row)
         get_task("filter", algo)([str(las)], odir=str(OUT / row), overwrite=True, result="classified", **values)
-        best: dict[str, float] = {}
-        total = float("inf")
+        best: dict[str, tuple[float, float]] = {}
+        total, total_cpu = float("inf"), 0.0
         for _ in range(repeat):
             spent.clear()
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             get_task("filter", algo)([str(las)], odir=str(OUT / row), overwrite=True, result="classified", **values)
             wall = time.perf_counter() - start
             if wall < total:
-                total, best = wall, dict(spent)
-        print(f"\n### {row}: {total:.1f} s in all (best of {repeat}, in-process: no start-up)\n")
-        print("| step | seconds | share |\n|---|---|---|")
-        for label, seconds in best.items():
-            print(f"| {label} | {seconds:.2f} | {100 * seconds / total:.0f} % |")
-        rest = total - sum(best.values())
-        print(f"| the rest (pass 2's reading, the marks, files) | {rest:.2f} | {100 * rest / total:.0f} % |")
+                total, total_cpu, best = wall, time.process_time() - cpu, dict(spent)
+        print(f"\n### {row}: {total:.1f} s in all, {total_cpu:.1f} CPU s (best of {repeat}, in-process: no "
+              f"start-up; load average {os.getloadavg()[0]:.1f})\n")
+        print("| step | seconds | share | CPU seconds |\n|---|---|---|---|")
+        for label, (seconds, cpu_seconds) in best.items():
+            print(f"| {label} | {seconds:.2f} | {100 * seconds / total:.0f} % | {cpu_seconds:.2f} |")
+        rest = total - sum(w for w, _ in best.values())
+        rest_cpu = total_cpu - sum(c for _, c in best.values())
+        print(f"| the rest (pass 2's reading, the marks, files) | {rest:.2f} | {100 * rest / total:.0f} % "
+              f"| {rest_cpu:.2f} |")
 
 
 def main() -> None:
