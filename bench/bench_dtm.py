@@ -38,6 +38,14 @@ edge (where a TIN slants down to the outermost points) and keep planes and steps
 node counts only where it stands out of its neighbourhood, not where the ground is steep or runs
 to the DTM's edge. For
 CSite1 it also prints the DTM's height at (512959, 5403189), where a stepped building stood.
+
+The envelope also cuts terrain that stands out of its surroundings -- a hilltop, a platform on a
+slope -- so the remnant patches are split by what the DTM's own ground points say at their edges
+(:func:`patch_edges`): a patch is *stepped* where at least half of the TIN edges between its
+ground points and those around it climb more than ``STEP_RISE`` onto it at more than
+``STEP_SLOPE`` (a roof piece left standing: its points stand on a wall), *smooth* where fewer do
+(terrain rising gently to its top, or an object only a map can tell), and *without points* where
+no ground point lies in it (a TIN facet slanting between sparse points).
 """
 
 from __future__ import annotations
@@ -241,6 +249,79 @@ def level_counts(z: np.ndarray, cell: float) -> dict:
     return out
 
 
+#: A TIN edge climbing more than this (m) onto a remnant patch, at more than this slope, is a step.
+STEP_RISE = 1.5
+STEP_SLOPE = 0.5
+#: TIN edges longer than this (m) are left out (across data gaps and the hull).
+LONGEST_EDGE = 15.0
+
+
+def patch_edges(labels: np.ndarray, transform, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Per patch of ``labels`` (1..n; the DTM's nodes, placed by ``transform``), what its edges
+    are made of, from the ground points ``x, y, z``: 0 without points (no ground point in it),
+    1 smooth, 2 stepped (the module's docstring). Index 0 of the result is unused."""
+    from scipy.spatial import Delaunay
+
+    n = int(labels.max())
+    kind = np.zeros(n + 1, np.int8)
+    keep = np.unique(np.round(x, 2) * 1e8 + np.round(y, 2), return_index=True)[1]  # one point per place
+    x, y, z = x[keep], y[keep], z[keep]
+    col = np.clip(np.floor((x - transform.c) / transform.a).astype(np.int64), 0, labels.shape[1] - 1)
+    row = np.clip(np.floor((y - transform.f) / transform.e).astype(np.int64), 0, labels.shape[0] - 1)
+    patch = labels[row, col]
+    simplices = Delaunay(np.c_[x, y]).simplices
+    edges = np.unique(np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [2, 0]]]),
+                              axis=1), axis=0)
+    a, b = edges[:, 0], edges[:, 1]
+    length = np.hypot(x[a] - x[b], y[a] - y[b])
+    cross = (length <= LONGEST_EDGE) & ((patch[a] > 0) != (patch[b] > 0))
+    inside = np.where(patch[a] > 0, a, b)[cross]
+    outside = np.where(patch[a] > 0, b, a)[cross]
+    rise = z[inside] - z[outside]
+    step = (rise > STEP_RISE) & (rise > STEP_SLOPE * length[cross])
+    crossing = np.bincount(patch[inside], minlength=n + 1)
+    stepped = np.bincount(patch[inside], weights=step, minlength=n + 1)
+    kind[crossing > 0] = 1
+    kind[(crossing > 0) & (stepped >= 0.5 * crossing)] = 2
+    return kind
+
+
+def remnant_kinds(z: np.ndarray, cell: float, transform, ground: tuple[np.ndarray, np.ndarray, np.ndarray]
+                  ) -> dict[str, tuple[int, int]]:
+    """The remnant nodes and patches (:func:`level_counts`) by what their edges are made of
+    (:func:`patch_edges`): ``{"stepped": (nodes, patches), "smooth": ..., "without points": ...}``."""
+    from scipy import ndimage
+
+    lower, _ = envelopes(z, cell)
+    with np.errstate(invalid="ignore"):
+        labels, n = ndimage.label(z - lower > LEVEL, structure=np.ones((3, 3)))
+    out = {}
+    if n == 0:
+        return {name: (0, 0) for name in ("stepped", "smooth", "without points")}
+    kind = patch_edges(labels, transform, *ground)
+    size = np.bincount(labels.ravel(), minlength=n + 1)
+    for name, k in (("stepped", 2), ("smooth", 1), ("without points", 0)):
+        pick = kind == k
+        pick[0] = False
+        out[name] = (int(size[pick].sum()), int(pick.sum()))
+    return out
+
+
+def site_ground(path: Path, options: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points ``aldpat dtm`` with ``options`` takes for ground in the file ``path``."""
+    import laspy
+
+    import aldpat.tasks  # noqa: F401  (registers every filter)
+    from aldpat.filters.driver import ground_filter
+    from aldpat.tasks.dtm import DtmParams
+
+    las = laspy.read(path)
+    x, y, z = (np.asarray(v, np.float64) for v in (las.x, las.y, las.z))
+    params = DtmParams(**options)
+    ground = ground_filter(x, y, z, params.algorithm, params.ground_params()).is_ground
+    return x[ground], y[ground], z[ground]
+
+
 def run_levels(auto: bool, filter_params: str | None, keep: str | None) -> None:
     import rasterio
 
@@ -250,19 +331,22 @@ def run_levels(auto: bool, filter_params: str | None, keep: str | None) -> None:
     print(f"aldpat dtm --cell 1{' --auto' if auto else ''}"
           f"{' --filter-params ' + filter_params if filter_params else ''}; envelope: closing r {PIT_RADIUS:g} m, "
           f"opening r {REMNANT_RADIUS:g} m; counted beyond {LEVEL:g} m")
-    print("| site | nodes | remnant nodes (patches, highest m) | pit nodes (patches, deepest m) | probe height |")
-    print("|---|---|---|---|---|")
+    print("| site | nodes | remnant nodes (patches, highest m) | stepped | smooth | without points "
+          "| pit nodes (patches, deepest m) | probe height |")
+    print("|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         odir = Path(keep) if keep else Path(tmp)
         for name, probe in SITES.items():
             _dtm([ISPRS_SITES / f"{name}.laz"], odir, **options)
             with rasterio.open(odir / f"{name}_dtm.tif") as ds:
                 z = ds.read(1, masked=True).filled(np.nan).astype(np.float64)
-                cell = ds.res[0]
+                cell, transform = ds.res[0], ds.transform
                 at = f"{next(ds.sample([probe]))[0]:.1f} m at {probe[0]:.0f}, {probe[1]:.0f}" if probe else ""
             c = level_counts(z, cell)
+            kinds = remnant_kinds(z, cell, transform, site_ground(ISPRS_SITES / f"{name}.laz", options))
+            split = " | ".join(f"{nodes:,} ({patches})" for nodes, patches in kinds.values())
             print(f"| {name} | {c['nodes']:,} | {c['remnant']:,} ({c['remnant_patches']}, {c['remnant_worst']:.1f}) | "
-                  f"{c['pit']:,} ({c['pit_patches']}, {c['pit_worst']:.1f}) | {at} |")
+                  f"{split} | {c['pit']:,} ({c['pit_patches']}, {c['pit_worst']:.1f}) | {at} |")
 
 
 def shared_nodes(tifs: list[Path]) -> tuple[int, int]:

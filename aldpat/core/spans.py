@@ -13,6 +13,11 @@ ridge or an embankment between two steep flanks rises and falls (the steps are c
 raised-segment test counts them, with the points' spacing of sparse data). Buildings and trees
 are spans too where they are level; they are objects either way.
 
+With ``enclosed``, a cell counts only where it lies in such a run along its row *and* along its
+column: a flat enclosed by steps down on all four sides. :func:`aldpat.filters.grid_stage.remnants`
+asks this of the ground a filter left, where a deck has gone with the objects around it and what
+stands so is a piece of roof whose taller parts were taken away.
+
 Rows are taken a block at a time and columns a block of them transposed, so that the grid is
 never copied whole; each block is a few vectorised passes over its cells.
 """
@@ -33,9 +38,10 @@ BLOCK_LINES = 64
 
 def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
                  decode: Callable[[np.ndarray], np.ndarray] | None = None,
-                 spacing: np.ndarray | None = None, cell: float = 1.0) -> np.ndarray:
-    """Cells of level runs along rows or columns, bounded at both ends by steps down from them
-    and at most ``max_cells`` long (bool, the shape of ``z``).
+                 spacing: np.ndarray | None = None, cell: float = 1.0, enclosed: bool = False) -> np.ndarray:
+    """Cells of level runs along rows or columns (with ``enclosed``: along rows and columns alike),
+    bounded at both ends by steps down from them and at most ``max_cells`` long (bool, the shape
+    of ``z``).
 
     ``z`` holds the filled lowest-point grid as heights, or codes that ``decode`` turns into
     heights; ``spacing`` and ``cell`` as for :func:`aldpat.core.segments.raised_segments`.
@@ -55,7 +61,11 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
         b = min(cols, a + BLOCK_LINES)
         lines = np.ascontiguousarray(heights(z[:, a:b]).T)
         spaced = None if spacing is None else np.ascontiguousarray(spacing[:, a:b].T)
-        out[:, a:b] |= _spans(lines, spaced, step, max_cells, cell).T
+        along_columns = _spans(lines, spaced, step, max_cells, cell).T
+        if enclosed:
+            out[:, a:b] &= along_columns
+        else:
+            out[:, a:b] |= along_columns
     return out
 
 

@@ -1,7 +1,7 @@
 """The grid stage of a grid filter and the tests around every filter: fill the empty cells
 (dissertation §4.2.1), set the low outliers aside, run the filter on the mark matrix, then the
-raised-segment test and, with ``surface_threshold``, the provisional surface of SMRF's final test
-(:func:`cell_classes`). The driver (:mod:`aldpat.filters.driver`) and the streamed file path
+raised-segment test (and, with raised spans, the remnants it leaves: :func:`remnants`) and, with
+``surface_threshold``, the provisional surface of SMRF's final test (:func:`cell_classes`). The driver (:mod:`aldpat.filters.driver`) and the streamed file path
 (:mod:`aldpat.filters.streamed`) both run it.
 """
 
@@ -63,6 +63,9 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | Non
     release_free_memory()  # the filter's scratch, before the surface and the points' pass
     if raised is not None:
         marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
+        del raised
+        if getattr(params, "object_span", 0.0) > 0:
+            marks[remnants(cells, (marks == MARK_GROUND) & ~empty, params, cells.spec.cell)] = MARK_RAISED_SEGMENT
     marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
     return marks, low
 
@@ -85,6 +88,34 @@ def raised_cells(filled: np.ndarray, params, cell: float, filled_from: np.ndarra
         raised |= raised_spans(filled, params.object_step, int(span / cell), decode=decode, spacing=filled_from,
                                cell=cell)
     return raised
+
+
+def remnants(cells: CellHeights, ground: np.ndarray, params, cell: float) -> np.ndarray:
+    """The cells of ``ground`` that stand as flats on the ground the filter left: level runs at
+    most ``object_span`` long bounded by steps down at both ends along their row *and* their
+    column (:func:`aldpat.core.spans.raised_spans` with ``enclosed``), on the grid of the ground
+    cells' lowest points with every other cell filled from the nearest of them.
+
+    What a filter leaves so is the lower part of a building whose taller parts it removed: a
+    one-storey part inside a block, a podium below a tower. Among the tall parts the low roof
+    steps up on some sides and down on others, and where points are sparse (0.1 per m2) its
+    filled cells may join it to the street through a tree or a ramp without a step, so neither
+    the windows (it is wider than they are) nor the raised-segment test take it; once the tall
+    parts are gone, it is a flat standing above the ground on every side. A bridge deck or an
+    embankment's crest steps down across its run only, and terrain on a slope rises along one
+    direction at least, so neither is enclosed on all sides. The runs are those of raised spans,
+    with their step (``object_step``), length and levelness: no constant of its own.
+    """
+    from aldpat.core.spans import raised_spans
+
+    if not ground.any():
+        return np.zeros(ground.shape, bool)
+    surface = cells.codes.copy()
+    filled_from = np.empty(surface.shape, np.uint8)
+    fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
+    flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
+                         spacing=filled_from, cell=cell, enclosed=True)
+    return flats & ground
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params, spacing: float | None) -> LowPoints:

@@ -50,3 +50,18 @@ def test_codes_and_blocks_give_the_heights_result(monkeypatch):
     assert np.array_equal(raised_spans(codes, 2.0, 40, decode=lambda a: a * 0.01), deck)
     monkeypatch.setattr(module, "BLOCK_LINES", 7)
     assert np.array_equal(raised_spans(z, 2.0, 40), deck)
+
+
+def test_enclosed_spans_are_flats_stepping_down_on_every_side():
+    """``enclosed``: a flat roof piece standing on the ground (steps down along its rows and its
+    columns) is one; a deck (steps down across it, ramps along it), a level strip running out
+    of the grid and a flat on a step of a slope are not."""
+    r, c = np.mgrid[0:80, 0:200].astype(float)
+    roof = np.where((r >= 30) & (r < 50) & (c >= 40) & (c < 70), 5.0, 0.0)
+    np.testing.assert_array_equal(raised_spans(roof, 2.0, 40, enclosed=True), roof > 0)
+    z, _ = flyover()
+    assert not raised_spans(z, 2.0, 40, enclosed=True).any()
+    strip = np.where((c >= 50) & (c < 70), 5.0, 0.0)
+    assert raised_spans(strip, 2.0, 40).any() and not raised_spans(strip, 2.0, 40, enclosed=True).any()
+    slope = 0.3 * r + np.where((r >= 30) & (r < 50) & (c >= 40) & (c < 70), 3.0, 0.0)  # rises along its columns
+    assert not raised_spans(slope, 2.0, 40, enclosed=True).any()
