@@ -143,7 +143,7 @@ def _disc_widths(gap: float, cell: float) -> np.ndarray:
 
 
 @compiled(nogil=True)
-def _far_rows(occupied, widths, far):
+def _far_rows(occupied: np.ndarray, widths: np.ndarray, far: np.ndarray) -> None:
     """``far[r, c]``: no occupied node at row offset ``dr`` (|dr| < len(widths)) and column offset
     at most ``widths[|dr|]`` from (r, c). Each row's column distance to its nearest occupied node
     is found once, kept in a ring of 2 len(widths) - 1 rows."""

@@ -36,7 +36,8 @@ DUPLICATE = -2
 OUTSIDE = -1
 
 
-def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float):
+def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Arrays of a TIN over the rectangle ``x0..x1`` x ``y0..y1`` with room for ``n_points``
     more vertices (numbered from 4); corners 0-3 are (x0, y0), (x1, y0), (x0, y1), (x1, y1), at
     height 0 until the caller sets them."""
@@ -60,13 +61,13 @@ def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float):
 
 
 @compiled(inline="always")
-def orient(ax, ay, bx, by, cx, cy):
+def orient(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     """Twice the signed area of a, b, c: positive when counter-clockwise."""
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
 @compiled(inline="always")
-def in_circle(ax, ay, bx, by, cx, cy, dx, dy):
+def in_circle(ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float) -> float:
     """Positive when d lies inside the circle through the counter-clockwise a, b, c."""
     adx, ady = ax - dx, ay - dy
     bdx, bdy = bx - dx, by - dy
@@ -77,7 +78,8 @@ def in_circle(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @compiled()
-def locate(px, py, tv, tn, count, start, x, y):
+def locate(px: np.ndarray, py: np.ndarray, tv: np.ndarray, tn: np.ndarray, count: np.ndarray, start: int, x: float,
+           y: float) -> int:
     """The triangle holding (x, y) (on its boundary counts), walking from triangle ``start``;
     :data:`OUTSIDE` when the point is outside the rectangle."""
     t = start if 0 <= start < count[0] else 0
@@ -106,7 +108,7 @@ def locate(px, py, tv, tn, count, start, x, y):
 
 
 @compiled(inline="always")
-def _repoint(tn, t, old, new):
+def _repoint(tn: np.ndarray, t: int, old: int, new: int) -> None:
     """Make triangle t (if any) name ``new`` where it named its neighbour ``old``."""
     if t >= 0:
         for k in range(3):
@@ -116,7 +118,8 @@ def _repoint(tn, t, old, new):
 
 
 @compiled()
-def _legalize(px, py, tv, tn, stamp, stack, top):
+def _legalize(px: np.ndarray, py: np.ndarray, tv: np.ndarray, tn: np.ndarray, stamp: np.ndarray, stack: np.ndarray,
+              top: int) -> None:
     """Flip the edges opposite vertex 0 (the new point) of the triangles on ``stack`` until every
     one passes the empty-circumcircle test."""
     while top > 0:
@@ -151,7 +154,8 @@ def _legalize(px, py, tv, tn, stamp, stack, top):
 
 
 @compiled()
-def insert(px, py, tv, tn, stamp, count, stack, v, start):
+def insert(px: np.ndarray, py: np.ndarray, tv: np.ndarray, tn: np.ndarray, stamp: np.ndarray, count: np.ndarray,
+           stack: np.ndarray, v: int, start: int) -> int:
     """Insert vertex ``v`` (its coordinates already in px, py), walking from triangle ``start``.
 
     Returns a triangle that has ``v`` as a vertex, :data:`DUPLICATE` when a vertex already sits

@@ -18,6 +18,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -67,7 +68,7 @@ class GridSpec:
         """(rows, columns), rows from the south."""
         return self.ny, self.nx
 
-    def check_fits(self, bytes_per_node: float, *, path=None,
+    def check_fits(self, bytes_per_node: float, *, path: str | Path | None = None,
                    change: str = "use a larger --cell, or tile the data (aldpat tile)") -> None:
         """Refuse (:class:`aldpat.core.resources.ResourceError`, naming ``path``) a grid whose
         nodes, at ``bytes_per_node`` while it is made, need more memory than there is now."""

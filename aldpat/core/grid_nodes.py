@@ -3,7 +3,10 @@ of whole rows, and the number of worker threads."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.threads import thread_budget
@@ -18,7 +21,7 @@ def worker_count(workers: int | None) -> int:
     return thread_budget() if not workers else int(workers)
 
 
-def grid_points(x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def grid_points(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x, y, z as float64 arrays of one length, points with a non-finite value left out."""
     x, y, z = (np.asarray(a, dtype=np.float64).ravel() for a in (x, y, z))
     if not (len(x) == len(y) == len(z)):
@@ -31,7 +34,7 @@ def grid_points(x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return x, y, z
 
 
-def row_blocks(spec: GridSpec, nodes: int = NODE_BLOCK):
+def row_blocks(spec: GridSpec, nodes: int = NODE_BLOCK) -> Iterator[tuple[int, int]]:
     """Slices of whole rows holding about ``nodes`` nodes each."""
     step = max(1, nodes // spec.nx)
     for r0 in range(0, spec.ny, step):

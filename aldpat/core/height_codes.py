@@ -16,6 +16,7 @@ given as arrays).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,10 @@ import numpy as np
 #: The code of an empty cell in :class:`ScaledHeights` (larger than any point's: a running
 #: minimum starts from it).
 EMPTY_CODE = np.iinfo(np.int32).max
+
+#: A grid's codes -> their float64 heights (the ``decode`` of :class:`FloatHeights` or
+#: :class:`ScaledHeights`).
+Decode = Callable[[np.ndarray], np.ndarray]
 
 
 class FloatHeights:

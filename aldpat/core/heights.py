@@ -31,9 +31,10 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from aldpat._lazy import lazy_import
 from aldpat.core.crs import compound, horizontal_part, parse_crs, vertical_part
@@ -68,7 +69,7 @@ def egm96_height(z_unit: str = "m") -> pyproj.CRS:
     return pyproj.CRS.from_json_dict(spec)
 
 
-def check_to_crs(to_crs, *, reverse: bool = False, z_unit: str = "m") -> None:
+def check_to_crs(to_crs: Any, *, reverse: bool = False, z_unit: str = "m") -> None:
     """Refuse, naming ``--to-crs``, a target CRS the conversion cannot honour: a height datum
     for ellipsoidal output (``reverse``), or one whose height unit is not ``z_unit``."""
     if to_crs is None:
@@ -86,7 +87,7 @@ def check_to_crs(to_crs, *, reverse: bool = False, z_unit: str = "m") -> None:
                          f"in {z_unit} (--z-unit)")
 
 
-def _check_not_geocentric(crs, option: str) -> None:
+def _check_not_geocentric(crs: Any, option: str) -> None:
     """Geocentric x, y, z (EPSG:4978) have no horizontal part and no height to convert."""
     crs = parse_crs(crs)
     if crs.is_geocentric:
@@ -94,7 +95,7 @@ def _check_not_geocentric(crs, option: str) -> None:
                          "horizontal or compound CRS")
 
 
-def recorded_crs(horizontal, to_crs=None, *, reverse: bool = False, z_unit: str = "m") -> pyproj.CRS:
+def recorded_crs(horizontal: Any, to_crs: Any = None, *, reverse: bool = False, z_unit: str = "m") -> pyproj.CRS:
     """The CRS recorded with converted points (see the module docstring): ``to_crs``'s
     horizontal part (else ``horizontal``), + its vertical part or EGM96 height unless ``reverse``."""
     target = horizontal_part(to_crs) if to_crs is not None else None
@@ -153,7 +154,8 @@ class HeightConverter:
     point is read.
     """
 
-    def __init__(self, crs, geoid: str | Path, *, to_crs=None, reverse: bool = False, z_unit: str = "m"):
+    def __init__(self, crs: Any, geoid: str | Path, *, to_crs: Any = None, reverse: bool = False,
+                 z_unit: str = "m") -> None:
         if z_unit not in Z_UNITS:
             raise UsageError(f"unknown z unit {z_unit!r} (use {', '.join(Z_UNITS)})")
         check_to_crs(to_crs, reverse=reverse, z_unit=z_unit)
@@ -185,13 +187,14 @@ class HeightConverter:
         return (f"HeightConverter(crs={self.crs.to_string()!r}, geoid={self.geoid_name!r}, "
                 f"to_crs={self.to_crs.to_string() if self.to_crs else None!r}, reverse={self.reverse})")
 
-    def _outside(self, bad: np.ndarray, x: np.ndarray, y: np.ndarray, first: int, path, why: str) -> DataError:
+    def _outside(self, bad: np.ndarray, x: np.ndarray, y: np.ndarray, first: int, path: str | Path | None,
+                 why: str) -> DataError:
         where = np.flatnonzero(bad)
         i = int(where[0])
         more = f" (and {where.size - 1} more)" if where.size > 1 else ""
         return DataError(f"point {first + i + 1} at x={x[i]:.3f}, y={y[i]:.3f} {why}{more}", path=path)
 
-    def undulation(self, x, y, *, first: int = 0, path=None) -> np.ndarray:
+    def undulation(self, x: ArrayLike, y: ArrayLike, *, first: int = 0, path: str | Path | None = None) -> np.ndarray:
         """Geoid undulation N (metres) under each point; ``first`` is the number of points
         before this chunk in ``path``, so that a message names the point's place in the file."""
         x = np.asarray(x, dtype=np.float64)
@@ -208,7 +211,8 @@ class HeightConverter:
             raise self._outside(bad, x, y, first, path, f"lies outside the geoid grid {self.geoid_name}")
         return n
 
-    def __call__(self, x, y, z, *, first: int = 0, path=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def __call__(self, x: ArrayLike, y: ArrayLike, z: ArrayLike, *, first: int = 0,
+                 path: str | Path | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(x', y', z')``: heights converted, x and y re-projected when ``to_crs`` was given."""
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
@@ -218,7 +222,8 @@ class HeightConverter:
         x2, y2 = self.horizontal(x, y, first=first, path=path)
         return x2, y2, z_out
 
-    def horizontal(self, x, y, *, first: int = 0, path=None) -> tuple[np.ndarray, np.ndarray]:
+    def horizontal(self, x: ArrayLike, y: ArrayLike, *, first: int = 0,
+                   path: str | Path | None = None) -> tuple[np.ndarray, np.ndarray]:
         """x, y in ``to_crs`` (unchanged without one)."""
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)

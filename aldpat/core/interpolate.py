@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from aldpat._lazy import lazy_import
 from aldpat.core.compiled import compiled
@@ -66,7 +67,8 @@ def _tree(x: np.ndarray, y: np.ndarray) -> tuple[spatial.cKDTree, tuple[float, f
 # ---------------------------------------------------------------------------- nearest
 
 
-def nearest(x, y, z, spec: GridSpec, *, max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
+def nearest(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_distance: float | None = None,
+            workers: int | None = None) -> np.ndarray:
     """Each node takes the elevation of its nearest point (dissertation (Cui 2013) §4.2)."""
     x, y, z = grid_points(x, y, z)
     tree, origin = _tree(x, y)
@@ -85,8 +87,8 @@ def nearest(x, y, z, spec: GridSpec, *, max_distance: float | None = None, worke
 # ---------------------------------------------------------------------------- idw
 
 
-def idw(x, y, z, spec: GridSpec, *, power: float = 2.0, radius: float | None = None, max_points: int = 16,
-        max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
+def idw(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, power: float = 2.0, radius: float | None = None,
+        max_points: int = 16, max_distance: float | None = None, workers: int | None = None) -> np.ndarray:
     """Inverse distance to a power over the ``max_points`` nearest points within ``radius``.
 
     Surfer's "Inverse Distance to a Power" without smoothing: weights ``1 / d**power``; a node
@@ -141,7 +143,7 @@ class Binner:
         else:
             self.acc = np.full(size, np.inf if statistic == "min" else -np.inf)
 
-    def add(self, x, y, z) -> None:
+    def add(self, x: np.ndarray, y: np.ndarray, z: ArrayLike) -> None:
         col, row, inside = self.spec.nearest_node(x, y)
         z = np.asarray(z, dtype=np.float64)
         inside &= np.isfinite(z)
@@ -163,7 +165,7 @@ class Binner:
         return vals.reshape(self.spec.shape)
 
 
-def binned(x, y, z, spec: GridSpec, *, statistic: str) -> np.ndarray:
+def binned(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, statistic: str) -> np.ndarray:
     """Binning of all points at once (see :class:`Binner`)."""
     binner = Binner(spec, statistic)
     binner.add(*grid_points(x, y, z))
@@ -238,7 +240,8 @@ def merge_duplicates(pts: np.ndarray, pz: np.ndarray) -> tuple[np.ndarray, np.nd
     return s[new], sums / np.bincount(group)
 
 
-def _tin_block(px, py, pz, spec, cols, rows, max_distance, out) -> None:
+def _tin_block(px: np.ndarray, py: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int],
+               rows: tuple[int, int], max_distance: float | None, out: np.ndarray) -> None:
     if len(px) < 3:
         return
     origin = (float(px.mean()), float(py.mean()))
@@ -250,7 +253,8 @@ def _tin_block(px, py, pz, spec, cols, rows, max_distance, out) -> None:
     _qhull_block(*merge_duplicates(pts, pz), spec, cols, rows, origin, max_distance, out)
 
 
-def _qhull_block(pts, pz, spec, cols, rows, origin, max_distance, out) -> None:
+def _qhull_block(pts: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int], rows: tuple[int, int],
+                 origin: tuple[float, float], max_distance: float | None, out: np.ndarray) -> None:
     """The block's nodes from qhull's Delaunay triangulation (the compiled TIN's fallback)."""
     try:
         tri = spatial.Delaunay(pts).simplices
@@ -266,7 +270,9 @@ def _qhull_block(pts, pz, spec, cols, rows, origin, max_distance, out) -> None:
 
 
 @compiled(nogil=True)
-def _block_order(x, y, x_lo, x_hi, y_lo, y_hi, xmin, ymin, half_x, half_y, width, height, nbx, nby):
+def _block_order(x: np.ndarray, y: np.ndarray, x_lo: float, x_hi: float, y_lo: float, y_hi: float, xmin: float,
+                 ymin: float, half_x: float, half_y: float, width: float, height: float, nbx: int, nby: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """The points inside ``x_lo..x_hi`` x ``y_lo..y_hi`` ordered by block (row-major blocks of
     ``width`` x ``height`` from ``xmin - half_x``, ``ymin - half_y``), in their own order within
     a block -- numpy's stable argsort of the block numbers, by counting -- and each block's start
@@ -295,8 +301,8 @@ def _block_order(x, y, x_lo, x_hi, y_lo, y_hi, xmin, ymin, half_x, half_y, width
     return order, starts
 
 
-def linear(x, y, z, spec: GridSpec, *, max_distance: float | None = None, workers: int | None = None,
-           block_points: int = _TIN_POINTS, dtype: Any = np.float64) -> np.ndarray:
+def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_distance: float | None = None,
+           workers: int | None = None, block_points: int = _TIN_POINTS, dtype: Any = np.float64) -> np.ndarray:
     """Linear interpolation on the Delaunay triangulation of the points (Surfer's
     "Triangulation with Linear Interpolation").
 
@@ -372,13 +378,13 @@ class GridOptions:
     workers: int | None = None
 
 
-def _kriging(x, y, z, spec: GridSpec, o: GridOptions) -> np.ndarray:
+def _kriging(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, o: GridOptions) -> np.ndarray:
     return krige(x, y, z, spec, model=o.variogram, nugget=o.nugget, drift=o.drift, max_points=o.max_points,
                  radius=o.radius, max_distance=o.max_distance, workers=o.workers)
 
 
 def _binning(statistic: str) -> Callable[[Any, Any, Any, GridSpec, GridOptions], np.ndarray]:
-    def grid(x, y, z, spec: GridSpec, o: GridOptions) -> np.ndarray:
+    def grid(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, o: GridOptions) -> np.ndarray:
         return binned(x, y, z, spec, statistic=statistic)
 
     return grid
@@ -397,7 +403,7 @@ GRIDDERS: dict[str, Callable[[Any, Any, Any, GridSpec, GridOptions], np.ndarray]
 assert tuple(GRIDDERS) == METHODS
 
 
-def interpolate(x, y, z, spec: GridSpec, *, method: str = "linear", workers: int | None = None,
+def interpolate(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, method: str = "linear", workers: int | None = None,
                 **options: Any) -> np.ndarray:
     """Grid the points with one of :data:`METHODS` (see the module docstring); ``options`` are
     those of :class:`GridOptions`."""

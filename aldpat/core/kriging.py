@@ -27,6 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
@@ -74,7 +75,7 @@ def _model(model: str, h: np.ndarray, nugget: float, sill: float, rng: float) ->
     return np.where(h > 0, g + nugget, 0.0)
 
 
-def experimental_variogram(x, y, z, *, neighbours: int = 32, sample: int = _SAMPLE, lags: int = _LAGS,
+def experimental_variogram(x: ArrayLike, y: ArrayLike, z: ArrayLike, *, neighbours: int = 32, sample: int = _SAMPLE, lags: int = _LAGS,
                            seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lag centres, mean semivariances and pair counts from local neighbourhoods."""
     x, y, z = grid_points(x, y, z)
@@ -102,7 +103,7 @@ def experimental_variogram(x, y, z, *, neighbours: int = 32, sample: int = _SAMP
     return dsum[full] / counts[full], sums[full] / counts[full], counts[full]
 
 
-def fit_variogram(x, y, z, *, model: str = "linear", nugget: float = 0.0, neighbours: int = 32,
+def fit_variogram(x: ArrayLike, y: ArrayLike, z: ArrayLike, *, model: str = "linear", nugget: float = 0.0, neighbours: int = 32,
                   seed: int = 0) -> Variogram:
     """Fit ``model`` (nugget fixed) to the local experimental variogram."""
     if model not in MODELS:
@@ -134,7 +135,7 @@ def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return (np.linalg.pinv(a) @ b[..., None])[..., 0]
 
 
-def krige(x, y, z, spec: GridSpec, *, model: str = "linear", nugget: float = 0.0, drift: str = "none",
+def krige(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, model: str = "linear", nugget: float = 0.0, drift: str = "none",
           max_points: int = 16, radius: float | None = None, max_distance: float | None = None,
           variogram: Variogram | None = None, workers: int | None = None) -> np.ndarray:
     """Kriging of the points onto ``spec``'s nodes (see the module docstring)."""

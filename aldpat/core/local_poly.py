@@ -17,6 +17,7 @@ still short of points takes the nearest fitted node's value.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from math import comb
 
 import numpy as np
@@ -101,7 +102,8 @@ class PointSums:
         self._cells = (x, y, z, has)  # held as given: positions in cells are made a band at a time
         return self
 
-    def _positions(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray):
+    def _positions(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Position in cells about the grid's centre, height and weight of cells (zero where empty)."""
         spec = self.spec
         u = np.where(has, (x - spec.x0) / spec.cell - 0.5 - self.u0, 0.0)
@@ -216,7 +218,7 @@ def _solve_nodes(sums: PointSums, k: int, nodes: np.ndarray, r0: int, r1: int) -
     return coef[:, 0]
 
 
-def _plane_at_nodes(raw: dict, raw_z: dict, centred) -> np.ndarray:
+def _plane_at_nodes(raw: dict, raw_z: dict, centred: Callable[[dict, int, int], np.ndarray]) -> np.ndarray:
     """The plane's value at each node by Cramer's rule on the 3 x 3 normal equations: no
     stacked matrices (as many nodes as points at 1 m cells), same answer as the general solve."""
     n = centred(raw, 0, 0)

@@ -36,12 +36,12 @@ the first test have the terrain around them read.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from aldpat._lazy import lazy_import
+from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import CellGridSpec, rows_per_block
 
 ndimage = lazy_import("scipy.ndimage")
@@ -98,7 +98,7 @@ def block_factor(spacing: float | None, cell: float) -> int:
     return max(1, round(spacing / cell))
 
 
-def find_low_points(codes: np.ndarray, decode: Callable[[np.ndarray], np.ndarray], real: np.ndarray,
+def find_low_points(codes: np.ndarray, decode: Decode, real: np.ndarray,
                     spec: CellGridSpec, *, origin: tuple[float, float] | None = None, spacing: float | None = None,
                     threshold: float, window: int, reach: float) -> LowPoints:
     """The low outliers of the grid ``spec``.
@@ -147,7 +147,7 @@ def find_low_points(codes: np.ndarray, decode: Callable[[np.ndarray], np.ndarray
     return LowPoints(cells[order].astype(np.int64), limit[order])
 
 
-def _top(codes: np.ndarray):
+def _top(codes: np.ndarray) -> float:
     """A value above every height code (what a cell without a point holds for a minimum)."""
     return np.inf if np.issubdtype(codes.dtype, np.floating) else np.iinfo(codes.dtype).max
 
@@ -171,7 +171,7 @@ def block_lowest(codes: np.ndarray, real: np.ndarray, m: int, offset: tuple[int,
     return out, out != top
 
 
-def _cells_below(codes: np.ndarray, decode, real: np.ndarray, blocks: np.ndarray, limit: np.ndarray, m: int,
+def _cells_below(codes: np.ndarray, decode: Decode, real: np.ndarray, blocks: np.ndarray, limit: np.ndarray, m: int,
                  offset: tuple[int, int], bcols: int) -> tuple[np.ndarray, np.ndarray]:
     """The grid cells of flagged ``blocks`` whose lowest point lies below the block's limit."""
     rows, cols = codes.shape
@@ -188,7 +188,8 @@ def _cells_below(codes: np.ndarray, decode, real: np.ndarray, blocks: np.ndarray
     return flat[hit], lim[hit]
 
 
-def _pits(codes: np.ndarray, decode, real: np.ndarray, d: int, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+def _pits(codes: np.ndarray, decode: Decode, real: np.ndarray, d: int, threshold: float
+          ) -> tuple[np.ndarray, np.ndarray]:
     """Cells holding a point that lie more than ``threshold`` below every cell holding a point at
     distance ``d`` to ``2 d`` around them (and there is one): flat indices (ascending) and the
     lowest height of that band."""
@@ -215,7 +216,7 @@ def _pits(codes: np.ndarray, decode, real: np.ndarray, d: int, threshold: float)
     return np.concatenate(found), np.concatenate(band_at)
 
 
-def band_minimum(z: np.ndarray, d: int, top) -> np.ndarray:
+def band_minimum(z: np.ndarray, d: int, top: float) -> np.ndarray:
     """The lowest value at distance ``d`` to ``2 d`` (Chebyshev) from each cell, ``top`` where
     there is none (beyond the grid's edge there is nothing: ``top``)."""
     rows, cols = z.shape
@@ -237,7 +238,7 @@ def band_minimum(z: np.ndarray, d: int, top) -> np.ndarray:
     return out
 
 
-def _floor_and_relief(codes: np.ndarray, decode, real: np.ndarray, cells: np.ndarray, k: int
+def _floor_and_relief(codes: np.ndarray, decode: Decode, real: np.ndarray, cells: np.ndarray, k: int
                       ) -> tuple[np.ndarray, np.ndarray]:
     """The terrain's floor under each of ``cells`` (flat indices) and the spread of the heights
     around it, from the other cells holding a point within ``k`` cells (a lattice of at most

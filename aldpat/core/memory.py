@@ -21,7 +21,7 @@ _M_ARENA_MAX = -8
 
 
 @functools.cache
-def _libc():
+def _libc() -> ctypes.CDLL | None:
     name = ctypes.util.find_library("c")
     if not name:
         return None

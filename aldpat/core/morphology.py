@@ -217,7 +217,8 @@ def _trend_continuations(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]
         at = first + z[:, first:last].argmin(axis=1)
         return z[line, at], cols[at]
 
-    def continued(outer, inner, edge: int, outward: np.ndarray) -> np.ndarray:
+    def continued(outer: tuple[np.ndarray, np.ndarray], inner: tuple[np.ndarray, np.ndarray], edge: int,
+                  outward: np.ndarray) -> np.ndarray:
         (z_out, c_out), (z_in, c_in) = outer, inner
         slope = (z_out - z_in) / np.abs(c_out - c_in)  # per cell, outwards
         at_edge = z_out + slope * np.abs(edge - c_out)

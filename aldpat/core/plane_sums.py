@@ -18,7 +18,8 @@ from aldpat.core.compiled import compiled
 
 
 @compiled()
-def _row_sums(x, y, z, has, lo, hi, k, ou, ov, scale, h):
+def _row_sums(x: np.ndarray, y: np.ndarray, z: np.ndarray, has: np.ndarray, lo: int, hi: int, k: int, ou: float,
+              ov: float, scale: float, h: np.ndarray) -> None:
     """h[r - lo, c, :] = the nine sums over columns c - k .. c + k of row r."""
     cols = x.shape[1]
     for r in range(lo, hi):
@@ -59,7 +60,7 @@ def _row_sums(x, y, z, has, lo, hi, k, ou, ov, scale, h):
 
 
 @compiled(inline="always")
-def _plane(s, un, vn, ridge_share):
+def _plane(s: np.ndarray, un: float, vn: float, ridge_share: float) -> float:
     """The plane's value at the node (un, vn) from the window sums ``s`` (Cramer's rule)."""
     n = np.rint(s[0])  # a count: see local_poly._window_counts
     su = s[1] - un * n
@@ -83,7 +84,8 @@ def _plane(s, un, vn, ridge_share):
 
 
 @compiled()
-def _planes(h, lo, hi, r0, r1, k, nodes, u0, v0, ridge, out):
+def _planes(h: np.ndarray, lo: int, hi: int, r0: int, r1: int, k: int, nodes: np.ndarray, u0: float, v0: float,
+            ridge: float, out: np.ndarray) -> None:
     cols = h.shape[1]
     s = np.zeros((cols, 9))
     for r in range(max(r0 - k, lo), min(r0 + k, hi - 1) + 1):  # the window of row r0

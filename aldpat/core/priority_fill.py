@@ -55,7 +55,7 @@ def _offsets(connectivity: int) -> list[tuple[int, int]]:
     return [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0)]
 
 
-def _shifted(a: np.ndarray, dr: int, dc: int, fill) -> np.ndarray:
+def _shifted(a: np.ndarray, dr: int, dc: int, fill: float | bool) -> np.ndarray:
     """``out[r, c] = a[r + dr, c + dc]`` (``fill`` outside the grid)."""
     out = np.full(a.shape, fill, dtype=a.dtype)
     rows, cols = a.shape
@@ -147,7 +147,8 @@ def priority_fill(
 
 
 @njit(cache=True, nogil=True)
-def _rim_means(filled, valued, work, offsets):  # pragma: no cover - compiled
+def _rim_means(filled: np.ndarray, valued: np.ndarray, work: np.ndarray,
+               offsets: np.ndarray) -> None:  # pragma: no cover - compiled
     """In place: every ``work`` cell touching a ``valued`` cell takes the mean of its valued and
     ``work`` neighbours (summed in ``offsets`` order). Rows are written one row late, so every
     mean reads the values before the rim was set."""
@@ -181,7 +182,8 @@ def _rim_means(filled, valued, work, offsets):  # pragma: no cover - compiled
         pending, current = current, pending
 
 
-def _rising_flood(z, valued, work, rise, max_sweeps: int = 64, *, own: bool = False) -> np.ndarray:
+def _rising_flood(z: np.ndarray, valued: np.ndarray, work: np.ndarray, rise: float, max_sweeps: int = 64, *,
+                  own: bool = False) -> np.ndarray:
     """``min_b z(b) + rise * d(b, cell)`` over valued cells ``b``, for the ``work`` cells.
 
     ``d`` is the city-block length of the shortest path from ``b`` through the set. Exact row
@@ -221,7 +223,8 @@ def _parts(n: int, count: int, multiple: int) -> list[tuple[int, int]]:
 
 
 @njit(cache=True, nogil=True)
-def _row_envelopes(v, valued, work, rise, step, r0, r1):  # pragma: no cover - compiled
+def _row_envelopes(v: np.ndarray, valued: np.ndarray, work: np.ndarray, rise: float, step: float,
+                   r0: int, r1: int) -> bool:  # pragma: no cover - compiled
     """One row sweep of :func:`_rising_flood`, in place; whether a ``work`` cell fell by more than
     1e-6. Along each row, the forward and backward running minima of ``v - rise * i + offset``;
     a cell neither valued nor ``work`` (a barrier) counts as +inf, and every cell but a ``work``
@@ -269,7 +272,8 @@ def _row_envelopes(v, valued, work, rise, step, r0, r1):  # pragma: no cover - c
 
 
 @njit(cache=True, nogil=True)
-def _column_envelopes(v, valued, work, rise, step, c_first, c_last):  # pragma: no cover - compiled
+def _column_envelopes(v: np.ndarray, valued: np.ndarray, work: np.ndarray, rise: float, step: float,
+                      c_first: int, c_last: int) -> bool:  # pragma: no cover - compiled
     """:func:`_row_envelopes` along the columns, a band of columns at a time (row-major reads)."""
     n = v.shape[0]
     quarter = step / 4.0

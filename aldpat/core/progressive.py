@@ -97,7 +97,8 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     return marks
 
 
-def _line_pass(surface: np.ndarray, k: int, axis: int, dh, candidates: np.ndarray, marks: np.ndarray) -> None:
+def _line_pass(surface: np.ndarray, k: int, axis: int, dh: np.floating, candidates: np.ndarray,
+               marks: np.ndarray) -> None:
     """One opening along ``axis`` of the progressive loop, in place: the cells of ``candidates``
     standing more than ``dh`` above the opened surface are marked ``k`` and leave
     ``candidates``, and ``surface`` becomes the opened one. The lines are independent, so a block

@@ -62,7 +62,8 @@ def removed_and_band(rise: np.ndarray, unfiltered: np.ndarray, cap: float, floor
 
 
 @compiled(nogil=True)
-def _decoded_rise(z, opened, scale, offset, heights, rise):  # pragma: no cover - compiled
+def _decoded_rise(z: np.ndarray, opened: np.ndarray, scale: float, offset: float, heights: np.ndarray,
+                  rise: np.ndarray) -> None:  # pragma: no cover - compiled
     rows, cols = z.shape
     for i in range(rows):
         for j in range(cols):
@@ -75,7 +76,8 @@ def _decoded_rise(z, opened, scale, offset, heights, rise):  # pragma: no cover 
 
 
 @compiled(nogil=True)
-def _removed_and_band(rise, unfiltered, cap, floor, removed, band):  # pragma: no cover - compiled
+def _removed_and_band(rise: np.ndarray, unfiltered: np.ndarray, cap: float, floor: float, removed: np.ndarray,
+                      band: np.ndarray) -> int:  # pragma: no cover - compiled
     count = 0
     for i in range(rise.size):
         out = False

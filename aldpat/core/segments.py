@@ -48,12 +48,13 @@ over the steps between segments: linear in the number of cells, no loop over cel
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
 from aldpat._lazy import lazy_import
+from aldpat.core.height_codes import Decode
 
 ndimage = lazy_import("scipy.ndimage")
 
@@ -77,7 +78,7 @@ MAX_OBJECT_AREA = 100_000.0
 
 
 def raised_segments(z: np.ndarray, step: float, down_share: float, *,
-                    decode: Callable[[np.ndarray], np.ndarray] | None = None,
+                    decode: Decode | None = None,
                     spacing: np.ndarray | None = None, cell: float = 1.0, levels: bool = True,
                     strip_rows: int = STRIP_ROWS) -> np.ndarray:
     """Cells of segments that stand above their surroundings (bool, the shape of ``z``).
@@ -155,7 +156,8 @@ class _Graph:
     terrain: int
 
 
-def _segment_graph(z, step: float, decode, spacing, cell: float, strip_rows: int) -> _Graph:
+def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: np.ndarray | None, cell: float,
+                   strip_rows: int) -> _Graph:
     rows, cols = z.shape
 
     def heights(a: int, b: int) -> np.ndarray:
@@ -254,7 +256,7 @@ def _segment_graph(z, step: float, decode, spacing, cell: float, strip_rows: int
                   int(largest[np.argmin(first[largest])]))
 
 
-def _by_strip(keys: list[np.ndarray], strip_cells: int):
+def _by_strip(keys: list[np.ndarray], strip_cells: int) -> Iterator[np.ndarray]:
     """The (cell, label across) keys of every strip, each with the keys of its cells that the next
     strip found (the steps across its upper edge, whose lower cell is this strip's), so that all
     of a cell's keys are seen together: strip by strip, the keys deduplicate as the whole grid's
@@ -281,7 +283,7 @@ def distinct(keys: np.ndarray) -> np.ndarray:
     return keys[keep]
 
 
-def heights_at(z: np.ndarray, decode, cells: np.ndarray) -> np.ndarray:
+def heights_at(z: np.ndarray, decode: Decode | None, cells: np.ndarray) -> np.ndarray:
     """The heights of the cells with flat indices ``cells``."""
     values = z.ravel()[cells]
     return decode(values) if decode is not None else np.asarray(values, dtype=np.float64)
@@ -327,7 +329,8 @@ def _decide(g: _Graph, step: float, down_share: float, levels: bool, max_cells: 
     return raised
 
 
-def _sunken(candidates, raised, height, high, low, low_cells, low_sum, under_cells, under_sum,
+def _sunken(candidates: np.ndarray, raised: np.ndarray, height: np.ndarray, high: np.ndarray, low: np.ndarray,
+            low_cells: np.ndarray, low_sum: np.ndarray, under_cells: np.ndarray, under_sum: np.ndarray,
             step: float) -> np.ndarray:
     """Of the ``candidates`` (segments stepping only up into raised ones), those standing more
     than ``step`` above the ground their raised neighbours step down to elsewhere (the mean height

@@ -16,9 +16,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
+from aldpat.core.height_codes import Heights
 from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.memory import release_free_memory
 
@@ -31,6 +33,18 @@ SWEEPS = 4
 
 #: Rows of the finest level handled at a time (even: a strip pulls into whole coarser rows).
 STRIP_ROWS = 128
+
+
+class CodedCells(Protocol):
+    """The lowest height of every cell of a grid, kept as codes (what
+    :class:`aldpat.filters.classify.CellHeights` holds)."""
+
+    @property
+    def spec(self) -> CellGridSpec: ...
+    @property
+    def codes(self) -> np.ndarray: ...
+    @property
+    def heights(self) -> Heights: ...
 
 
 def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: CellGridSpec) -> np.ndarray:
@@ -208,7 +222,7 @@ class SurfaceTest:
     heights: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]] | None = None
 
     @classmethod
-    def build(cls, cells, marks: np.ndarray, *, threshold: float, slope_scalar: float) -> SurfaceTest:
+    def build(cls, cells: CodedCells, marks: np.ndarray, *, threshold: float, slope_scalar: float) -> SurfaceTest:
         """The test over the provisional surface of the ground cells (``marks`` 0) of ``cells``
         (:class:`aldpat.filters.classify.CellHeights`: their heights are read from its codes)."""
         if not (marks == 0).any():

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -69,7 +70,12 @@ class Axis:
         end = origin + math.floor(hi - origin) + 1.0
         return cls(start, end - start, 0, 1)
 
-    def edge(self, k):
+    @overload
+    def edge(self, k: int) -> float: ...
+    @overload
+    def edge(self, k: np.ndarray) -> np.ndarray: ...
+
+    def edge(self, k: int | np.ndarray) -> float | np.ndarray:
         """Lower edge of tile ``k`` (an int or an integer array)."""
         return self.origin + (self.first + k) * self.size
 

@@ -37,7 +37,8 @@ ORDER_SQUARE = 4.0
 
 
 @compiled(nogil=True)
-def _insert_all(px, py, pz, tv, tn, stamp, count, stack, n):
+def _insert_all(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, tn: np.ndarray, stamp: np.ndarray,
+                count: np.ndarray, stack: np.ndarray, n: int) -> None:
     """Insert vertices 4 .. n + 3 in turn, each walk starting at the previous point's triangle.
     A point at the position of a vertex is not inserted: the vertex takes the mean height of
     all the points there (:func:`aldpat.core.interpolate.merge_duplicates`)."""
@@ -65,7 +66,9 @@ def _insert_all(px, py, pz, tv, tn, stamp, count, stack, n):
 
 
 @compiled(nogil=True)
-def _rasterise(px, py, pz, tv, n_tri, gx0, gy0, dx, dy, c0, c1, r0, r1, max_edge, out, covered):
+def _rasterise(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, n_tri: int, gx0: float, gy0: float,
+               dx: float, dy: float, c0: int, c1: int, r0: int, r1: int, max_edge: float, out: np.ndarray,
+               covered: np.ndarray) -> None:
     """Linear interpolation on every triangle without a corner vertex (0-3), at the nodes of
     columns c0..c1-1 and rows r0..r1-1 it covers; ``max_edge`` >= 0 leaves out triangles with a
     longer edge. Node (row, col) lies at (gx0 + col dx, gy0 + row dy) in the vertices' frame.
@@ -103,7 +106,7 @@ def _rasterise(px, py, pz, tv, n_tri, gx0, gy0, dx, dy, c0, c1, r0, r1, max_edge
 
 
 @compiled(nogil=True)
-def _square_keys(x, y, square):
+def _square_keys(x: np.ndarray, y: np.ndarray, square: float) -> tuple[np.ndarray, int]:
     """Each point's square (row, then column: east to west in odd rows) as one number, and the
     count of numbers."""
     row = np.floor((y - y.min()) / square).astype(np.int64)
@@ -117,7 +120,7 @@ def _square_keys(x, y, square):
 
 
 @compiled(nogil=True)
-def _counting_order(key, size):
+def _counting_order(key: np.ndarray, size: int) -> np.ndarray:
     """The stable order of ``key`` (0 .. size - 1), by counting."""
     starts = np.zeros(size + 1, np.int64)
     for k in key:

@@ -210,7 +210,7 @@ def candidate_thresholds(
     mpos = upos[is_min]
     mkey = (np.rint(uz[is_min] * _Z_SCALE).astype(np.int64) << _COL_BITS) | (mpos % n)
 
-    def cluster_at(q, row):
+    def cluster_at(q: np.ndarray, row: np.ndarray) -> np.ndarray:
         e = np.searchsorted(upos, q, side="right") - 1
         e0 = np.maximum(e, 0)
         ok = (e >= 0) & (upos[e0] >= row * n)
