@@ -21,9 +21,14 @@ NOT_MIRRORED = -2
 #: A candidate's state: tested and failed against the triangles remembered.
 FAILED = 1
 
+#: The final TIN of :func:`densify` (the arrays of :func:`aldpat.core.delaunay.new_tin`): vertex
+#: coordinates px, py, pz, triangles' vertices tv and neighbours tn, and the triangle count.
+Tin = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
 
 @compiled(inline="always")
-def _plane_distance(px, py, pz, tv, t, x, y, z):
+def _plane_distance(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, t: int, x: float, y: float,
+                    z: float) -> tuple[float, float]:
     """Signed distance (up positive) of (x, y, z) to the plane of triangle t, and the z
     component of the plane's unit normal."""
     a, b, c = tv[t, 0], tv[t, 1], tv[t, 2]
@@ -39,7 +44,8 @@ def _plane_distance(px, py, pz, tv, t, x, y, z):
 
 
 @compiled(inline="always")
-def _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle, min_distance):
+def _angle_ok(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, t: int, x: float, y: float, z: float,
+              dist: float, sin_angle: float, min_distance: float) -> bool:
     """Whether the largest angle between the plane of t and the lines from the point to t's
     vertices is under the threshold: the sine of that angle is |dist| over the shortest line,
     taken as ``min_distance`` at least."""
@@ -52,7 +58,9 @@ def _angle_ok(px, py, pz, tv, t, x, y, z, dist, sin_angle, min_distance):
 
 
 @compiled()
-def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, min_distance, mirror):
+def _test(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, tn: np.ndarray, count: np.ndarray, t: int,
+          x: float, y: float, z: float, z_difference: float, sin_angle: float, min_distance: float,
+          mirror: bool) -> tuple[bool, float, int]:
     """Step 3 for one point in triangle t: (passes, score, mirror point's triangle)."""
     dist, _ = _plane_distance(px, py, pz, tv, t, x, y, z)
     good = abs(dist) < z_difference
@@ -84,7 +92,8 @@ def _test(px, py, pz, tv, tn, count, t, x, y, z, z_difference, sin_angle, min_di
 
 
 @compiled()
-def _set_corner_heights(px, py, pz, tv, stamp, count, ground, first_vertex):
+def _set_corner_heights(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, stamp: np.ndarray,
+                        count: np.ndarray, ground: np.ndarray, first_vertex: int) -> None:
     """Each virtual corner at the height of the ground point nearest to it; the triangles of a
     corner whose height changes are changed triangles."""
     n = len(ground)
@@ -104,8 +113,9 @@ def _set_corner_heights(px, py, pz, tv, stamp, count, ground, first_vertex):
 
 
 @compiled()
-def _densify(px, py, pz, tv, tn, stamp, count, ground, z_difference, sin_angle, min_distance, mirror, best_per_triangle,
-             max_rounds):
+def _densify(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, tn: np.ndarray, stamp: np.ndarray,
+             count: np.ndarray, ground: np.ndarray, z_difference: float, sin_angle: float, min_distance: float,
+             mirror: bool, best_per_triangle: bool, max_rounds: int) -> None:
     n = len(ground)
     first = 4  # candidate i is vertex first + i
     stack = np.empty(len(stamp) + 8, np.int64)
@@ -190,7 +200,7 @@ def _sine(angle_threshold: float) -> float:
 
 def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, bounds: tuple[float, float, float, float],
             z_difference: float, angle_threshold: float, min_distance: float, mirror: bool, best_per_triangle: bool,
-            max_rounds: int):
+            max_rounds: int) -> tuple[np.ndarray, Tin]:
     """Ground flags of the candidates (local coordinates, inside ``bounds``) and the final TIN.
 
     ``seeds`` flags the candidates the TIN starts from; the TIN's four virtual corners sit at the
@@ -207,7 +217,9 @@ def densify(x: np.ndarray, y: np.ndarray, z: np.ndarray, seeds: np.ndarray, boun
 
 
 @compiled()
-def _classify(px, py, pz, tv, tn, count, x, y, z, z_difference, sin_angle, min_distance, mirror, out):
+def _classify(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, tn: np.ndarray, count: np.ndarray,
+              x: np.ndarray, y: np.ndarray, z: np.ndarray, z_difference: float, sin_angle: float, min_distance: float,
+              mirror: bool, out: np.ndarray) -> None:
     last = 0
     for i in range(len(x)):
         t = locate(px, py, tv, tn, count, last, x[i], y[i])
@@ -219,7 +231,7 @@ def _classify(px, py, pz, tv, tn, count, x, y, z, z_difference, sin_angle, min_d
         out[i] = ok
 
 
-def passes(tin, x: np.ndarray, y: np.ndarray, z: np.ndarray, z_difference: float, angle_threshold: float,
+def passes(tin: Tin, x: np.ndarray, y: np.ndarray, z: np.ndarray, z_difference: float, angle_threshold: float,
            min_distance: float, mirror: bool) -> np.ndarray:
     """Whether each point (local coordinates; best in spatial order: the walks are short) passes
     step 3's test against the final TIN."""

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core.clusters import make_clusters, recover_runs
+from aldpat.core.height_codes import Decode
 from aldpat.core.progressive import Recovery, progressive_opening
 from aldpat.filters.grid_stage import low_outlier_reach
 from aldpat.filters.options import GroundParams, check_series
@@ -85,7 +86,7 @@ def progressive_marks(
     gap_threshold: float | None = None,
     recover_across_gaps: bool = True,
     skip: np.ndarray | None = None,
-    decode=None,
+    decode: Decode | None = None,
     in_place: bool = False,
 ) -> np.ndarray:
     """Mark matrix of the (cluster-based) progressive morphological filter (§5.2.2).
@@ -144,7 +145,7 @@ def cluster_pm_reach(p: ClusterPmParams) -> int:
 @register_filter("cluster-pm", params=ClusterPmParams, reach=cluster_pm_reach, takes_codes=True,
                  summary="cluster-based progressive morphological filter (dissertation ch. 5)")
 def cluster_pm(z: np.ndarray, empty: np.ndarray, params: ClusterPmParams, *, in_place: bool = False,
-               decode=None) -> np.ndarray:
+               decode: Decode | None = None) -> np.ndarray:
     """Mark matrix of ``MorphClusterFilter`` (dissertation ch. 5 §5.2.2); ``decode``: ``z`` holds
     height codes. ``z`` is never changed."""
     p = params

@@ -8,20 +8,21 @@ raised-segment test (and, with raised spans, the remnants it leaves: :func:`remn
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
+from aldpat.core.height_codes import Decode
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints, find_low_points, point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, lowest_grid
 from aldpat.core.memory import one_arena, release_free_memory
 from aldpat.core.surface_check import SurfaceTest
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_RAISED_SEGMENT
+from aldpat.filters.options import GroundParams, LowOutlierOption, PointFilterParams, RaisedSegmentOption
 from aldpat.filters.registry import FilterSpec
 
 
-def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | None) -> tuple[np.ndarray, LowPoints]:
+def _run_grid(spec: FilterSpec, cells: CellHeights, params: GroundParams, spacing: float | None) -> tuple[np.ndarray, LowPoints]:
     """Fill, find the low outliers, filter and return the cell mark matrix (int16 or int32) of
     one grid and the low outliers' cells (left out of the grid: marked as empty ones).
 
@@ -70,8 +71,8 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params, spacing: float | Non
     return marks, low
 
 
-def raised_cells(filled: np.ndarray, params, cell: float, filled_from: np.ndarray | None = None, *,
-                 decode: Callable[[np.ndarray], np.ndarray] | None = None, levels: bool = True) -> np.ndarray:
+def raised_cells(filled: np.ndarray, params: RaisedSegmentOption, cell: float, filled_from: np.ndarray | None = None,
+                 *, decode: Decode | None = None, levels: bool = True) -> np.ndarray:
     """The cells of objects found by the steps around them (``object_step``): raised segments
     (:mod:`aldpat.core.segments`, with a building's levels unless ``levels`` is false) and, with
     ``object_span``, raised spans (:mod:`aldpat.core.spans`). ``filled``: the lowest-point grid
@@ -90,7 +91,7 @@ def raised_cells(filled: np.ndarray, params, cell: float, filled_from: np.ndarra
     return raised
 
 
-def remnants(cells: CellHeights, ground: np.ndarray, params, cell: float) -> np.ndarray:
+def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption, cell: float) -> np.ndarray:
     """The cells of ``ground`` that stand as flats on the ground the filter left: level runs at
     most ``object_span`` long bounded by steps down at both ends along their row *and* their
     column (:func:`aldpat.core.spans.raised_spans` with ``enclosed``), on the grid of the ground
@@ -118,17 +119,19 @@ def remnants(cells: CellHeights, ground: np.ndarray, params, cell: float) -> np.
     return flats & ground
 
 
-def find_low_outliers(cells: CellHeights, real: np.ndarray, params, spacing: float | None) -> LowPoints:
+def find_low_outliers(cells: CellHeights, real: np.ndarray, params: LowOutlierOption,
+                      spacing: float | None) -> LowPoints:
     """The low outliers of a grid (:mod:`aldpat.core.low_points`) with the test's parameters;
     none when ``low_outliers`` is off. ``spacing``: the input's point spacing."""
-    if getattr(params, "low_outliers", None) is None:
+    threshold = getattr(params, "low_outliers", None)
+    if threshold is None:
         return NO_LOW_POINTS
     return find_low_points(cells.codes, cells.heights.decode, real, cells.spec,
-                           origin=getattr(params, "origin", None), spacing=spacing, threshold=params.low_outliers,
+                           origin=getattr(params, "origin", None), spacing=spacing, threshold=threshold,
                            window=params.low_outlier_window, reach=params.low_outlier_reach)
 
 
-def cell_classes(spec: FilterSpec, cells: CellHeights, params, *, origin: tuple[float, float] | None = None,
+def cell_classes(spec: FilterSpec, cells: CellHeights, params: GroundParams, *, origin: tuple[float, float] | None = None,
                  spacing: float | None = None) -> CellClasses:
     """The grid stage of a grid filter: fill, the low-outlier test, filter, the raised-segment
     test and, with ``surface_threshold``, the provisional surface of SMRF's final test.
@@ -143,7 +146,7 @@ def cell_classes(spec: FilterSpec, cells: CellHeights, params, *, origin: tuple[
     return CellClasses(cells, marks, params.ground_tolerance, origin, surface, low)
 
 
-def low_outlier_reach(params) -> int:
+def low_outlier_reach(params: LowOutlierOption) -> int:
     """Cells the low-outlier test looks across: the terrain around a pit, in cells."""
     if getattr(params, "low_outliers", None) is None:
         return 0
@@ -151,8 +154,8 @@ def low_outlier_reach(params) -> int:
     return max(4 * params.low_outlier_window, math.ceil(params.low_outlier_reach / cell - 1e-9))
 
 
-def low_outlier_points(x, y, z, params, extent: Extent | None = None, spacing: float | None = None
-                       ) -> np.ndarray | None:
+def low_outlier_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: GroundParams | PointFilterParams,
+                       extent: Extent | None = None, spacing: float | None = None) -> np.ndarray | None:
     """Which points the low-outlier test finds on the lowest-point grid of ``params.cell`` (a
     point filter's, which sets them aside before it runs); ``None`` when the test is off."""
     if getattr(params, "low_outliers", None) is None or len(z) == 0:

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import fill_nearest
 from aldpat.core.priority_fill import priority_fill
 from aldpat.core.progressive import heights_grid
@@ -92,7 +93,7 @@ def multipass_reach(p: MultipassParams) -> int:
                  summary="multi-pass morphological filter with priority boundary interpolation "
                          "(dissertation ch. 4)")
 def multipass(z: np.ndarray, empty: np.ndarray, params: MultipassParams, *, in_place: bool = False,
-              decode=None) -> np.ndarray:
+              decode: Decode | None = None) -> np.ndarray:
     """Mark matrix of the multi-pass filter (dissertation §4.2.5); ``decode``: ``z`` holds height
     codes (:mod:`aldpat.core.height_codes`). ``z`` is never changed.
 

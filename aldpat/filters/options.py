@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from aldpat.errors import ParamError
 from aldpat.filters.survey import ExistingClassesOption
@@ -119,6 +120,10 @@ class PointFilterParams(LowOutlierOption, ExistingClassesOption, FilterOutputOpt
     def cell_shape(self) -> tuple[float, float]:
         """Width and height of the filter's cells."""
         raise NotImplementedError
+
+    if TYPE_CHECKING:  # declared, with its default and help, by each point filter (its own cells)
+        @property
+        def cell(self) -> float: ...
 
 
 def check_series(windows: tuple[int, ...], values: tuple[float, ...], names: tuple[str, str]) -> None:

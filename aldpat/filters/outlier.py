@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import rows_per_block
 from aldpat.filters.classify import FilterResult
 from aldpat.filters.grid_stage import low_outlier_reach
@@ -45,7 +46,7 @@ class OutlierParams(GroundParams):
 
 
 def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | None = 2.0,
-                  low_threshold: float | None = 2.0, shape: str = "square", decode=None) -> np.ndarray:
+                  low_threshold: float | None = 2.0, shape: str = "square", decode: Decode | None = None) -> np.ndarray:
     """Mark matrix of the morphological outlier test (§4.1.1): ``window`` where an outlier.
 
     ``decode``: ``z`` holds height codes (:mod:`aldpat.core.height_codes`); openings and closings
@@ -67,7 +68,7 @@ def outlier_marks(z: np.ndarray, *, window: int = 1, high_threshold: float | Non
 
 
 def _slab_marks(z: np.ndarray, window: int, high_threshold: float | None, low_threshold: float | None, shape: str,
-                decode) -> np.ndarray:
+                decode: Decode | None) -> np.ndarray:
     heights = decode if decode is not None else (lambda v: v)
     out = np.zeros(z.shape, dtype=bool)
     if low_threshold is not None:
@@ -112,7 +113,7 @@ def outlier_reach(p: OutlierParams) -> int:
 @register_filter("outlier", params=OutlierParams, noise=outlier_noise, reach=outlier_reach, takes_codes=True,
                  summary="morphological removal of isolated high and low points (dissertation §4.1)")
 def outlier(z: np.ndarray, empty: np.ndarray, params: OutlierParams, *, in_place: bool = False,
-            decode=None) -> np.ndarray:
+            decode: Decode | None = None) -> np.ndarray:
     """Mark matrix of the outlier filter (dissertation §4.1.1); ``decode``: ``z`` holds height
     codes. ``z`` is never changed."""
     p = params

@@ -7,12 +7,15 @@ lie ``max_slope`` x ``gap`` below the point, and nothing within reach lies below
 
 from __future__ import annotations
 
+import numpy as np
+
 from aldpat.core.compiled import compiled
 
 
 @compiled()
-def steep_search(x, y, z, cell_index, flat_lowest, reach_min, dr, dc, gap, rows, cols, r2_min, r2_max, max_slope,
-                 steep):
+def steep_search(x: np.ndarray, y: np.ndarray, z: np.ndarray, cell_index: np.ndarray, flat_lowest: np.ndarray,
+                 reach_min: np.ndarray, dr: np.ndarray, dc: np.ndarray, gap: np.ndarray, rows: int, cols: int,
+                 r2_min: float, r2_max: float, max_slope: float, steep: np.ndarray) -> None:
     """Set ``steep[i]`` for every point with an array element (``flat_lowest``: the lowest point
     of each cell, -1 where empty; ``cell_index``: each point's cell, row-major) within ``r2_max``
     (squared distance, pairs closer than ``r2_min`` not compared) that lies ``max_slope`` or more

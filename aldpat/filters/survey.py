@@ -44,7 +44,7 @@ class ExistingClassesOption(SharedOption):
     )
 
 
-def taking_part(table: PointTable, params) -> np.ndarray | None:
+def taking_part(table: PointTable, params: object) -> np.ndarray | None:
     """Which points of ``table`` take part in finding ground: not withheld, not of a class in
     ``params.ignore_classes``, of the returns ``params.returns`` names. None when every point
     does (the common case costs no mask)."""
