@@ -132,7 +132,8 @@ class CellClasses:
     surface: SurfaceTest | None = None
     low: LowPoints = NO_LOW_POINTS  # the low outliers' cells, left out of the grid stage
 
-    def classify(self, x, y, z, cell_index: np.ndarray | None = None, *, marks: bool = True
+    def classify(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, cell_index: np.ndarray | None = None, *,
+                 marks: bool = True
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(point marks int32, is ground) of points x, y, z (``cell_index``: their flat cells when
         already known). ``marks=False``: the marks are not wanted, only the classes (with the

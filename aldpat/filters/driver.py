@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import logging
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from aldpat.core import units
 from aldpat.core.lowest_grid import Extent, LowestGrid, lowest_grid
@@ -30,13 +32,14 @@ from aldpat.errors import DataError, ParamError
 from aldpat.filters.classify import CellHeights, FilterResult
 from aldpat.filters.grid_stage import cell_classes, low_outlier_points, points_spacing
 from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_LOW_OUTLIER
+from aldpat.filters.options import PointFilterParams
 from aldpat.filters.registry import FilterSpec, get_filter
 
 log = logging.getLogger(__name__)
 
 
-def _lowest_without(x, y, z, set_aside: np.ndarray | None, cell: float, origin, extent: Extent | None = None
-                    ) -> LowestGrid:
+def _lowest_without(x: np.ndarray, y: np.ndarray, z: np.ndarray, set_aside: np.ndarray | None, cell: float,
+                    origin: tuple[float, float] | None, extent: Extent | None = None) -> LowestGrid:
     """The lowest-point grid with the points ``set_aside`` left out (a cell holding nothing
     else is empty); same cells as with them."""
     if set_aside is None or not set_aside.any():
@@ -57,8 +60,8 @@ def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, n
     return x * c - y * s, x * s + y * c
 
 
-def ground_filter(x, y, z, algorithm: str, params=None, *, extent: Extent | None = None,
-                  spacing: float | None = None) -> FilterResult:
+def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, params: Any = None, *,
+                  extent: Extent | None = None, spacing: float | None = None) -> FilterResult:
     """Classify points as ground / non-ground with the registered grid filter ``algorithm``.
 
     Parameters
@@ -141,7 +144,7 @@ def _cell_marks(grid: LowestGrid, point_marks: np.ndarray) -> np.ndarray:
     return marks
 
 
-def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Extent | None = None,
+def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: PointFilterParams, extent: Extent | None = None,
               leave_out: np.ndarray | None = None) -> LowestGrid:
     """The lowest point of each of a point filter's cells (``params.cell_shape()``), the points
     ``leave_out`` left out (a cell holding nothing else is empty). Rectangular cells are square
@@ -154,8 +157,8 @@ def cell_grid(x: np.ndarray, y: np.ndarray, z: np.ndarray, params, extent: Exten
     return _lowest_without(x, y / stretch if stretch != 1.0 else y, z, leave_out, width, None, extent)
 
 
-def _point_filter(spec: FilterSpec, x, y, z, params, extent: Extent | None, spacing: float | None
-                  ) -> FilterResult:
+def _point_filter(spec: FilterSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray, params: PointFilterParams,
+                  extent: Extent | None, spacing: float | None) -> FilterResult:
     """Run a point filter and report its marks on the grid of its own cells (for ``--data-mode
     center`` and the mark matrix): a cell takes the mark of its lowest point."""
     units.stage("grid")

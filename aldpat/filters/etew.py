@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import rows_per_block
 from aldpat.core.progressive import mark_dtype
 from aldpat.filters.grid_stage import low_outlier_reach
@@ -56,7 +57,7 @@ def etew_reach(p: ETEWParams) -> int:
 
 @register_filter("etew", params=ETEWParams, reach=etew_reach, takes_codes=True,
                  summary="elevation threshold with expanding window (manual appendix; Zhang and Whitman 2005)")
-def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool = False, decode=None
+def etew(z: np.ndarray, empty: np.ndarray, params: ETEWParams, *, in_place: bool = False, decode: Decode | None = None
          ) -> np.ndarray:
     """Expanding-window elevation threshold (manual appendix ETEW, eqs. 1-3).
 

@@ -155,7 +155,7 @@ def _candidates(zinf: np.ndarray, k: int) -> np.ndarray:
 class _Ground:
     """The ground set as cells of the node grid (a cell's lowest point), with its surface."""
 
-    def __init__(self, grid: LowestGrid, x, y, params: IpfParams):
+    def __init__(self, grid: LowestGrid, x: np.ndarray, y: np.ndarray, params: IpfParams):
         self.grid = grid
         self.params = params
         self.cell_x = np.zeros(grid.z.shape)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,7 +35,12 @@ from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, flo
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.grid_stage import cell_classes
 from aldpat.filters.marks import MARK_GROUND
+from aldpat.filters.options import GroundParams
 from aldpat.filters.registry import get_filter
+from aldpat.io.table import PointTable
+
+if TYPE_CHECKING:
+    from aldpat.io.las import LasReader
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +52,7 @@ class Unstreamable(Exception):
     """The file cannot be filtered in two passes (the message says why); read it whole instead."""
 
 
-def streamable(algorithm: str, params) -> bool:
+def streamable(algorithm: str, params: Any) -> bool:
     """Whether ``algorithm`` with ``params`` gives the same classes in two streaming passes."""
     spec = get_filter(algorithm)
     if spec.on_points:
@@ -107,7 +113,7 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
 
 
 def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, heights: ScaledHeights,
-                   algorithm: str, params) -> CellClasses:
+                   algorithm: str, params: GroundParams) -> CellClasses:
     """Pass one: the grid of ``read()``'s points, through the filter's grid stage. The returned
     :class:`CellClasses` classifies the points of pass two, chunk by chunk."""
     spec = get_filter(algorithm)
@@ -155,7 +161,7 @@ class ChunkNoise:
     kept here as height codes (the same values, half the memory of float64 heights).
     """
 
-    def __init__(self, classes: CellClasses, noise: Callable[..., np.ndarray], params):
+    def __init__(self, classes: CellClasses, noise: Callable[..., np.ndarray], params: GroundParams) -> None:
         self.classes, self.noise, self.params = classes, noise, params
         ground = classes.marks == MARK_GROUND
         # no ground cell: the whole-file surface is all NaN, which makes no point noise
@@ -173,7 +179,9 @@ class ChunkNoise:
         return point_marks, is_ground, self.noise(result, np.asarray(z, np.float64), self.params)
 
 
-def stream_ground(reader, algorithm: str, params, chunk: int, *, used=None, seen=None
+def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk: int, *,
+                  used: Callable[[PointTable], np.ndarray] | None = None,
+                  seen: Callable[[PointTable], object] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, Extent] | None:
     """The ground points of a LAS/LAZ file in two passes (what ``aldpat dtm`` triangulates): x, y
     and z of the ground points, the file's point count and its points' extent; the points
