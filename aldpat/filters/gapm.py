@@ -25,6 +25,7 @@ import dataclasses
 import functools
 import logging
 import math
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -33,6 +34,7 @@ import numpy as np
 
 from aldpat.core import morphology, rise
 from aldpat.core.auto_windows import SET01_CELL, auto_windows
+from aldpat.core.height_codes import Decode
 from aldpat.core.progressive import mark_dtype
 from aldpat.core.threads import thread_budget
 from aldpat.core.trend import candidate_thresholds
@@ -194,7 +196,7 @@ def adaptive_rows(
     return marks
 
 
-def _adaptive_block(z, windows, cts, rules: StepRules) -> np.ndarray:
+def _adaptive_block(z: np.ndarray, windows: tuple[int, ...], cts: tuple[float, ...], rules: StepRules) -> np.ndarray:
     zc = z.copy()
     mark = np.zeros(z.shape, np.int32)
     for k, ct in zip(windows, cts, strict=False):
@@ -203,7 +205,8 @@ def _adaptive_block(z, windows, cts, rules: StepRules) -> np.ndarray:
     return mark
 
 
-def adaptive_step(zc, unfiltered, k, ct, rules: StepRules, axis: int = 1, decode=None):
+def adaptive_step(zc: np.ndarray, unfiltered: np.ndarray, k: int, ct: float, rules: StepRules, axis: int = 1,
+                  decode: Decode | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One window of ``AdaptiveMorphFilter`` along rows (``axis=1``) or columns (``axis=0``): half
     window ``k``, cluster threshold ``ct``, decided by ``rules``.
 
@@ -238,7 +241,8 @@ def adaptive_step(zc, unfiltered, k, ct, rules: StepRules, axis: int = 1, decode
     return removed, zo
 
 
-def opened_along_trend(zc: np.ndarray, k: int, decode=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def opened_along_trend(zc: np.ndarray, k: int, decode: Decode | None = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The opening of every row of ``zc`` with a line window of half size ``k``, the rows continued
     past their ends along their trend (:func:`aldpat.core.morphology.opening_along_trend`): the
     opened surface, as ``zc`` holds it (height codes when ``decode`` is given), every cell's
@@ -277,7 +281,7 @@ def opened_along_trend(zc: np.ndarray, k: int, decode=None) -> tuple[np.ndarray,
 
 
 def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = None, in_place: bool = False,
-                        decode=None) -> np.ndarray:
+                        decode: Decode | None = None) -> np.ndarray:
     """``AdaptiveMorphFilter`` as printed (§6.2.4 lines 2-21): at every window of the series the
     rows (if the window is a row window) and then the columns (if a column window) are opened,
     each on the surface the previous pass left, marking into one mark matrix.
@@ -299,14 +303,14 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
     rules = StepRules.of(p)
     nr, nc = zc.shape
 
-    def row_block(a, k, ct):
+    def row_block(a: int, k: int, ct: float) -> None:
         b = min(a + BLOCK_ROWS, nr)
         m = mark[a:b]
         removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, rules, decode=decode)
         zc[a:b] = zo
         np.copyto(m, k, where=removed)
 
-    def column_block(a, k, ct):
+    def column_block(a: int, k: int, ct: float) -> None:
         b = min(a + BLOCK_COLUMNS, nc)
         m = mark[:, a:b]
         zt = np.ascontiguousarray(zc[:, a:b].T)
@@ -333,7 +337,8 @@ def combine_directions(row_marks: np.ndarray | None, column_marks: np.ndarray | 
     return row_marks
 
 
-def run_directions(z: np.ndarray, row_fn, column_fn) -> np.ndarray:
+def run_directions(z: np.ndarray, row_fn: Callable[[np.ndarray], np.ndarray] | None,
+                   column_fn: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
     """Filter rows and columns independently (two threads: numpy and scipy release the GIL)."""
     jobs = []
     with ThreadPoolExecutor(max_workers=min(2, thread_budget())) as pool:
@@ -410,6 +415,6 @@ def with_auto(params: GapmParams, x: np.ndarray, y: np.ndarray, z: np.ndarray) -
         row_windows=tuple(chosen.rows), column_windows=tuple(chosen.columns), auto=False)
 
 
-def auto_params(x: np.ndarray, y: np.ndarray, z: np.ndarray, **values) -> GapmParams:
+def auto_params(x: np.ndarray, y: np.ndarray, z: np.ndarray, **values: Any) -> GapmParams:
     """``GapmParams(**values)`` with ``--auto`` applied to the points."""
     return with_auto(GapmParams(**values), x, y, z)

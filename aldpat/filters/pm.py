@@ -39,6 +39,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from aldpat.core.height_codes import Decode
 from aldpat.core.progressive import progressive_opening
 from aldpat.errors import ParamError
 from aldpat.filters.grid_stage import low_outlier_reach
@@ -184,8 +185,8 @@ def progressive_reach(p: ProgressiveParams) -> int:
     return sum(2 * k for k in window_series(p)) + low_outlier_reach(p)
 
 
-def pm(z: np.ndarray, empty: np.ndarray, params: ProgressiveParams, *, in_place: bool = False, decode=None
-       ) -> np.ndarray:
+def pm(z: np.ndarray, empty: np.ndarray, params: ProgressiveParams, *, in_place: bool = False,
+       decode: Decode | None = None) -> np.ndarray:
     """Progressive morphology with the windows of ``params`` (manual appendix PM, task 8): lines
     along ``direction`` (:class:`PMParams`), squares (:class:`PM2DParams`) or disks
     (:class:`PMCircleParams`).
