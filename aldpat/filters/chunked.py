@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -32,11 +32,15 @@ import numpy as np
 
 from aldpat.core.low_points import point_spacing
 from aldpat.errors import ParamError
+from aldpat.filters.classify import FilterResult
 from aldpat.filters.driver import ground_filter
 from aldpat.filters.grid_stage import low_outlier_reach
 from aldpat.filters.registry import get_filter
 from aldpat.io.chunks import ChunkLattice, SpilledChunks, map_chunks, spill_chunks
 from aldpat.io.table import PointTable
+
+#: ``classes_of(result, z, params) -> uint8``: each point's ASPRS class from the filter's result.
+ClassesOf = Callable[[FilterResult, np.ndarray, Any], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -76,7 +80,7 @@ def chunk_plan(algorithm: str, params: Any) -> ChunkPlan:
 
 
 def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, plan: ChunkPlan, scratch: Path, *,
-                  classes_of, workers: int = 1) -> ChunkRun:
+                  classes_of: ClassesOf, workers: int = 1) -> ChunkRun:
     """Filter the points of ``tables`` (one input, in row order) chunk by chunk.
 
     ``classes_of(result, z, params) -> uint8`` gives each point's ASPRS class. Returns the marks
@@ -112,7 +116,7 @@ class ChunkRun:
     seconds: float  # the chunks' own filtering time, summed over them
 
 
-def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of,
+def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of: ClassesOf,
                       spacing: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The rows, marks and classes of the points of chunk (col, row), filtered with its buffer,
     and the seconds it took."""

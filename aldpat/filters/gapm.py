@@ -376,8 +376,8 @@ def gapm_with_points(p: GapmParams, x: np.ndarray, y: np.ndarray, z: np.ndarray)
                  needs_every_point=gapm_needs_every_point, with_points=gapm_with_points,
                  summary="generalized adaptive morphological filter with cluster and trend analysis "
                          "(dissertation ch. 6)")
-def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams, *, in_place: bool = False, decode=None
-         ) -> np.ndarray:
+def gapm(z: np.ndarray, empty: np.ndarray, params: GapmParams, *, in_place: bool = False,
+         decode: Decode | None = None) -> np.ndarray:
     """Mark matrix of the generalized adaptive morphological filter (dissertation ch. 6).
 
     Empty cells take part as interpolated ground candidates (mark -7777 of Table 5-1); the

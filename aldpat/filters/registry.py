@@ -10,7 +10,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -22,6 +22,8 @@ FilterFn = Callable[[np.ndarray, np.ndarray, object], np.ndarray]
 #: A point filter: ``fn(x, y, z, grid, params) -> point marks`` (int32, 0 for ground); ``grid`` is
 #: the lowest-point grid of the filter's own cells (:func:`cell_grid`).
 PointFilterFn = Callable[[np.ndarray, np.ndarray, np.ndarray, LowestGrid, object], np.ndarray]
+#: The function a filter registers (returned unchanged by :func:`register_filter`).
+Registered = TypeVar("Registered", bound=Callable[..., np.ndarray])
 
 
 def _needs_no_more(params: Any) -> str | None:
@@ -76,7 +78,8 @@ def register_filter(name: str, *, params: type, summary: str,
                     noise: Callable[..., np.ndarray] | None = None, reach: Callable[[Any], int] | None = None,
                     buffer: Callable[[Any], float] | None = None, takes_codes: bool = False,
                     needs_every_point: Callable[[Any], str | None] | None = None,
-                    with_points: Callable[..., tuple[Any, str]] | None = None):
+                    with_points: Callable[..., tuple[Any, str]] | None = None
+                    ) -> Callable[[Registered], Registered]:
     """Decorator registering ``fn(z, empty, params) -> marks`` as the grid filter ``name``, or
     with ``on_points`` ``fn(x, y, z, grid, params) -> point marks`` as the point filter ``name``."""
     base = PointFilterParams if on_points else GroundParams
@@ -85,7 +88,7 @@ def register_filter(name: str, *, params: type, summary: str,
     if (needs_every_point is None) != (with_points is None):
         raise TypeError(f"filter {name!r}: needs_every_point and with_points go together")
 
-    def deco(fn: Callable) -> Callable:
+    def deco(fn: Registered) -> Registered:
         if name in FILTERS and FILTERS[name].fn is not fn:
             raise ValueError(f"filter {name!r} is registered twice")
         FILTERS[name] = FilterSpec(name=name, summary=summary, params=params, fn=fn, rotations=rotations,
