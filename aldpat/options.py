@@ -132,6 +132,11 @@ class ChunkOption(SharedOption, Checked):
             raise ParamError("catalog: takes the inputs together in chunks; give --chunk SIZE too")
         self.buffer_metres()
 
+    def chunk_cells(self, cell: float) -> int:
+        """The side of a ``--chunk`` in whole cells of ``cell`` m (at least one)."""
+        assert self.chunk is not None
+        return max(1, round(self.chunk / cell))
+
     def buffer_metres(self) -> float | None:
         """``chunk_buffer`` in metres, or None for ``auto`` (what the filter or the grid needs):
         the one place it is read, so a bad value is refused when the parameters are made."""

@@ -57,9 +57,8 @@ def chunk_plan(algorithm: str, params: Any) -> ChunkPlan:
     ``auto`` for a filter that knows no buffer, or buffers that copy each point too many times
     (:meth:`ChunkLattice.check_copies`). The filter task checks this plan with its parameters
     (:func:`aldpat.tasks.filter.check_filter_run`), so a dry run refuses what the run would."""
-    assert params.chunk is not None
     cell = float(getattr(params, "cell", None) or 1.0)  # point filters' chunks: on whole metres
-    cells = max(1, round(params.chunk / cell))
+    cells = params.chunk_cells(cell)
     spec = get_filter(algorithm)
     given = params.buffer_metres()
     if given is not None:

@@ -115,7 +115,7 @@ class GridParams(OriginOption, CrsOption, ChunkOption):
         if self.nodata is not None and self.grid_format in ("surfer6", "surfer6-ascii"):
             raise ParamError("nodata: applies to surfer7 and GeoTIFF grids; Surfer 6 grids always use 1.70141e38")
         if self.chunk is not None:
-            ChunkLattice(chunk_cells(self) * self.cell, chunk_buffer_for(self)).check_copies()
+            ChunkLattice(self.chunk_cells(self.cell) * self.cell, chunk_buffer_for(self)).check_copies()
 
 
 def grid_spec_for(params, xy: tuple[np.ndarray, np.ndarray] | None = None) -> GridSpec | None:
@@ -348,19 +348,13 @@ def chunk_buffer_for(params: GridParams) -> float:
     return max(params.radius or 0.0, params.max_distance or 0.0, 10.0 * params.cell)
 
 
-def chunk_cells(params: GridParams) -> int:
-    """The side of a ``--chunk`` in whole cells."""
-    assert params.chunk is not None
-    return max(1, round(params.chunk / params.cell))
-
-
 def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None
                  ) -> tuple[np.ndarray, int]:
     """``--chunk``: the nodes in squares of ``chunk`` (whole cells), each interpolated from the
     points of its square and its buffer only (:mod:`aldpat.io.chunks`); memory is a chunk's points
     and the grid. Returns the grid and the number of points."""
     assert params.chunk is not None  # grid_one calls this only with --chunk
-    k = chunk_cells(params)
+    k = params.chunk_cells(params.cell)
     buffer = chunk_buffer_for(params)
     # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1
     lattice = ChunkLattice(k * params.cell, buffer, (spec.xmin - params.cell / 2, spec.ymin - params.cell / 2))
