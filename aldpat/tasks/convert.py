@@ -38,7 +38,13 @@ TAPE_NAMES = ("x", "y", "z", "intensity", "t", *RETURN_DIMENSIONS)
 
 
 def convert_outputs(source: Path, params: ConvertParams, ctx: JobContext) -> list[Planned]:
-    return [Planned(ctx.output_path(source, ""), source)]
+    """The copy of ``source``; with ``--tape`` it must be LAS/LAZ, refused here otherwise, before
+    anything runs (``--dry-run`` too)."""
+    out = ctx.output_path(source, "")
+    if params.tape and out.suffix.lower() not in (".las", ".laz"):
+        raise UsageError("--tape writes LAS/LAZ (--out-format las or laz); separate-returns makes text files of "
+                         "the first and last returns")
+    return [Planned(out, source)]
 
 
 def convert_one(source: Path, params: ConvertParams, ctx: JobContext) -> None:
@@ -58,10 +64,7 @@ def convert_one(source: Path, params: ConvertParams, ctx: JobContext) -> None:
 def convert_tape(source: Path, params: ConvertParams, ctx: JobContext) -> None:
     """A 9-column tape to LAS/LAZ: both returns of every pulse (see the module docstring)."""
     reader = ctx.open_input(source, layout="altm9", order=params.order)
-    out = ctx.outputs_for(source)[0].path
-    if out.suffix.lower() not in (".las", ".laz"):
-        raise UsageError("--tape writes LAS/LAZ (--out-format las or laz); separate-returns makes text files of "
-                         "the first and last returns", path=source)
+    out = ctx.outputs_for(source)[0].path  # LAS/LAZ: convert_outputs refuses text
     crs = output_crs(params.crs, None, out, ctx.warn)  # a tape names no CRS
     dec = reader.decimals
     decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": max(dec.get("z1", 0), dec.get("z2", 0)),

@@ -75,8 +75,15 @@ def _strip_suffix(ctx: JobContext) -> str:
 
 
 def split_tape_outputs(source: Path, params: SplitTapeParams, ctx: JobContext) -> list[Planned]:
-    """The strips ``<stem>_strip01``, ``_strip02``...: as many as the tape holds."""
+    """The strips ``<stem>_strip01``, ``_strip02``...: as many as the tape holds. Strips are
+    text: LAS/LAZ strips are refused here, before anything runs (``--dry-run`` too)."""
     name = ctx.output_path(source, _strip_suffix(ctx), use_suffix_option=False)
+    if name.suffix.lower() in (".las", ".laz"):
+        if getattr(ctx.output, "out_format", "same") != "same":
+            raise UsageError("strips keep the tape's 9-column text layout; --out-format las/laz does not apply")
+        if getattr(ctx.input, "format", "auto") == "text":  # a LAS/LAZ file is no tape: its reader says so
+            raise UsageError(f"strips keep the tape's 9-column text layout, so they cannot take the extension "
+                             f"{name.suffix} of {source}; give --out-format text")
     pattern = glob_escape(name.stem) + "[0-9][0-9]*" + glob_escape(name.suffix)
     return [Planned(name.with_name(pattern), source, family=True)]
 
@@ -84,10 +91,7 @@ def split_tape_outputs(source: Path, params: SplitTapeParams, ctx: JobContext) -
 def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source, layout="altm9", order=params.order)
     suffix = _strip_suffix(ctx)
-    probe = ctx.output_path(source, "", reader=reader, use_suffix_option=False)
-    if probe.suffix in (".las", ".laz"):
-        raise UsageError("strips keep the tape's 9-column text layout; --out-format las/laz does not apply",
-                         path=source)
+    probe = ctx.output_path(source, "", reader=reader, use_suffix_option=False)  # text: split_tape_outputs
     raw = passthrough_ok(reader, reader.names, ctx.delimiter, probe.suffix)
 
     with contextlib.ExitStack() as stack:

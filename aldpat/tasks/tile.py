@@ -215,9 +215,12 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> int:
 
 
 def tile_outputs(sources: list[Path], params: TileParams, ctx: JobContext) -> list[Planned]:
-    """``tile_parameter.txt`` and the tiles ``tile_<minx>_<miny>``, as many as the data cover."""
+    """``tile_parameter.txt`` and the tiles ``tile_<minx>_<miny>``, as many as the data cover.
+    ``--append`` to LAS/LAZ tiles is refused here, before anything runs (``--dry-run`` too)."""
     folder = ctx.output_dir(sources[0])
     ext = output_extension(sources[0], ctx.output.out_format if ctx.output else None)
+    if ext in (".las", ".laz") and params.append:
+        raise UsageError("--append works on text tiles only (LAS/LAZ files cannot be appended to)")
     return [Planned(folder / PARAMETER_FILE), Planned(folder / f"tile_*_*{glob_escape(ext)}", family=True)]
 
 
@@ -225,9 +228,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     readers = [ctx.open_input(s) for s in sources]
     first = readers[0]
     folder = ctx.output_dir(sources[0])
-    ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)
-    if ext in (".las", ".laz") and params.append:
-        raise UsageError("--append works on text tiles only (LAS/LAZ files cannot be appended to)")
+    ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs
     if ext in (".las", ".laz"):
         formats = {r.header.point_format.id for r in readers if r.format == "las"}
         if len(formats) > 1 or (formats and any(r.format != "las" for r in readers)):

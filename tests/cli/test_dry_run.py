@@ -1,7 +1,8 @@
 """``--dry-run`` refuses what the run refuses, with the same one-line message, before a point is read.
 
 Every rule that can refuse a combination of options runs when the parameters are resolved (the
-params class's own check, a task's ``check``): so ``aldpat COMMAND ... --dry-run`` and ``aldpat run
+params class's own check, a task's ``check``) or where the task plans its outputs (a format an
+output cannot have): so ``aldpat COMMAND ... --dry-run`` and ``aldpat run
 --dry-run`` on a worksheet holding the same job see it, and the run refuses it the same way
 before reading anything. Each case runs three ways in a fresh process: the command, the command
 with ``--dry-run``, and a worksheet job with ``aldpat run --dry-run``.
@@ -33,6 +34,12 @@ REFUSED = [
     (["filter", "pm", "--catalog"], r"catalog: takes the inputs together in chunks; give --chunk SIZE too"),
     (["grid", "--chunk", "1", "--chunk-buffer", "40"], r"--chunk 1 m with a 40 m buffer copies every point into 6,561"),
     (["dtm", "--auto", "--algorithm", "pm"], r"auto: derives gapm's parameters; --algorithm is pm"),
+    # rules on what an output can be, checked where each task plans its outputs
+    (["split-tape", "--out-format", "las"],
+     r"strips keep the tape's 9-column text layout; --out-format las/laz does not apply"),
+    (["convert", "--tape"], r"--tape writes LAS/LAZ \(--out-format las or laz\); separate-returns makes text files"),
+    (["tile", "--append", "--out-format", "laz"],
+     r"--append works on text tiles only \(LAS/LAZ files cannot be appended to\)"),
 ]
 
 

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from aldpat.errors import UsageError
 from aldpat.tasks import get_task
 from aldpat.tasks.split_tape import strip_starts
 from tests.tasks.prep_data import tape_rows, write_tape
@@ -72,6 +73,11 @@ def test_existing_strips_need_overwrite(tmp_path, runner, cli):
 
 
 def test_las_output_is_refused_for_tapes(tmp_path):
+    """Strips are text: LAS/LAZ strips are refused where the strips are planned, before a line is read."""
     tape = write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
-    report = get_task("split-tape")([tape], out_format="las")
-    assert report.exit_code == 2 and "9-column text" in report.results[0].error  # a usage error
+    with pytest.raises(UsageError, match="9-column text layout; --out-format las/laz does not apply"):
+        get_task("split-tape")([tape], out_format="las")
+    named = write_tape(tmp_path / "tape.las", tape_rows(TIMES))  # a text tape named .las, read as text
+    with pytest.raises(UsageError, match=r"cannot take the extension \.las of .*tape\.las; give --out-format text"):
+        get_task("split-tape")([named], format="text")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tape.las", "tape.txt"]  # nothing written

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aldpat.errors import UsageError
 from aldpat.tasks import get_task
 
 
@@ -136,4 +137,5 @@ def test_las_tiles_keep_attributes_and_mark_their_buffer_points(tmp_path):
     retiled = laspy.read(tmp_path / "again" / "tile_494200_5420300.laz")
     assert len(retiled.points) == original.header.point_count
     assert "buffer points of the inputs" in (tmp_path / "again" / "tile_parameter.log").read_text()
-    assert get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path)).exit_code == 2  # usage
+    with pytest.raises(UsageError, match="--append works on text tiles only"):  # refused before anything runs
+        get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path))
