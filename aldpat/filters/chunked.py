@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +35,7 @@ from aldpat.errors import ParamError
 from aldpat.filters.classify import FilterResult
 from aldpat.filters.driver import ground_filter
 from aldpat.filters.grid_stage import low_outlier_reach
+from aldpat.filters.options import GroundParams, PointFilterParams
 from aldpat.filters.registry import get_filter
 from aldpat.io.chunks import ChunkLattice, SpilledChunks, map_chunks, spill_chunks
 from aldpat.io.table import PointTable
@@ -50,14 +51,14 @@ class ChunkPlan:
     buffer_cells: int
 
 
-def chunk_plan(algorithm: str, params: Any) -> ChunkPlan:
+def chunk_plan(algorithm: str, params: GroundParams | PointFilterParams) -> ChunkPlan:
     """The chunks of ``params.chunk`` m (rounded to whole cells) with a buffer of
     ``params.chunk_buffer`` m (rounded up to whole cells), or with ``auto`` what the filter needs
     (its reach, or its own buffer). A :class:`ParamError` when the options cannot make chunks:
     ``auto`` for a filter that knows no buffer, or buffers that copy each point too many times
     (:meth:`ChunkLattice.check_copies`). The filter task checks this plan with its parameters
     (:func:`aldpat.tasks.filter.check_filter_run`), so a dry run refuses what the run would."""
-    cell = float(getattr(params, "cell", None) or 1.0)  # point filters' chunks: on whole metres
+    cell, origin = params.chunk_lattice()
     cells = params.chunk_cells(cell)
     spec = get_filter(algorithm)
     given = params.buffer_metres()
@@ -72,13 +73,12 @@ def chunk_plan(algorithm: str, params: Any) -> ChunkPlan:
         buffer_cells = math.ceil(spec.buffer(params) / cell - 1e-9) + 2 * low_outlier_reach(params)
     else:
         raise ParamError(f"chunk_buffer: {algorithm} has no bounded reach to size an auto buffer; give the buffer in metres")
-    origin = getattr(params, "origin", None) or (0.0, 0.0)
     lattice = ChunkLattice(cells * cell, buffer_cells * cell, origin)
     lattice.check_copies()
     return ChunkPlan(lattice, cells, buffer_cells)
 
 
-def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, plan: ChunkPlan, scratch: Path, *,
+def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: GroundParams | PointFilterParams, plan: ChunkPlan, scratch: Path, *,
                   classes_of: ClassesOf, workers: int = 1) -> ChunkRun:
     """Filter the points of ``tables`` (one input, in row order) chunk by chunk.
 
@@ -87,8 +87,7 @@ def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: Any, pla
     """
     # every chunk's grid on the file's lattice: a grid aligned to the data's own minimum would
     # shift with each chunk's extent
-    if hasattr(params, "origin"):
-        params = replace(params, origin=plan.lattice.origin)
+    params = params.on_lattice(plan.lattice.origin)
     with spill_chunks(tables, plan.lattice, tmpdir=scratch) as spilled:
         n = spilled.points
         marks = np.lib.format.open_memmap(scratch / "marks.npy", mode="w+", dtype=np.int32, shape=(max(n, 1),))

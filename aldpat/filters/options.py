@@ -6,9 +6,10 @@ class subclasses one of them.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Self
 
 from aldpat.errors import ParamError
 from aldpat.filters.survey import ExistingClassesOption
@@ -107,6 +108,16 @@ class GroundParams(RaisedSegmentOption, LowOutlierOption, ExistingClassesOption,
         1.0, "slope scalar of the final test: metres of tolerance per unit of terrain slope", ge=0, level="advanced",
     )
 
+    def chunk_lattice(self) -> tuple[float, tuple[float, float]]:
+        """The cell a file's chunks are whole multiples of, and the point they start from: the
+        filter's grid (its cell, its origin or (0, 0)), so that a chunk's cells are the file's."""
+        return self.cell, self.origin or (0.0, 0.0)
+
+    def on_lattice(self, origin: tuple[float, float]) -> Self:
+        """These params with the grid starting at ``origin`` (the chunks' lattice): a chunk's
+        grid is then the whole file's, not one aligned to the chunk's own points."""
+        return dataclasses.replace(self, origin=origin)
+
 
 @dataclass(frozen=True)
 class PointFilterParams(LowOutlierOption, ExistingClassesOption, FilterOutputOption, ChunkOption, CrsOption, Checked):
@@ -120,6 +131,16 @@ class PointFilterParams(LowOutlierOption, ExistingClassesOption, FilterOutputOpt
     def cell_shape(self) -> tuple[float, float]:
         """Width and height of the filter's cells."""
         raise NotImplementedError
+
+    def chunk_lattice(self) -> tuple[float, tuple[float, float]]:
+        """The cell a file's chunks are whole multiples of, and the point they start from: the
+        filter's cell width from (0, 0), where its cells start (:func:`~aldpat.filters.driver.cell_grid`)."""
+        return self.cell, (0.0, 0.0)
+
+    def on_lattice(self, origin: tuple[float, float]) -> Self:
+        """These params for a chunk on the lattice from ``origin``: unchanged, the filter's cells
+        start from (0, 0) wherever its points lie."""
+        return self
 
     if TYPE_CHECKING:  # declared, with its default and help, by each point filter (its own cells)
         @property
