@@ -32,6 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from aldpat.core import morphology
+from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import rows_per_block
 from aldpat.core.threads import thread_budget
 
@@ -54,7 +55,7 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
                         passes: Sequence[tuple[str, int]], *, dtype: type = np.float32,
                         skip: np.ndarray | None = None,
                         recover: Callable[[int], Recovery | None] | None = None,
-                        decode: Callable[[np.ndarray], np.ndarray] | None = None,
+                        decode: Decode | None = None,
                         in_place: bool = False) -> np.ndarray:
     """Mark matrix (:func:`mark_dtype`: 0 ground, else the half window that removed the cell) of
     the progressive opening.
@@ -133,7 +134,7 @@ def _line_pass(surface: np.ndarray, k: int, axis: int, dh: np.floating, candidat
             pass
 
 
-def heights_grid(z: np.ndarray, dtype: type, decode: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
+def heights_grid(z: np.ndarray, dtype: type, decode: Decode | None) -> np.ndarray:
     """A copy of the heights ``z`` (or of the heights of codes ``z``) in ``dtype``, decoded a block
     of rows at a time (no grid-sized temporary)."""
     if decode is None:

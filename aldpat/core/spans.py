@@ -24,10 +24,9 @@ never copied whole; each block is a few vectorised passes over its cells.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
+from aldpat.core.height_codes import Decode
 from aldpat.core.segments import step_limits
 
 #: A span's heights lie within this range (m): a deck is level across its width.
@@ -37,7 +36,7 @@ BLOCK_LINES = 64
 
 
 def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
-                 decode: Callable[[np.ndarray], np.ndarray] | None = None,
+                 decode: Decode | None = None,
                  spacing: np.ndarray | None = None, cell: float = 1.0, enclosed: bool = False) -> np.ndarray:
     """Cells of level runs along rows or columns (with ``enclosed``: along rows and columns alike),
     bounded at both ends by steps down from them and at most ``max_cells`` long (bool, the shape

@@ -20,7 +20,7 @@ from typing import Protocol
 
 import numpy as np
 
-from aldpat.core.height_codes import Heights
+from aldpat.core.height_codes import Decode, Heights
 from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.memory import release_free_memory
 
@@ -219,7 +219,7 @@ class SurfaceTest:
     threshold: float
     slope_scalar: float
     marks: np.ndarray | None = None  # ground where 0
-    heights: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]] | None = None
+    heights: tuple[np.ndarray, Decode] | None = None
 
     @classmethod
     def build(cls, cells: CodedCells, marks: np.ndarray, *, threshold: float, slope_scalar: float) -> SurfaceTest:

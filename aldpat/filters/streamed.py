@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.height_codes import ScaledHeights
+from aldpat.core.height_codes import Decode, ScaledHeights
 from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, floor_index, grid_spec
 from aldpat.filters.classify import CellClasses, CellHeights
@@ -129,7 +129,7 @@ class _CodesAsHeights:
     """A grid of height codes read as heights: ``grid.ravel()[cells]`` decodes only those cells."""
 
     codes: np.ndarray
-    decode: Callable[[np.ndarray], np.ndarray]
+    decode: Decode
 
     def ravel(self) -> _CodesAsHeights:
         return self
