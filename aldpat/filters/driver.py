@@ -80,6 +80,12 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
     With the manual's Rotate Angle / Rotate Times (filters registered with ``rotations``),
     the data are rotated, gridded and filtered at each angle; a point is ground only when every
     orientation keeps it, and its mark is the largest window that removed it.
+
+    The points given are filtered together, at once: the command's options of how a file is
+    read and written (``chunk``, ``result``...) are not read here, but ``chunk`` with params that
+    need every point at once (gapm's ``auto``) is refused as the command refuses it
+    (:meth:`FilterSpec.check_chunks`); without it, such params are derived from the points
+    given (:attr:`FilterSpec.with_points`, logged), as ``aldpat filter`` derives them from a file.
     """
     spec = get_filter(algorithm)
     if params is None:
@@ -87,6 +93,7 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
     elif not isinstance(params, spec.params):
         raise ParamError(f"filter {algorithm!r} takes {spec.params.__name__}, got {type(params).__name__}")
     # its values and rules were checked when it was made (aldpat.params.Checked)
+    spec.check_chunks(params)
     x = np.ascontiguousarray(x, dtype=np.float64)
     y = np.ascontiguousarray(y, dtype=np.float64)
     z = np.ascontiguousarray(z, dtype=np.float64)
@@ -94,6 +101,9 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
         raise ValueError("x, y and z must be 1-D arrays of the same length")
     if len(z) and not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(z).all()):
         raise DataError("points with non-finite coordinates cannot be filtered")
+    if spec.with_points is not None and spec.needs_every_point(params) is not None:
+        params, told = spec.with_points(params, x, y, z)
+        log.info(told)
     if spacing is None:
         spacing = points_spacing(x, y)
     if spec.on_points:

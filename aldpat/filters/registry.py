@@ -68,6 +68,16 @@ class FilterSpec:
     #: where :attr:`needs_every_point` says so, and what the job's log says of them.
     with_points: Callable[..., tuple[Any, str]] | None = None
 
+    def check_chunks(self, params: Any) -> None:
+        """Refuse (:class:`ParamError`) ``--chunk`` with params that make the filter need every
+        point at once (:attr:`needs_every_point`): a chunk holds only some. The command checks
+        it when its parameters are resolved, :func:`~aldpat.filters.driver.ground_filter` when
+        it is called, in the same words."""
+        why = self.needs_every_point(params) if params.chunk is not None else None
+        if why is not None:
+            raise ParamError(f"chunk: a chunk holds only some of the points, and {why}; run the file whole, or run it "
+                             "once whole and pass what its log says was derived")
+
 
 #: Every registered grid filter by name (filled by importing :mod:`aldpat.filters`).
 FILTERS: dict[str, FilterSpec] = {}

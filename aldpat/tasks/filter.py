@@ -107,10 +107,7 @@ def check_filter_run(params, *, algorithm: str) -> None:
     if params.data_mode == "center":
         raise ParamError("chunk: --data-mode center writes one point per cell of the whole file; run it whole "
                          "(without --chunk)")
-    why = FILTERS[algorithm].needs_every_point(params)
-    if why is not None:
-        raise ParamError(f"chunk: a chunk holds only some of the points, and {why}; run the file whole, or run it "
-                         "once whole and pass what its log says was derived")
+    FILTERS[algorithm].check_chunks(params)
     chunk_plan(algorithm, params)
 
 

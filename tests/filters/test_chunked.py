@@ -240,6 +240,25 @@ def test_only_a_filter_needing_every_point_says_so():
     assert with_every_point("pm", plain, np.zeros(3), np.zeros(3), np.zeros(3)) is plain
 
 
+def test_ground_filter_takes_every_point_it_is_given():
+    """From Python (a notebook), :func:`ground_filter` filters the points it is given at once:
+    params needing every point (gapm's ``auto``) are derived from them, as ``aldpat filter gapm
+    --auto`` derives them from a file, and ``chunk`` with them is refused in the command's words."""
+    from aldpat.errors import ParamError
+    from aldpat.filters import ground_filter
+    from aldpat.filters.gapm import with_auto
+
+    x, y, z = np.loadtxt(SAMPLE, usecols=(0, 1, 2), unpack=True)
+    gapm = FILTERS["gapm"].params
+    with pytest.raises(ParamError, match="chunk: a chunk holds only some of the points, and --auto derives"):
+        ground_filter(x, y, z, "gapm", gapm(auto=True, chunk=50.0))
+    derived = ground_filter(x, y, z, "gapm", gapm(auto=True)).params  # the params the filter ran with
+    assert derived == with_auto(gapm(), x, y, z) and derived.window_series != gapm().window_series
+    # chunk alone is how the command splits a file: the points given are filtered together all the same
+    assert np.array_equal(ground_filter(x, y, z, "pm", FILTERS["pm"].params(chunk=50.0)).point_marks,
+                          ground_filter(x, y, z, "pm").point_marks)
+
+
 @pytest.mark.parametrize("algorithm, options, message", [
     ("gapm", {"auto": True}, "chunk: a chunk holds only some of the points, and --auto derives"),
     ("pm", {"data_mode": "center"}, "chunk: --data-mode center writes one point per cell"),
