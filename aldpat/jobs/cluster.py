@@ -177,7 +177,7 @@ def _execute_in_folder(folder: str, task: Task, sources: list[str], run: Resolve
 
 
 def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, scheduler: str,
-                   results: list[JobResult], progress) -> None:
+                   results: list[JobResult], progress: Progress | None) -> None:
     """Run ``jobs`` on the cluster, collecting results in input order."""
     client = client_for(scheduler)
     folder = os.getcwd()
@@ -229,7 +229,7 @@ class _Units:
             self.open += n if message["kind"] == "planned" else -n
             self.changed.notify_all()
 
-    def close(self, client, wait: float = 2.0) -> None:
+    def close(self, client: Any, wait: float = 2.0) -> None:
         """Stop listening, once the events still on their way (they travel apart from the jobs'
         results) have come, or after ``wait`` seconds."""
         with self.changed:
@@ -238,7 +238,7 @@ class _Units:
             client.unsubscribe_topic(UNITS_TOPIC)
 
 
-def _hear_units(client, keys: set[str], progress: Progress) -> _Units:
+def _hear_units(client: Any, keys: set[str], progress: Progress) -> _Units:
     heard = _Units(keys, progress)
     client.subscribe_topic(UNITS_TOPIC, heard)
     return heard

@@ -11,12 +11,13 @@ checked is what is written; :meth:`JobContext.wrote` holds every output to the p
 from __future__ import annotations
 
 import logging
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from aldpat.errors import one_line
-from aldpat.io.registry import output_extension, write_points
+from aldpat.io.registry import PointReader, PointSource, open_points, output_extension, write_points
 from aldpat.jobs.task import Planned, Task
 
 log = logging.getLogger(__name__)
@@ -122,7 +123,7 @@ class JobContext:
 
     # names
     def output_path(self, source: Path, default_suffix: str, ext: str | None = None, *,
-                    reader=None, use_suffix_option: bool = True) -> Path:
+                    reader: PointReader | None = None, use_suffix_option: bool = True) -> Path:
         """``<odir or source folder>/<stem><suffix><ext>`` (the output place and name of every
         task); without ``ext``, the input's extension unless ``--out-format`` says otherwise
         (``reader`` is the input's reader, or None: the name alone decides)."""
@@ -163,13 +164,15 @@ class JobContext:
     def delimiter(self) -> str:
         return getattr(self.output, "delimiter", "space")
 
-    def write_points(self, path: Path, names: tuple[str, ...], *, like=None, **kwargs):
+    def write_points(self, path: Path, names: tuple[str, ...], *, like: PointSource | None = None,
+                     **kwargs: Any) -> AbstractContextManager[Any]:
         """An atomic point writer honouring ``--overwrite`` and ``--delimiter``."""
         return write_points(path, names, overwrite=self.overwrite, like=like, delimiter=self.delimiter, **kwargs)
 
-    def open_input(self, path: Path, **kwargs):
-        from aldpat.io.registry import open_points
-
+    def open_input(self, path: Path, **kwargs: Any) -> Any:
+        """The reader of ``path`` in the run's ``--format``: a :class:`~aldpat.io.registry.PointReader`,
+        the text or LAS one, whose own attributes (a LAS header, a text file's header lines) a
+        task reads where it knows which it has."""
         fmt = self.input.format if self.input is not None else None
         return open_points(path, format=fmt, **kwargs)
 

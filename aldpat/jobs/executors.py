@@ -10,13 +10,13 @@ from __future__ import annotations
 from aldpat import interrupt
 from aldpat.core.workers import WorkerPool
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.execute import execute, job_names, report_result
+from aldpat.jobs.execute import Progress, execute, job_names, report_result
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Task
 
 
 def run_in_this_process(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str,
-                        results: list[JobResult], progress) -> None:
+                        results: list[JobResult], progress: Progress | None) -> None:
     """Run ``jobs`` one after the other here."""
     for job in jobs:
         with interrupt.doing(f"{task.key} ({len(results)} of {len(jobs)} inputs done)"):
@@ -25,7 +25,7 @@ def run_in_this_process(task: Task, jobs: list[list[str]], run: ResolvedRun, com
 
 
 def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, workers: int,
-                     results: list[JobResult], progress) -> None:
+                     results: list[JobResult], progress: Progress | None) -> None:
     """Run ``jobs`` in ``workers`` processes, collecting results in input order.
 
     On an interruption the queued jobs are cancelled and the running ones are ended with

@@ -19,8 +19,9 @@ in the leaf :mod:`aldpat.jobs.task` that they all import cannot do without impor
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from aldpat.errors import UsageError
 from aldpat.jobs.run import RunReport, run_task
@@ -31,11 +32,11 @@ class RegisteredTask(Task):
     """A registered :class:`Task`: called from Python it runs, and it travels to worker processes
     by its registry key."""
 
-    def __call__(self, inputs: Iterable[str | Path] = (), **kwargs) -> RunReport:
+    def __call__(self, inputs: Iterable[str | Path] = (), **kwargs: Any) -> RunReport:
         """Run from Python with the same parameter names as the CLI and worksheets."""
         return run_task(self, list(inputs), [("python", kwargs)])
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Callable[[str], RegisteredTask], tuple[str]]:
         # A task travels to worker processes by its registry key: its functions may be closures
         # (one per filter algorithm) that pickle cannot carry.
         return (_registered_task, (self.key,))

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.options import InputParams, OutputParams, PointOutputParams, RunParams
-from aldpat.params import specs
+from aldpat.params import Spec, specs
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ class Task:
             common += (PointOutputParams,) if self.writes_points else (OutputParams,)
         return (self.params,) + common + (RunParams,)
 
-    def planned_outputs(self, sources: list[Path], params, ctx) -> list[Planned]:
+    def planned_outputs(self, sources: list[Path], params: Any, ctx: Any) -> list[Planned]:
         """Every output of a run (or a job) of ``sources``, in order, each once."""
         if self.outputs is None:
             return []
@@ -115,8 +115,9 @@ class Task:
             unique.append(p)
         return unique
 
-    def all_specs(self):
-        seen = {}
+    def all_specs(self) -> list[Spec]:
+        """Every parameter of the task's command or worksheet job, each once, its own first."""
+        seen: dict[str, Spec] = {}
         for cls in self.option_classes:
             for s in specs(cls):
                 seen.setdefault(s.name, s)

@@ -66,7 +66,7 @@ class WorksheetLock:
             self._take_over(holder)
         raise WorksheetBusy(f"cannot take the lock {self.path.name}: other runs keep taking it", path=self.worksheet)
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         holder = self._holder()
         if holder is not None and holder.get("token") == self.token:
             with contextlib.suppress(OSError):

@@ -229,7 +229,7 @@ def _with_overrides(job: Job, values: dict) -> ResolvedRun:
     return resolve_run(job.task, layers)
 
 
-def _notify(cb, status: JobStatus) -> None:
+def _notify(cb: Callable[[JobStatus], None] | None, status: JobStatus) -> None:
     if cb is not None:
         cb(status)
 
@@ -237,7 +237,7 @@ def _notify(cb, status: JobStatus) -> None:
 # ------------------------------------------------------------------------------ the run log
 
 
-def _toml_value(value) -> str:
+def _toml_value(value: object) -> str:
     if value is None:
         return '"none"'
     if isinstance(value, bool):
