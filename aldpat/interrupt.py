@@ -25,6 +25,11 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from types import FrameType
+from typing import Any, TypeVar
+
+#: what a job returns (:func:`run_job`)
+T = TypeVar("T")
 
 _activity: list[str | Callable[[], str]] = []
 _interrupted_during: str | None = None
@@ -46,7 +51,7 @@ class Interrupted(KeyboardInterrupt):
 _requested: int | None = None
 
 
-def _raise(signum, frame) -> None:
+def _raise(signum: int, frame: FrameType | None) -> None:
     global _requested
     _requested = signum
     raise Interrupted(signum)
@@ -79,7 +84,7 @@ def install() -> None:
 _stopping = False
 
 
-def _raise_in_worker(signum, frame) -> None:
+def _raise_in_worker(signum: int, frame: FrameType | None) -> None:
     global _stopping, _requested
     _requested = signum
     if not _activity:  # between jobs (idle, or sending a result): nothing to clean up, nothing to say
@@ -159,7 +164,7 @@ def _watch_parent(parent: int, run: int, every: float = WATCH_EVERY, grace: floa
     os._exit(128 + signal.SIGTERM)
 
 
-def run_job(fn: Callable, *args):
+def run_job(fn: Callable[..., T], *args: Any) -> T:
     """``fn(*args)`` in a pool worker, as one job for :func:`_raise_in_worker`: told to stop
     during it, the job unwinds (its writers remove their temporary files) and the worker exits
     without sending anything back -- the queues it shares with the other workers may be held by a

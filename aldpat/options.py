@@ -20,6 +20,9 @@ from aldpat.core.crs import parse_crs
 from aldpat.errors import ParamError, one_line
 from aldpat.params import Checked, SharedOption, param
 
+if TYPE_CHECKING:  # for annotations only: the readers are io's, which these options do not need to run
+    from aldpat.io.registry import PointReader
+
 
 @dataclass(frozen=True)
 class FieldsOption(SharedOption):
@@ -88,7 +91,7 @@ class JsonOption(SharedOption):
     json: bool = param(False, "print JSON (one object per input) instead of a table")
 
 
-def point_names(reader, fields: str) -> tuple[str, ...]:
+def point_names(reader: PointReader, fields: str) -> tuple[str, ...]:
     """Columns a point output carries: x y z, plus intensity when asked for and present."""
     names: tuple[str, ...] = ("x", "y", "z")
     if fields == "xyzi" and "intensity" in reader.names:
@@ -96,7 +99,7 @@ def point_names(reader, fields: str) -> tuple[str, ...]:
     return names
 
 
-def kept_names(reader, out) -> tuple[str, ...]:
+def kept_names(reader: PointReader, out: str | os.PathLike[str]) -> tuple[str, ...]:
     """Columns a task that keeps whole points writes: every column, except that LAS/LAZ going to
     text keeps x y z and intensity (as ``convert`` does), not the LAS flags."""
     if reader.format == "las" and str(out).lower().endswith((".las", ".laz")):

@@ -7,6 +7,8 @@ The examples are the task's own (:attr:`aldpat.jobs.task.Task.examples`).
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from aldpat.params import LEVELS
@@ -69,7 +71,7 @@ class Guided(click.Command):
 class GuidedCommand(Guided):
     """A command with its examples (:attr:`aldpat.jobs.task.Task.examples`)."""
 
-    def __init__(self, *args, examples: tuple[tuple[str, str], ...] = (), **kwargs):
+    def __init__(self, *args: Any, examples: tuple[tuple[str, str], ...] = (), **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.examples = examples
 
@@ -81,7 +83,8 @@ class GuidedGroup(Guided, click.Group):
         super().format_options(ctx, formatter)  # the options by level (Guided's), then the commands
         self.format_commands(ctx, formatter)
 
-    def resolve_command(self, ctx, args):
+    def resolve_command(self, ctx: click.Context, args: list[str]
+                        ) -> tuple[str | None, click.Command | None, list[str]]:
         try:
             return super().resolve_command(ctx, args)
         except click.UsageError:

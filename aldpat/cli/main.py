@@ -10,6 +10,8 @@ from __future__ import annotations
 import logging
 import shlex
 import sys
+from collections.abc import Iterable
+from typing import Any
 
 import click
 
@@ -36,7 +38,7 @@ def fail_usage(message: str) -> None:
     sys.exit(2)
 
 
-def command_line(task: Task, inputs, given: dict, params_file: str | None) -> str:
+def command_line(task: Task, inputs: Iterable[str], given: dict[str, Any], params_file: str | None) -> str:
     """The command as it would be typed to repeat this run (recorded in the logs)."""
     words = ["aldpat"] + task.key.split(" ") + [str(i) for i in inputs]
     specs = {s.name: s for s in task.all_specs()}
@@ -59,7 +61,8 @@ def make_command(task: Task) -> click.Command:
     specs = task.all_specs()
 
     @click.pass_context
-    def callback(ctx: click.Context, inputs=(), params_file=None, verbose=0, quiet=0, dry_run=False, **raw):
+    def callback(ctx: click.Context, inputs: tuple[str, ...] = (), params_file: str | None = None, verbose: int = 0,
+                 quiet: int = 0, dry_run: bool = False, **raw: Any) -> None:
         from click.core import ParameterSource
 
         root = ctx.find_root().params
@@ -148,11 +151,11 @@ class WorkflowRoot(GuidedGroup):
         ("aldpat dtm site.laz --cell 1 --odir dtm/", "a bare-earth DTM, a Cloud Optimized GeoTIFF"),
     )
 
-    def list_commands(self, ctx):
+    def list_commands(self, ctx: click.Context) -> list[str]:
         placed = [name for _, names in WORKFLOW for name in names if name in self.commands]
         return placed + sorted(set(self.commands) - set(placed))
 
-    def format_commands(self, ctx, formatter):
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rest = sorted(set(self.commands) - {n for _, names in WORKFLOW for n in names})
         width = max(map(len, self.commands))
         for heading, names in (*WORKFLOW, ("Other commands", tuple(rest))):
@@ -172,12 +175,12 @@ class FilterGroup(GuidedGroup):
         ("aldpat filter atin site.laz --params atin.toml", "another filter, its parameters from a TOML file"),
     )
 
-    def list_commands(self, ctx):
+    def list_commands(self, ctx: click.Context) -> list[str]:
         from aldpat.filters.scores import ISPRS_SCORES
 
         return sorted(self.commands, key=lambda n: (ISPRS_SCORES[n].total if n in ISPRS_SCORES else 1e9, n))
 
-    def guide(self, ctx):
+    def guide(self, ctx: click.Context) -> str:
         from aldpat.filters import FILTERS
         from aldpat.filters.scores import ISPRS_SCORES, START_WITH
 
@@ -189,7 +192,7 @@ class FilterGroup(GuidedGroup):
                 "choosing them (bench/README.md). 'aldpat filter ALGO --help' lists a filter's options, the few "
                 "most runs set first.")
 
-    def format_commands(self, ctx, formatter):
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         from aldpat.filters.scores import ISPRS_SCORES
 
         rows = []

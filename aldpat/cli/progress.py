@@ -12,22 +12,32 @@ from __future__ import annotations
 import contextlib
 import sys
 import threading
+from collections.abc import Iterator
+from typing import TYPE_CHECKING
+
+from aldpat.jobs.context import JobResult
+from aldpat.jobs.task import Task
+
+if TYPE_CHECKING:  # rich is imported when a bar is drawn, not when aldpat starts
+    from rich.progress import Progress, ProgressColumn, TaskID
+    from rich.progress import Task as Line
+    from rich.text import Text
 
 
 class _Bar:
     """A run's bar: one step per job and per unit of work, and the line of the current pass."""
 
-    def __init__(self, bar, task_id, label: str):
+    def __init__(self, bar: Progress, task_id: TaskID, label: str) -> None:
         self._bar, self._id, self._label = bar, task_id, label
         self._lock = threading.Lock()  # units from a cluster arrive on the client's thread
         self._total = 0
-        self._pass = None  # the line of the pass the running job is in
+        self._pass: TaskID | None = None  # the line of the pass the running job is in
         self._chunked = False  # the job counts its chunks: the chunks are its progress
 
     def started(self, jobs: int) -> None:
         self._grow(jobs)
 
-    def job_done(self, result) -> None:
+    def job_done(self, result: JobResult) -> None:
         self._bar.advance(self._id)
         self._chunked = False
         if self._pass is not None:
@@ -65,14 +75,14 @@ class _Bar:
             self._bar.update(self._id, total=self._total)
 
 
-def _count_column():
+def _count_column() -> ProgressColumn:
     from rich.progress import ProgressColumn
     from rich.text import Text
 
     class Count(ProgressColumn):
         """Jobs and chunks as done/total; a pass's points as "n of N points"."""
 
-        def render(self, task):
+        def render(self, task: Line) -> Text:
             if task.fields.get("stage"):
                 done = f"{int(task.completed):,}"
                 if task.total:
@@ -86,7 +96,7 @@ def _count_column():
 
 
 @contextlib.contextmanager
-def job_progress(task, *, enabled: bool = True):
+def job_progress(task: Task, *, enabled: bool = True) -> Iterator[_Bar | None]:
     """Yield the run's :class:`~aldpat.jobs.execute.Progress` bar, or ``None`` when silent."""
     if not enabled or not sys.stderr.isatty():
         yield None

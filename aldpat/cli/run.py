@@ -12,7 +12,7 @@ from aldpat.cli.render import show, summarize
 from aldpat.errors import AldpatError, UsageError, one_line
 from aldpat.jobs.run import RunReport
 from aldpat.worksheet.model import load_worksheet
-from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, job_table, run_worksheet
+from aldpat.worksheet.runner import BLOCKED, DONE, FAILED, JobStatus, job_table, run_worksheet
 
 
 def _parse_only(values: tuple[str, ...]) -> set[int] | None:
@@ -53,7 +53,9 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
 @click.option("-v", "--verbose", count=True, help="more detail on stderr")
 @click.option("-q", "--quiet", count=True, help="only errors on stderr: no job statuses")
 @click.pass_context
-def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, scheduler, report, verbose, quiet):
+def run_command(ctx: click.Context, worksheet: str, resume: bool, dry_run: bool, only: tuple[str, ...],
+                overrides: tuple[str, ...], jobs: int | None, scheduler: str | None, report: bool, verbose: int,
+                quiet: int) -> None:
     """Run a worksheet: jobs in order, each Ready -> Running -> Done or Failed."""
     root = ctx.find_root().params
     quiet += root.get("quiet", 0)
@@ -80,7 +82,7 @@ def run_command(ctx, worksheet, resume, dry_run, only, overrides, jobs, schedule
             click.echo("\n".join(job_table(job)) + "\n")
         sys.exit(0)
 
-    def on_status(st):
+    def on_status(st: JobStatus) -> None:
         if not quiet or st.state in (FAILED, BLOCKED):
             extra = f": {one_line(st.message)}" if st.message else ""
             timing = f" ({st.seconds:.2f} s)" if st.state in (DONE, FAILED) else ""
