@@ -88,6 +88,13 @@ class Axis:
         return k
 
 
+def check_buffer(buffer: float, size: float) -> None:
+    """A :class:`ValueError` when a tile's buffer reaches more than :data:`MAX_BUFFER_TILES`
+    tiles of ``size`` beyond it (each point would be copied into that many tiles squared)."""
+    if buffer > MAX_BUFFER_TILES * size:
+        raise ValueError(f"a buffer of {buffer:g} reaches more than {MAX_BUFFER_TILES} tiles of {size:g} beyond each tile")
+
+
 @dataclass(frozen=True)
 class TileLayout:
     xs: Axis
@@ -113,9 +120,7 @@ class TileLayout:
         ys = Axis.spanned(miny, maxy, oy, upper_included) if direction == "x" else \
             Axis.tiled(miny, maxy, height, oy, upper_included)
         for axis in (xs, ys):
-            if buffer > MAX_BUFFER_TILES * axis.size:
-                raise ValueError(f"a buffer of {buffer:g} reaches more than {MAX_BUFFER_TILES} tiles of "
-                                 f"{axis.size:g} beyond each tile")
+            check_buffer(buffer, axis.size)
         return cls(xs, ys, float(buffer))
 
     @property

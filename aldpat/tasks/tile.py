@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.crs import output_crs
-from aldpat.core.tiles import DIRECTIONS, TileLayout
+from aldpat.core.tiles import DIRECTIONS, TileLayout, check_buffer
 from aldpat.errors import DataError, ParamError, UsageError
 from aldpat.io.atomic import (
     check_writable,
@@ -79,6 +79,18 @@ class TileParams(FieldsOption, OriginOption, CrsOption, Checked):
         super().check()
         if self.bounds is not None and (self.bounds[2] < self.bounds[0] or self.bounds[3] < self.bounds[1]):
             raise ParamError(f"bounds: maximum below minimum (MINX MINY MAXX MAXY: {format_value(self.bounds)})")
+        # the layout's own rules, where the options alone decide them: over --bounds all of them;
+        # without, the data's extent is known only when they are read, the buffer of a tiled axis now
+        try:
+            if self.bounds is not None:
+                TileLayout.build(self.bounds, self.width, self.height, self.buffer, self.direction,
+                                 origin=self.origin, upper_included=False)
+            else:
+                for size, tiled in ((self.width, self.direction != "y"), (self.height, self.direction != "x")):
+                    if tiled:
+                        check_buffer(self.buffer, size)
+        except ValueError as exc:
+            raise ParamError(f"{'bounds' if self.bounds is not None else 'buffer'}: {exc}") from None
 
 
 def data_bounds(readers) -> tuple[float, float, float, float]:

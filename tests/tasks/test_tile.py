@@ -139,3 +139,17 @@ def test_las_tiles_keep_attributes_and_mark_their_buffer_points(tmp_path):
     assert "buffer points of the inputs" in (tmp_path / "again" / "tile_parameter.log").read_text()
     with pytest.raises(UsageError, match="--append works on text tiles only"):  # refused before anything runs
         get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path))
+
+
+def test_the_layout_of_given_bounds_is_checked_with_the_parameters():
+    """Over ``--bounds`` the layout depends on the options alone: refused when they are made
+    (``--dry-run`` sees it), not when the inputs have been read."""
+    from aldpat.errors import ParamError
+    from aldpat.tasks.tile import TileParams
+
+    with pytest.raises(ParamError, match=r"bounds: 1e\+09 tiles along one axis"):
+        TileParams(bounds=(0.0, 0.0, 1e9, 1e9), width=1.0)
+    with pytest.raises(ParamError, match="bounds: a buffer of 500 reaches more than 100 tiles of 1 "):
+        TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=500.0)
+    TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=50.0)
+    TileParams(width=1.0, buffer=500.0, direction="y")  # x spans the data, whose extent the run reads
