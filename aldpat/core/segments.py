@@ -41,25 +41,22 @@ than ``SPACING_SLOPE`` over the two points' distance, for points up to ``SPACING
 across a wider data gap every difference above ``step`` remains a step, as the wall beside a gap
 is not seen.
 
-Work is one connected-component labelling of the grid's 4-neighbour graph (as an image,
-:func:`_label`), a few ``bincount`` calls per strip of rows and, for ``levels``, a few rounds
-over the steps between segments: linear in the number of cells, no loop over cells.
+Work is a few compiled scans of the grid (:func:`_segment_graph`: the steps, a union-find
+labelling of its 4-neighbour graph, the steps and cells between each pair of segments) and, for
+``levels``, a few rounds over those pairs: linear in the number of cells.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat._lazy import lazy_import
+from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
+from aldpat.core.rise import scale_and_offset
 
-ndimage = lazy_import("scipy.ndimage")
-
-
-#: Grid rows labelled at a time: bounds the labelling image and the height differences to a strip.
+#: Grid rows labelled at a time: bounds the labelling's scratch to a strip.
 STRIP_ROWS = 256
 #: Steepest slope (m/m) read as terrain between two points of sparse data, and the farthest apart
 #: (m) two points may be for it: beyond that a difference above ``step`` is a step (a data gap).
@@ -102,9 +99,9 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
         share counts every step of a segment's cells, also those between two of its own cells.
 
     The grid is labelled a strip of rows at a time, each strip's segments joined to those of the
-    strip above it where their cells are joined across the strip's edge (a union of labels,
-    :func:`_merge`); the steps between segments are counted as the strips go. Memory: the labels
-    (4 bytes a cell) and one strip's scratch.
+    strip above it where their cells are joined across the strip's edge; ``strip_rows`` sets the
+    order of the float sums of a segment's heights, not the segments. Memory: the segments
+    (4 bytes a cell), the steps (1 byte a cell) and one strip's scratch.
     """
     rows, cols = z.shape
     if rows * cols < 2:
@@ -113,7 +110,7 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
     raised = _decide(graph, step, down_share, levels, max_cells=MAX_OBJECT_AREA / (cell * cell))
     out = np.empty((rows, cols), bool)
     for a in range(0, rows, strip_rows):
-        out[a:a + strip_rows] = raised[graph.segment[graph.label[a:a + strip_rows]]]
+        out[a:a + strip_rows] = raised[graph.segment[a:a + strip_rows]]
     return out
 
 
@@ -133,16 +130,16 @@ def step_limits(apart: np.ndarray | None, step: float, cell: float) -> np.ndarra
 class _Graph:
     """The segments of a grid and the steps between them.
 
-    ``label`` is every cell's label, ``segment`` every label's segment. Per segment: ``open`` (its
-    cells on the grid's border), ``size`` (cells) and ``height`` (mean height). Per pair of
-    segments with steps between them (``high`` the higher side, ``low`` the lower): ``edges``
-    (the steps between neighbouring cells), ``high_cells`` and ``low_cells`` (the cells of either
-    side with a step to the other: a cell counts once, however many of its sides step) and
-    ``low_sum`` (the sum of those lower cells' heights). A pair of one segment with itself is a
-    step between two of its own cells. ``terrain`` is the largest segment.
+    ``segment`` is every cell's segment; segments are numbered in the row order of their first
+    cells. Per segment: ``open`` (its cells on the grid's border), ``size`` (cells) and
+    ``height`` (mean height). Per pair of segments with steps between them, in the order of
+    (``high``, ``low``) (``high`` the higher side, ``low`` the lower): ``edges`` (the steps
+    between neighbouring cells), ``high_cells`` and ``low_cells`` (the cells of either side with
+    a step to the other: a cell counts once, however many of its sides step) and ``low_sum``
+    (the sum of those lower cells' heights). A pair of one segment with itself is a step between
+    two of its own cells. ``terrain`` is the largest segment.
     """
 
-    label: np.ndarray
     segment: np.ndarray
     open: np.ndarray
     size: np.ndarray
@@ -156,137 +153,338 @@ class _Graph:
     terrain: int
 
 
+#: Bits of a cell's step flags (:func:`_step_flags`): a step to its east neighbour (next column)
+#: and whether that neighbour is the higher side; the same to its north neighbour (next row).
+EAST_STEP, EAST_UP, NORTH_STEP, NORTH_UP = 1, 2, 4, 8
+
+
 def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: np.ndarray | None, cell: float,
                    strip_rows: int) -> _Graph:
+    """The graph of :func:`raised_segments` in five compiled scans of the grid.
+
+    1. every cell's steps to its east and north neighbours, and which side is higher;
+    2. the segments of each strip of ``strip_rows`` rows (a union-find, numbered in row order
+       of their first cells: an image labelling's numbers), then those joined across the
+       strips' edges (numbered in the order of their first strip segments);
+    3. per strip segment its open edge, size and sum of heights (in row order), summed per
+       segment in the strips' order -- the order of the float sums is kept so that a mean height
+       is the same to the last bit whatever the scans;
+    4. the pairs of segments with steps between them and their steps, from each higher
+       segment's list of lower ones (a cell has at most four neighbours, so no sort of the grid);
+    5. per cell the distinct segments above and below it across its steps, adding the cell
+       (and, on the lower side, its height, in row order) to each pair's counts.
+
+    Memory: the segments (4 bytes a cell), the step flags (1 byte a cell) and per segment and
+    pair a few numbers.
+    """
     rows, cols = z.shape
-
-    def heights(a: int, b: int) -> np.ndarray:
-        return decode(z[a:b]) if decode is not None else np.asarray(z[a:b], dtype=np.float64)
-
+    linear = scale_and_offset(decode)
+    if decode is not None and linear is None:
+        z = decode(z)  # another decoding than ``code * scale + offset``: its float64 heights, whole
+    scale, offset = linear if linear is not None else (1.0, 0.0)
+    z = np.ascontiguousarray(z)
+    scaled = linear is not None
+    sp = np.ascontiguousarray(spacing) if spacing is not None else np.zeros((1, 1), np.uint8)
+    flags = np.empty((rows, cols), np.uint8)
+    _step_flags(z, sp, spacing is not None, scaled, scale, offset, np.float32(step), np.float32(cell),
+                np.float32(SPACING_SLOPE), np.float32(SPACING_REACH), flags)
     label = np.empty((rows, cols), np.int32)
-    count = 0
-    parts: list[tuple[int, np.ndarray]] = []  # first label, its counts: open edge, size, sum of heights
-    falls: list[np.ndarray] = []  # per strip: the distinct (higher label, lower label) keys and their steps
-    sides: list[tuple[np.ndarray, np.ndarray]] = []  # per strip: (cell, label across) keys of higher, lower cells
-    pairs: list[np.ndarray] = []  # segments joined across a strip's upper edge
-    above_z = above_label = above_spacing = None
-    for a in range(0, rows, strip_rows):
-        b = min(rows, a + strip_rows)
-        zs = heights(a, b)
-        sp = spacing[a:b].astype(np.uint16) if spacing is not None else None
-        flat = np.arange(a * cols, b * cols, dtype=np.int64).reshape(b - a, cols)
-        # height change to the east and north neighbour of every cell (float32 is ample for a step)
-        east = (zs[:, 1:] - zs[:, :-1]).astype(np.float32)
-        north = (zs[1:, :] - zs[:-1, :]).astype(np.float32)
-        east_cut = np.abs(east) > step_limits(None if sp is None else sp[:, 1:] + sp[:, :-1], step, cell)
-        north_cut = np.abs(north) > step_limits(None if sp is None else sp[1:] + sp[:-1], step, cell)
-        strip, n = _label(~east_cut, ~north_cut, b - a, cols)
-        strip += count
-        label[a:b] = strip
-        # the labels this strip counts for: its own and those of the row above it
-        base = count if above_label is None else min(count, int(above_label.min()))
-        span = count + n - base
-        edges = [(east, east_cut, strip[:, :-1], strip[:, 1:], flat[:, :-1], flat[:, 1:]),
-                 (north, north_cut, strip[:-1, :], strip[1:, :], flat[:-1, :], flat[1:, :])]
-        if above_z is not None and above_label is not None:
-            rise = (zs[0] - above_z).astype(np.float32)
-            cut = np.abs(rise) > step_limits(None if sp is None or above_spacing is None else sp[0] + above_spacing,
-                                             step, cell)
-            pairs.append(np.stack([above_label[~cut], strip[0][~cut]]))
-            edges.append((rise[None, :], cut[None, :], above_label[None, :], strip[:1], flat[:1] - cols, flat[:1]))
-        strip_keys, high_side, low_side = [], [], []
-        for rise, cut, first_label, second_label, first_cell, second_cell in edges:
-            up = rise[cut] > 0  # the second cell is the higher one
-            la, lb, ca, cb = first_label[cut], second_label[cut], first_cell[cut], second_cell[cut]
-            high, low = np.where(up, lb, la), np.where(up, la, lb)
-            strip_keys.append(high.astype(np.int64) << 32 | low)
-            high_side.append(np.where(up, cb, ca) << 32 | low)
-            low_side.append(np.where(up, ca, cb) << 32 | high)
-        falls.append(np.stack(np.unique(np.concatenate(strip_keys), return_counts=True)))
-        sides.append((distinct(np.concatenate(high_side)), distinct(np.concatenate(low_side))))
-        # the grid's own edge is open perimeter: a terrace running out of the data is not enclosed
-        # by down-steps the way a roof is
-        edge = np.zeros((b - a, cols), bool)
-        edge[:, 0] = edge[:, -1] = True
-        if a == 0:
-            edge[0] = True
-        if b == rows:
-            edge[-1] = True
-        open_edge = np.bincount(strip[edge] - base, minlength=span)
-        size = np.bincount(strip.ravel() - base, minlength=span)
-        total = np.bincount(strip.ravel() - base, weights=zs.ravel(), minlength=span)
-        parts.append((base, np.stack([open_edge, size, total])))
-        above_z, above_label = zs[-1].copy(), strip[-1].copy()
-        above_spacing = None if sp is None else sp[-1].copy()
-        count += n
-        del zs, east, north, east_cut, north_cut, strip, sp, flat
-    segment, first = _merge(pairs, count)
-    per_label = np.zeros((3, count))
-    for base, counts in parts:
-        per_label[:, base:base + counts.shape[1]] += counts
-    del parts
+    joins = np.empty((2, max(0, (rows - 1) // strip_rows) * cols), np.int64)
+    count, joined = _label_strips(flags, strip_rows, label, joins)
+    segment, first = _join_labels(joins, joined, count)
+    del joins
+    per_label = _label_totals(z, scaled, scale, offset, label, count)
     open_total, size_total, height_total = (np.bincount(segment, weights=per_label[k], minlength=len(first))
                                             for k in range(3))
-    # the steps between segments: their pairs, and the cells on either side of them
-    label_keys, steps = (np.concatenate([f[k] for f in falls]) for k in range(2))
-    del falls
-    pair_keys, inverse = np.unique(segment[label_keys >> 32].astype(np.int64) << 32 | segment[label_keys & 0xFFFFFFFF],
-                                   return_inverse=True)
-    edges_per_pair = np.bincount(inverse, weights=steps, minlength=len(pair_keys))
-    high, low = pair_keys >> 32, pair_keys & 0xFFFFFFFF
-    side_cells = []
-    for side in range(2):  # the higher cells of the steps, then the lower ones
-        pair_parts, cell_parts = [], []
-        for cells_across in _by_strip([s[side] for s in sides], strip_rows * cols):
-            cells = cells_across >> 32
-            cells_across = distinct(cells << 32 | segment[cells_across & 0xFFFFFFFF])  # once per segment across
-            cells, across = cells_across >> 32, cells_across & 0xFFFFFFFF
-            own = segment[label.ravel()[cells]].astype(np.int64)
-            pair_parts.append(np.searchsorted(pair_keys, own << 32 | across if side == 0 else across << 32 | own))
-            cell_parts.append(cells)
-        side_cells.append((np.concatenate(pair_parts), np.concatenate(cell_parts)))
-    del sides
-    (high_pair, _), (low_pair, low_cell) = side_cells
+    del per_label
+    _relabel(label, segment)
+    del segment
+    high, low, edges, pair_start = _pairs(flags, label, len(first))
+    high_cells, low_cells, low_sum = _pair_cells(flags, label, z, scaled, scale, offset, low, pair_start)
+    del flags
     # the connected terrain: the largest segment (of equals, the first in row order)
     largest = np.flatnonzero(size_total == size_total.max())
-    return _Graph(label, segment, open_total, size_total, height_total / np.maximum(size_total, 1),
-                  high, low, edges_per_pair, np.bincount(high_pair, minlength=len(pair_keys)),
-                  np.bincount(low_pair, minlength=len(pair_keys)),
-                  np.bincount(low_pair, weights=heights_at(z, decode, low_cell), minlength=len(pair_keys)),
-                  int(largest[np.argmin(first[largest])]))
+    return _Graph(label, open_total, size_total, height_total / np.maximum(size_total, 1), high, low,
+                  edges.astype(np.float64), high_cells, low_cells, low_sum, int(largest[np.argmin(first[largest])]))
 
 
-def _by_strip(keys: list[np.ndarray], strip_cells: int) -> Iterator[np.ndarray]:
-    """The (cell, label across) keys of every strip, each with the keys of its cells that the next
-    strip found (the steps across its upper edge, whose lower cell is this strip's), so that all
-    of a cell's keys are seen together: strip by strip, the keys deduplicate as the whole grid's
-    would, without a sort of the whole grid's keys."""
-    for k, strip in enumerate(keys):
-        mine = strip[strip >> 32 >= k * strip_cells]
-        if k + 1 < len(keys):
-            after = keys[k + 1]
-            mine = np.concatenate([mine, after[after >> 32 < (k + 1) * strip_cells]])
-        yield mine
+@compiled(nogil=True)
+def _height(code: float, scaled: bool, scale: float, offset: float) -> float:  # pragma: no cover - compiled
+    """A cell's float64 height: ``code * scale + offset`` as ``ScaledHeights`` decodes it (a
+    multiplication and an addition, never fused), or the value itself."""
+    if scaled:
+        h = code * scale
+        return h + offset
+    return np.float64(code)
 
 
-def distinct(keys: np.ndarray) -> np.ndarray:
-    """The distinct values of ``keys`` in ascending order (``np.unique``'s result), by sorting
-    ``keys`` in place. ``np.unique`` of numpy 2.3 and later finds them with a hash table instead,
-    which on keys whose low bits repeat -- a cell's index above a label -- ran 20-25 times slower
-    than a sort (36 of the test's 45 s on 32 M cells)."""
-    keys.sort()
-    if len(keys) < 2:
-        return keys
-    keep = np.empty(len(keys), bool)
-    keep[0] = True
-    np.not_equal(keys[1:], keys[:-1], out=keep[1:])
-    return keys[keep]
+@compiled(nogil=True)
+def _cut(first: float, second: float, apart: int, has_spacing: bool, step: np.float32, cell: np.float32,
+         slope: np.float32, reach: np.float32) -> int:  # pragma: no cover - compiled
+    """Flags of a step from height ``first`` to the neighbour's ``second``: 1 a step, 3 a step up
+    to the neighbour, 0 none. The limit is :func:`step_limits`'s, in float32 as there."""
+    rise = np.float32(second - first)
+    limit = step
+    if has_spacing:
+        distance = (np.float32(apart) + np.float32(1)) * cell
+        if distance <= reach:
+            limit = max(step, slope * distance)
+    if abs(rise) > limit:
+        return 3 if rise > 0 else 1
+    return 0
 
 
-def heights_at(z: np.ndarray, decode: Decode | None, cells: np.ndarray) -> np.ndarray:
-    """The heights of the cells with flat indices ``cells``."""
-    values = z.ravel()[cells]
-    return decode(values) if decode is not None else np.asarray(values, dtype=np.float64)
+@compiled(nogil=True)
+def _step_flags(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float, offset: float,
+                step: np.float32, cell: np.float32, slope: np.float32, reach: np.float32,
+                flags: np.ndarray) -> None:  # pragma: no cover - compiled
+    rows, cols = z.shape
+    for i in range(rows):
+        for j in range(cols):
+            h = _height(z[i, j], scaled, scale, offset)
+            f = 0
+            if j + 1 < cols:
+                apart = np.int64(spacing[i, j]) + np.int64(spacing[i, j + 1]) if has_spacing else np.int64(0)
+                f |= _cut(h, _height(z[i, j + 1], scaled, scale, offset), apart, has_spacing, step, cell, slope,
+                          reach)
+            if i + 1 < rows:
+                apart = np.int64(spacing[i, j]) + np.int64(spacing[i + 1, j]) if has_spacing else np.int64(0)
+                f |= _cut(h, _height(z[i + 1, j], scaled, scale, offset), apart, has_spacing, step, cell, slope,
+                          reach) << 2
+            flags[i, j] = f
+
+
+@compiled(nogil=True)
+def _find(parent: np.ndarray, x: int) -> int:  # pragma: no cover - compiled
+    while parent[x] != x:
+        parent[x] = parent[parent[x]]
+        x = parent[x]
+    return x
+
+
+@compiled(nogil=True)
+def _union(parent: np.ndarray, x: int, y: int) -> None:  # pragma: no cover - compiled
+    """Join the sets of ``x`` and ``y``; a set's root is its least member."""
+    rx, ry = _find(parent, x), _find(parent, y)
+    if rx < ry:
+        parent[ry] = rx
+    elif ry < rx:
+        parent[rx] = ry
+
+
+@compiled(nogil=True)
+def _label_strips(flags: np.ndarray, strip_rows: int, label: np.ndarray,
+                  joins: np.ndarray) -> tuple[int, int]:  # pragma: no cover - compiled
+    """Each strip's segments, numbered on from the strips above in the row order of their first
+    cells, into ``label``; the pairs of labels joined across each strip's upper edge into
+    ``joins``. Returns the number of labels and of joined pairs."""
+    rows, cols = flags.shape
+    parent = np.empty(min(rows, strip_rows) * cols, np.int32)
+    own = np.empty(len(parent), np.int32)  # the label of each segment's first cell
+    count = 0
+    joined = 0
+    for a in range(0, rows, strip_rows):
+        b = min(rows, a + strip_rows)
+        for i in range(a, b):
+            for j in range(cols):
+                k = (i - a) * cols + j
+                west = j > 0 and not flags[i, j - 1] & EAST_STEP
+                north = i > a and not flags[i - 1, j] & NORTH_STEP
+                if west:
+                    parent[k] = _find(parent, k - 1)
+                    if north:
+                        _union(parent, k, k - cols)
+                elif north:
+                    parent[k] = _find(parent, k - cols)
+                else:
+                    parent[k] = k
+        for i in range(a, b):
+            for j in range(cols):
+                k = (i - a) * cols + j
+                r = _find(parent, k)
+                if r == k:  # a segment's first cell: the next label
+                    own[k] = count
+                    count += 1
+                label[i, j] = own[r]
+        if a > 0:
+            for j in range(cols):
+                if not flags[a - 1, j] & NORTH_STEP:
+                    joins[0, joined] = label[a - 1, j]
+                    joins[1, joined] = label[a, j]
+                    joined += 1
+    return count, joined
+
+
+@compiled(nogil=True)
+def _join_labels(joins: np.ndarray, joined: int, count: int) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
+    """The segment of every label (labels joined by ``joins``), numbered in the order of their
+    first labels, and each segment's first label."""
+    parent = np.arange(count)
+    for t in range(joined):
+        _union(parent, joins[0, t], joins[1, t])
+    segment = np.empty(count, np.int64)
+    first = np.empty(count, np.int64)
+    n = 0
+    for k in range(count):
+        r = _find(parent, k)
+        if r == k:
+            segment[k] = n
+            first[n] = k
+            n += 1
+        else:
+            segment[k] = segment[r]
+    return segment, first[:n].copy()
+
+
+@compiled(nogil=True)
+def _label_totals(z: np.ndarray, scaled: bool, scale: float, offset: float, label: np.ndarray,
+                  count: int) -> np.ndarray:  # pragma: no cover - compiled
+    """Per label: its cells on the grid's border, its cells, the sum of their heights (in row
+    order, from 0.0: ``np.bincount``'s sums over a strip)."""
+    rows, cols = label.shape
+    out = np.zeros((3, count))
+    for i in range(rows):
+        for j in range(cols):
+            k = label[i, j]
+            if i == 0 or i == rows - 1 or j == 0 or j == cols - 1:
+                out[0, k] += 1.0
+            out[1, k] += 1.0
+            out[2, k] += _height(z[i, j], scaled, scale, offset)
+    return out
+
+
+@compiled(nogil=True)
+def _relabel(label: np.ndarray, segment: np.ndarray) -> None:  # pragma: no cover - compiled
+    rows, cols = label.shape
+    for i in range(rows):
+        for j in range(cols):
+            label[i, j] = segment[label[i, j]]
+
+
+@compiled(nogil=True)
+def _higher_and_lower(flags: np.ndarray, segment: np.ndarray, i: int, j: int,
+                      north: bool) -> tuple[int, int]:  # pragma: no cover - compiled
+    """The higher and the lower segment of the step from cell (i, j) to its east or north
+    neighbour."""
+    f = flags[i, j]
+    if north:
+        here, there, up = segment[i, j], segment[i + 1, j], (f & NORTH_UP) != 0
+    else:
+        here, there, up = segment[i, j], segment[i, j + 1], (f & EAST_UP) != 0
+    return (there, here) if up else (here, there)
+
+
+@compiled(nogil=True)
+def _pairs(flags: np.ndarray, segment: np.ndarray,
+           n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """The pairs of segments with steps between them, ordered by higher then lower segment, the
+    steps of each, and where each higher segment's pairs start (``n + 1`` offsets)."""
+    rows, cols = flags.shape
+    start = np.zeros(n + 1, np.int64)
+    for i in range(rows):
+        for j in range(cols):
+            if flags[i, j] & EAST_STEP:
+                start[1 + _higher_and_lower(flags, segment, i, j, False)[0]] += 1
+            if flags[i, j] & NORTH_STEP:
+                start[1 + _higher_and_lower(flags, segment, i, j, True)[0]] += 1
+    for s in range(n):
+        start[s + 1] += start[s]
+    lows = np.empty(start[n], np.int64)
+    fill = start[:n].copy()
+    for i in range(rows):
+        for j in range(cols):
+            if flags[i, j] & EAST_STEP:
+                high, low = _higher_and_lower(flags, segment, i, j, False)
+                lows[fill[high]] = low
+                fill[high] += 1
+            if flags[i, j] & NORTH_STEP:
+                high, low = _higher_and_lower(flags, segment, i, j, True)
+                lows[fill[high]] = low
+                fill[high] += 1
+    high_of = np.empty(len(lows), np.int64)
+    low_of = np.empty(len(lows), np.int64)
+    edges = np.empty(len(lows), np.int64)
+    pair_start = np.zeros(n + 1, np.int64)
+    pairs = 0
+    for s in range(n):
+        a, b = start[s], start[s + 1]
+        if b > a:
+            lows[a:b].sort()
+            for k in range(a, b):
+                if k == a or lows[k] != lows[k - 1]:
+                    high_of[pairs] = s
+                    low_of[pairs] = lows[k]
+                    edges[pairs] = 0
+                    pairs += 1
+                edges[pairs - 1] += 1
+        pair_start[s + 1] = pairs
+    return high_of[:pairs].copy(), low_of[:pairs].copy(), edges[:pairs].copy(), pair_start
+
+
+@compiled(nogil=True)
+def _pair_of(low: np.ndarray, pair_start: np.ndarray, high: int, lower: int) -> int:  # pragma: no cover - compiled
+    a = pair_start[high]
+    return a + np.searchsorted(low[a:pair_start[high + 1]], lower)
+
+
+@compiled(nogil=True)
+def _add_once(seen: np.ndarray, count: int, segment: int) -> int:  # pragma: no cover - compiled
+    """``segment`` added to the first ``count`` of ``seen`` unless there; the new count."""
+    for k in range(count):
+        if seen[k] == segment:
+            return count
+    seen[count] = segment
+    return count + 1
+
+
+@compiled(nogil=True)
+def _pair_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: bool, scale: float, offset: float,
+                low: np.ndarray, pair_start: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Per pair: the higher side's cells with a step down to the lower segment, the lower side's
+    cells with a step up to the higher one, and the sum of the lower cells' heights (in row
+    order). A cell counts once per segment across, however many of its sides step to it."""
+    rows, cols = flags.shape
+    pairs = len(low)
+    high_cells = np.zeros(pairs, np.int64)
+    low_cells = np.zeros(pairs, np.int64)
+    low_sum = np.zeros(pairs)
+    above = np.empty(4, np.int64)  # the segments across a cell's steps up
+    below = np.empty(4, np.int64)  # ... and down
+    for i in range(rows):
+        for j in range(cols):
+            ups = downs = 0
+            f = flags[i, j]
+            if f & EAST_STEP:
+                if f & EAST_UP:
+                    ups = _add_once(above, ups, segment[i, j + 1])
+                else:
+                    downs = _add_once(below, downs, segment[i, j + 1])
+            if f & NORTH_STEP:
+                if f & NORTH_UP:
+                    ups = _add_once(above, ups, segment[i + 1, j])
+                else:
+                    downs = _add_once(below, downs, segment[i + 1, j])
+            if j > 0 and flags[i, j - 1] & EAST_STEP:  # the west neighbour's step: this cell is its east
+                if flags[i, j - 1] & EAST_UP:
+                    downs = _add_once(below, downs, segment[i, j - 1])
+                else:
+                    ups = _add_once(above, ups, segment[i, j - 1])
+            if i > 0 and flags[i - 1, j] & NORTH_STEP:
+                if flags[i - 1, j] & NORTH_UP:
+                    downs = _add_once(below, downs, segment[i - 1, j])
+                else:
+                    ups = _add_once(above, ups, segment[i - 1, j])
+            s = segment[i, j]
+            for k in range(downs):
+                high_cells[_pair_of(low, pair_start, s, below[k])] += 1
+            if ups:
+                h = _height(z[i, j], scaled, scale, offset)
+                for k in range(ups):
+                    p = _pair_of(low, pair_start, above[k], s)
+                    low_cells[p] += 1
+                    low_sum[p] += h
+    return high_cells, low_cells, low_sum
 
 
 def _decide(g: _Graph, step: float, down_share: float, levels: bool, max_cells: float) -> np.ndarray:
@@ -347,39 +545,3 @@ def _sunken(candidates: np.ndarray, raised: np.ndarray, height: np.ndarray, high
     weights = np.bincount(inner, weights=weight, minlength=n)
     level = np.bincount(inner, weights=weight * ground, minlength=n) / np.maximum(weights, 1e-12)
     return candidates & (weights > 0) & (height > level + step)
-
-
-def _merge(pairs: list[np.ndarray], count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Segments from the strips' labels joined by ``pairs``: the segment of every label, and each
-    segment's first label (labels run in row order, so the first is its first cell's)."""
-    first_of = np.arange(count)
-    if not pairs or not sum(p.shape[1] for p in pairs):
-        return first_of, first_of
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    joined = np.concatenate(pairs, axis=1)
-    graph = coo_matrix((np.ones(joined.shape[1], np.int8), (joined[0], joined[1])), shape=(count, count))
-    n, segment = connected_components(graph, directed=False)
-    first = np.full(n, count, np.int64)
-    np.minimum.at(first, segment, first_of)
-    return segment, first
-
-
-def _label(join_east: np.ndarray, join_north: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, int]:
-    """Connected components of the grid graph whose edges are the joined neighbour pairs.
-
-    Labelled as an image twice the grid's size in each direction: cell (i, j) is pixel
-    (2i, 2j), the pixel between two neighbouring cells is set when they are joined, so
-    ``scipy.ndimage.label`` with 4-connectivity joins exactly the joined cells. About 5 bytes
-    a cell of grid, against several times that for a sparse graph.
-    """
-    image = np.zeros((2 * rows - 1, 2 * cols - 1), bool)
-    image[::2, ::2] = True
-    image[::2, 1::2] = join_east
-    image[1::2, ::2] = join_north
-    labels, count = ndimage.label(image)
-    del image
-    label = np.ascontiguousarray(labels[::2, ::2]).astype(np.int32)
-    label -= 1  # every cell pixel is set: labels from 1
-    return label, int(count)

@@ -199,3 +199,38 @@ def test_a_plateau_larger_than_any_roof_is_terrain_and_a_roof_beside_it_is_not()
     small[50:250, 50:250] += 20.0
     assert raised_segments(small, step=2.0, down_share=0.5, cell=0.5).sum() == 200 * 200
     assert not raised_segments(small, step=2.0, down_share=0.5, cell=2.0).any()
+
+
+def test_compiled_graph_equals_the_numpy_form_bit_for_bit():
+    """The segments, their sizes, open edges and mean heights, and per pair of segments the
+    steps, cells and the lower cells' height sums: the values of the former numpy form (strips
+    labelled as images, pairs found by sorting) to the last bit, for heights and for codes, with
+    and without the spacing of filled cells, strips of 1 row to the whole grid."""
+    from aldpat.core.height_codes import ScaledHeights
+    from aldpat.core.segments import _segment_graph
+    from tests.core.segments_reference import segment_graph
+
+    rng = np.random.default_rng(7)
+    heights = ScaledHeights(0.01, 10.0)
+    for case in range(12):
+        rows, cols = rng.integers(2, 30, 2)
+        if case % 3 == 2:  # roofs and yards: level patches a step apart
+            z = rng.choice([0.0, 3.0, 6.0, 0.3], (rows, cols)) + rng.normal(0, 0.2, (rows, cols))
+        else:  # rough terrain
+            z = rng.normal(0, 2, (rows, cols)).cumsum(axis=case % 2)
+        z = np.round(z, 2)
+        codes = np.rint((z - heights.offset) / heights.scale).astype(np.int32)
+        spacing = rng.integers(0, 5, (rows, cols)).astype(np.uint8) if case % 4 else None
+        step, cell = float(rng.choice([0.3, 1.5, 2.0])), float(rng.choice([0.5, 1.0]))
+        for strip_rows in (1, 3, 256):
+            for grid, decode in ((z, None), (codes, heights.decode)):
+                new = _segment_graph(grid, step, decode, spacing, cell, strip_rows)
+                old = segment_graph(grid, step, decode, spacing, cell, strip_rows)
+                assert new.terrain == old.terrain
+                for name in ("segment", "open", "size", "height", "high", "low", "edges", "high_cells",
+                             "low_cells", "low_sum"):
+                    a, b = getattr(new, name), getattr(old, name)
+                    assert a.shape == b.shape, name
+                    assert np.array_equal(a, b), name
+                    if b.dtype.kind == "f" and b.size:  # the float sums to the bit
+                        assert a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8)), name
