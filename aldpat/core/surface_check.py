@@ -14,12 +14,14 @@ The surface keeps the ground cells' lowest points and fills every other cell har
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
+from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode, Heights
 from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.memory import release_free_memory
@@ -110,52 +112,86 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
     del levels
     release_free_memory()  # the coarser levels' scratch, before the finest level's grid
     out = np.empty((rows, cols), np.float32)
-    parent_cols = np.arange(cols) // 2
     for a in range(0, rows, STRIP_ROWS):
         b = min(rows, a + STRIP_ROWS)
         lo, hi = max(0, a - SWEEPS), min(rows, b + SWEEPS)
         fine_value, fine_weight = finest(lo, hi)
         fixed = fine_weight >= 1.0
-        up = value[np.arange(lo, hi) // 2][:, parent_cols]
-        out[a:b] = _relax(np.where(fixed, fine_value, up), fixed, SWEEPS)[a - lo:b - lo]
+        out[a:b] = _relax(_spread(value, fine_value, fixed, lo), fixed, SWEEPS)[a - lo:b - lo]
     return out
 
 
 def _push(value: np.ndarray, fine_value: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     """One level up: the parent's values spread to their 2 x 2 children, the fixed cells' own
     kept, then ``SWEEPS`` Jacobi sweeps."""
+    return _relax(_spread(value, fine_value, fixed, 0), fixed, SWEEPS)
+
+
+@compiled(nogil=True)
+def _spread(value: np.ndarray, fine_value: np.ndarray, fixed: np.ndarray,
+            first_row: int) -> np.ndarray:  # pragma: no cover - compiled
+    """The finer level's rows ``first_row:`` (as many as ``fine_value`` has): its ``fixed`` cells'
+    own values, every other cell its parent's (cell i, j of ``value`` holds 2i..2i+1, 2j..2j+1)."""
     rows, cols = fine_value.shape
-    up = np.repeat(np.repeat(value, 2, axis=0), 2, axis=1)[:rows, :cols]
-    return _relax(np.where(fixed, fine_value, up), fixed, SWEEPS)
+    out = np.empty((rows, cols), np.float32)
+    for i in range(rows):
+        for j in range(cols):
+            out[i, j] = fine_value[i, j] if fixed[i, j] else value[(first_row + i) // 2, j // 2]
+    return out
 
 
-def _pull(value: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+@compiled(nogil=True)
+def _pull(value: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     """One level down: weighted means of 2 x 2 blocks, weights summed and capped at 1 (a block
-    holding any ground is held at its ground cells' mean)."""
+    holding any ground is held at its ground cells' mean). float32, each block summed as
+    ``(v00 + v01) + (v10 + v11)`` (in order on a grid one block wide) -- the order of numpy's
+    ``sum(axis=(1, 3))`` over the blocks, which this replaces -- cells past an odd edge as 0."""
     rows, cols = value.shape
-    pr, pc = rows + rows % 2, cols + cols % 2
-    v = np.zeros((pr, pc), np.float32)
-    w = np.zeros((pr, pc), np.float32)
-    v[:rows, :cols] = value * weight
-    w[:rows, :cols] = weight
-    ws = w.reshape(pr // 2, 2, pc // 2, 2).sum(axis=(1, 3))
-    vs = v.reshape(pr // 2, 2, pc // 2, 2).sum(axis=(1, 3))
-    return np.divide(vs, ws, out=np.zeros_like(vs), where=ws > 0), np.minimum(ws, np.float32(1.0))
+    pr, pc = (rows + 1) // 2, (cols + 1) // 2
+    means = np.empty((pr, pc), np.float32)
+    weights = np.empty((pr, pc), np.float32)
+    zero = np.float32(0.0)
+    for i in range(pr):
+        for j in range(pc):
+            r, c = 2 * i, 2 * j
+            v00 = value[r, c] * weight[r, c]
+            w00 = weight[r, c]
+            v01 = value[r, c + 1] * weight[r, c + 1] if c + 1 < cols else zero
+            w01 = weight[r, c + 1] if c + 1 < cols else zero
+            v10 = value[r + 1, c] * weight[r + 1, c] if r + 1 < rows else zero
+            w10 = weight[r + 1, c] if r + 1 < rows else zero
+            v11 = value[r + 1, c + 1] * weight[r + 1, c + 1] if r + 1 < rows and c + 1 < cols else zero
+            w11 = weight[r + 1, c + 1] if r + 1 < rows and c + 1 < cols else zero
+            if pc == 1:  # numpy sums a block held in one run of memory in order
+                vs = ((v00 + v01) + v10) + v11
+                ws = ((w00 + w01) + w10) + w11
+            else:
+                vs = (v00 + v01) + (v10 + v11)
+                ws = (w00 + w01) + (w10 + w11)
+            means[i, j] = vs / ws if ws > zero else zero
+            weights[i, j] = min(ws, np.float32(1.0))
+    return means, weights
 
 
-def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:
-    """Jacobi sweeps of Laplace's equation on the cells not ``fixed`` (edges mirror)."""
-    if value.shape[0] < 2 or value.shape[1] < 2:
+@compiled(nogil=True)
+def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:  # pragma: no cover - compiled
+    """Jacobi sweeps of Laplace's equation on the cells not ``fixed`` (edges mirror): each cell
+    the float32 ``(((up + down) + left) + right) * 0.25`` of its neighbours before the sweep."""
+    rows, cols = value.shape
+    if rows < 2 or cols < 2:
         return value
-    held = value[fixed]
+    now = value.copy()
+    after = value.copy()
+    quarter = np.float32(0.25)
     for _ in range(sweeps):
-        padded = np.pad(value, 1, mode="edge")
-        value = padded[:-2, 1:-1] + padded[2:, 1:-1]
-        value += padded[1:-1, :-2]
-        value += padded[1:-1, 2:]
-        value *= np.float32(0.25)
-        value[fixed] = held
-    return value
+        for i in range(rows):
+            up, down = max(i - 1, 0), min(i + 1, rows - 1)
+            for j in range(cols):
+                if not fixed[i, j]:
+                    left, right = max(j - 1, 0), min(j + 1, cols - 1)
+                    after[i, j] = (((now[up, j] + now[down, j]) + now[i, left]) + now[i, right]) * quarter
+        now, after = after, now
+    return now
 
 
 def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
@@ -174,9 +210,33 @@ def _slope(rows_of: Callable[[int, int], np.ndarray], shape: tuple[int, int], ce
     for a in range(0, rows, STRIP_ROWS):
         b = min(rows, a + STRIP_ROWS)
         lo, hi = max(0, a - 1), min(rows, b + 1)
-        gy, gx = np.gradient(rows_of(lo, hi), cell)
-        out[a:b] = np.hypot(gx, gy, out=gx)[a - lo:b - lo]
+        _gradient_magnitude(rows_of(lo, hi), float(cell), a - lo, out[a:b])
     return out
+
+
+@compiled(nogil=True)
+def _gradient_magnitude(f: np.ndarray, cell: float, first: int, out: np.ndarray) -> None:  # pragma: no cover
+    """``hypot(gx, gy)`` of ``np.gradient(f, cell)`` (central differences ``(f[k + 1] - f[k - 1])
+    / (2 * cell)``, one-sided ``(f[1] - f[0]) / cell`` at the ends) for ``f``'s rows from
+    ``first``, as many as ``out`` has, rounded to float32."""
+    rows, cols = f.shape
+    twice = 2.0 * cell
+    for k in range(out.shape[0]):
+        i = first + k
+        for j in range(cols):
+            if i == 0:
+                gy = (f[1, j] - f[0, j]) / cell
+            elif i == rows - 1:
+                gy = (f[i, j] - f[i - 1, j]) / cell
+            else:
+                gy = (f[i + 1, j] - f[i - 1, j]) / twice
+            if j == 0:
+                gx = (f[i, 1] - f[i, 0]) / cell
+            elif j == cols - 1:
+                gx = (f[i, j] - f[i, j - 1]) / cell
+            else:
+                gx = (f[i, j + 1] - f[i, j - 1]) / twice
+            out[k, j] = np.float32(math.hypot(gx, gy))
 
 
 def bilinear(grid: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:

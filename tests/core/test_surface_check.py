@@ -87,3 +87,52 @@ def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
     h = rng.uniform(40, 60, 5000)
     np.testing.assert_array_equal(test.test(x, y, h), within_surface(x, y, h, surface, spec, threshold=0.3,
                                                                       slope_scalar=1.0))
+
+
+def _reference_pull(value, weight):
+    """The pyramid's step down in its former numpy form."""
+    rows, cols = value.shape
+    pr, pc = rows + rows % 2, cols + cols % 2
+    v = np.zeros((pr, pc), np.float32)
+    w = np.zeros((pr, pc), np.float32)
+    v[:rows, :cols] = value * weight
+    w[:rows, :cols] = weight
+    ws = w.reshape(pr // 2, 2, pc // 2, 2).sum(axis=(1, 3))
+    vs = v.reshape(pr // 2, 2, pc // 2, 2).sum(axis=(1, 3))
+    return np.divide(vs, ws, out=np.zeros_like(vs), where=ws > 0), np.minimum(ws, np.float32(1.0))
+
+
+def _reference_relax(value, fixed, sweeps):
+    """Jacobi sweeps in their former numpy form."""
+    if value.shape[0] < 2 or value.shape[1] < 2:
+        return value
+    held = value[fixed]
+    for _ in range(sweeps):
+        padded = np.pad(value, 1, mode="edge")
+        value = padded[:-2, 1:-1] + padded[2:, 1:-1]
+        value += padded[1:-1, :-2]
+        value += padded[1:-1, 2:]
+        value *= np.float32(0.25)
+        value[fixed] = held
+    return value
+
+
+def test_compiled_pyramid_and_slope_equal_the_numpy_form_bit_for_bit():
+    """The compiled pull, Jacobi sweeps and slope give numpy's float32 / float64 results to the
+    bit (its block sums' order, its gradient and hypot), on grids from one cell wide up."""
+    from aldpat.core.surface_check import _pull, _relax
+
+    rng = np.random.default_rng(5)
+    for case in range(60):
+        rows, cols = (int(n) for n in rng.integers(1, 40, 2))
+        value = rng.normal(0, 50, (rows, cols)).astype(np.float32)
+        value[rng.random((rows, cols)) < 0.2] = 0.0
+        weight = (rng.random((rows, cols)) < rng.random()).astype(np.float32)
+        for new, old in zip(_pull(value, weight), _reference_pull(value, weight), strict=True):
+            assert new.dtype == old.dtype and np.array_equal(new.view(np.uint8), old.view(np.uint8))
+        new, old = _relax(value, weight >= 1, 4), _reference_relax(value, weight >= 1, 4)
+        assert new.dtype == old.dtype and np.array_equal(new.view(np.uint8), old.view(np.uint8))
+        if min(rows, cols) >= 2:
+            z = np.round(rng.normal(0, 5, (rows, cols)).cumsum(axis=case % 2), 2)
+            gy, gx = np.gradient(z, 0.75)
+            assert np.array_equal(slope_of(z, 0.75).view(np.uint8), np.hypot(gx, gy).astype(np.float32).view(np.uint8))
