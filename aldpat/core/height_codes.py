@@ -42,6 +42,20 @@ class FloatHeights:
 
 
 @dataclass(frozen=True)
+class LinearDecode:
+    """The decoding of :class:`ScaledHeights`: height = code * scale + offset (a multiplication,
+    then an addition, never fused), a :data:`Decode` whose scale and offset a compiled loop reads
+    plainly (:func:`aldpat.core.rise.scale_and_offset`)."""
+
+    scale: float
+    offset: float
+
+    def __call__(self, codes: np.ndarray) -> np.ndarray:
+        """float64 heights, bit for bit those of ``laspy``'s scaled z."""
+        return (codes * self.scale) + self.offset
+
+
+@dataclass(frozen=True)
 class ScaledHeights:
     """Heights kept as the LAS integers: height = code * scale + offset, exactly as laspy reads it."""
 
@@ -54,9 +68,10 @@ class ScaledHeights:
         if not self.scale > 0:
             raise ValueError(f"a z scale must be positive to keep the order of heights, got {self.scale!r}")
 
-    def decode(self, codes: np.ndarray) -> np.ndarray:
-        """float64 heights, bit for bit those of ``laspy``'s scaled z."""
-        return (codes * self.scale) + self.offset
+    @property
+    def decode(self) -> LinearDecode:
+        """Codes -> float64 heights, bit for bit those of ``laspy``'s scaled z."""
+        return LinearDecode(self.scale, self.offset)
 
     def is_empty(self, codes: np.ndarray) -> np.ndarray:
         return codes == EMPTY_CODE

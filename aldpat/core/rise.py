@@ -14,23 +14,19 @@ never fused), and the rise the difference of two such heights.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from aldpat.core.compiled import compiled
-from aldpat.core.height_codes import ScaledHeights
+from aldpat.core.height_codes import Decode, LinearDecode
 
 
-def scale_and_offset(decode: Callable[[np.ndarray], np.ndarray] | None) -> tuple[float, float] | None:
-    """``(scale, offset)`` when ``decode`` is a :class:`ScaledHeights`' decoding; else ``None``."""
-    owner = getattr(decode, "__self__", None)
-    if isinstance(owner, ScaledHeights) and decode == owner.decode:
-        return owner.scale, owner.offset
-    return None
+def scale_and_offset(decode: Decode | None) -> tuple[float, float] | None:
+    """``(scale, offset)`` when ``decode`` is a linear decoding (:class:`LinearDecode`, that of
+    :class:`~aldpat.core.height_codes.ScaledHeights`); else ``None``."""
+    return (decode.scale, decode.offset) if isinstance(decode, LinearDecode) else None
 
 
-def heights_and_rise(z: np.ndarray, opened: np.ndarray, decode: Callable[[np.ndarray], np.ndarray] | None = None
+def heights_and_rise(z: np.ndarray, opened: np.ndarray, decode: Decode | None = None
                      ) -> tuple[np.ndarray, np.ndarray]:
     """The heights of ``z`` and their rise above ``opened`` (both float64, the shape of ``z``):
     ``decode(z)`` and ``decode(z) - decode(opened)`` (``z`` itself and ``z - opened`` when
