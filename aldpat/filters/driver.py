@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -61,7 +62,8 @@ def _rotate(x: np.ndarray, y: np.ndarray, degrees: float) -> tuple[np.ndarray, n
 
 
 def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, params: Any = None, *,
-                  extent: Extent | None = None, spacing: float | None = None) -> FilterResult:
+                  extent: Extent | None = None, spacing: float | None = None,
+                  note: Callable[[str], None] | None = None) -> FilterResult:
     """Classify points as ground / non-ground with the registered grid filter ``algorithm``.
 
     Parameters
@@ -76,6 +78,9 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
     spacing : float, optional
         the input's mean point spacing, which sets the low-outlier test's blocks (default: the
         points' own, over their extent); a chunk of a file passes the whole file's.
+    note : callable, optional
+        told which params derived from the points were used (a job's log: ``ctx.note``;
+        default: this module's logger).
 
     With the manual's Rotate Angle / Rotate Times (filters registered with ``rotations``),
     the data are rotated, gridded and filtered at each angle; a point is ground only when every
@@ -85,7 +90,8 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
     read and written (``chunk``, ``result``...) are not read here, but ``chunk`` with params that
     need every point at once (gapm's ``auto``) is refused as the command refuses it
     (:meth:`FilterSpec.check_chunks`); without it, such params are derived from the points
-    given (:attr:`FilterSpec.with_points`, logged), as ``aldpat filter`` derives them from a file.
+    given (:attr:`FilterSpec.with_points`, told to ``note``), as ``aldpat filter`` derives them
+    from a file; the result's ``params`` are those the filter ran with.
     """
     spec = get_filter(algorithm)
     if params is None:
@@ -103,7 +109,7 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
         raise DataError("points with non-finite coordinates cannot be filtered")
     if spec.with_points is not None and spec.needs_every_point(params) is not None:
         params, told = spec.with_points(params, x, y, z)
-        log.info(told)
+        (note or log.info)(told)
     if spacing is None:
         spacing = points_spacing(x, y)
     if spec.on_points:

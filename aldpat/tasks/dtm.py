@@ -68,7 +68,7 @@ from aldpat.jobs.registry import register_task
 from aldpat.jobs.task import Planned, Task
 from aldpat.options import CrsOption, OriginOption
 from aldpat.params import Checked, param, resolve
-from aldpat.tasks.filter import STREAM_CHUNK, with_every_point
+from aldpat.tasks.filter import STREAM_CHUNK
 from aldpat.tasks.grid import (
     check_classes,
     check_grid_fits,
@@ -325,8 +325,7 @@ def filtered_ground(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: DtmPara
                     note: Callable[[str], None] | None = None) -> np.ndarray:
     """The ground flags of points held in memory: ``params.algorithm`` with ``ground_params``
     (``--auto`` applied). What ``aldpat dtm`` finds for an input read whole, and :func:`aldpat.dtm`."""
-    fparams = with_every_point(params.algorithm, ground_params, x, y, z, note)
-    return ground_filter(x, y, z, params.algorithm, fparams).is_ground
+    return ground_filter(x, y, z, params.algorithm, ground_params, note=note).is_ground
 
 
 def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, params: DtmParams, *, crs=None,
@@ -414,8 +413,7 @@ def classify_tile(source: Path, params: DtmParams, ctx: JobContext) -> None:
     flags = np.zeros(own.count, np.uint8)
     if len(own.x):
         x, y, z = (np.concatenate([getattr(p, a) for p in parts]) for a in "xyz")
-        fparams = with_every_point(params.algorithm, params.ground_params(), x, y, z, ctx.note)
-        ground = ground_filter(x, y, z, params.algorithm, fparams).is_ground
+        ground = ground_filter(x, y, z, params.algorithm, params.ground_params(), note=ctx.note).is_ground
         flags[own.index] = ground[:len(own.x)]
         ctx.note(f"{len(own.x)} points of {source.name} and {len(x) - len(own.x)} of {len(parts) - 1} "
                  f"neighbouring tiles within {params.buffer:g} m; {int(ground[:len(own.x)].sum())} of its own "

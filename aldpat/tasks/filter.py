@@ -76,20 +76,6 @@ def with_noise(cls: np.ndarray, kind: np.ndarray) -> np.ndarray:
     return cls
 
 
-def with_every_point(algorithm: str, params, x: np.ndarray, y: np.ndarray, z: np.ndarray,
-                     note: Callable[[str], None] | None = None):
-    """``params`` completed from every point where the filter needs them all
-    (:attr:`~aldpat.filters.registry.FilterSpec.needs_every_point`: gapm's ``--auto`` derives its
-    cell and windows), told to ``note`` (a job's log: ``ctx.note``; else this module's logger);
-    unchanged otherwise."""
-    spec = FILTERS[algorithm]
-    if spec.with_points is None or spec.needs_every_point(params) is None:
-        return params
-    params, told = spec.with_points(params, x, y, z)
-    (note or log.info)(told)
-    return params
-
-
 def check_filter_run(params, *, algorithm: str) -> None:
     """The rules of ``aldpat filter ALGO`` that relate its options to the filter's declaration
     (:class:`~aldpat.filters.registry.FilterSpec`), which its params class cannot see: checked
@@ -116,12 +102,12 @@ def classify_points(table: PointTable, algorithm: str, params, note: Callable[[s
     """The filter's result on the points of ``table`` held in memory, and every point's ASPRS
     class (:func:`point_classes`): what ``aldpat filter`` writes for a file read whole, and what
     :func:`aldpat.ground` returns. The filter runs on the points taking part
-    (:func:`~aldpat.filters.survey.taking_part`); the others are unclassified here."""
+    (:func:`~aldpat.filters.survey.taking_part`); the others are unclassified here. Params the
+    filter derives from every point (gapm's ``--auto``) are told to ``note``."""
     part = taking_part(table, params)  # withheld points and ignored classes take no part
     taken = table if part is None else table.take(part)
-    params = with_every_point(algorithm, params, taken.x, taken.y, taken.z, note)
-    res = ground_filter(taken.x, taken.y, taken.z, algorithm, params)
-    return res, _every_point(point_classes(res, taken.z, params, algorithm), part, UNCLASSIFIED)
+    res = ground_filter(taken.x, taken.y, taken.z, algorithm, params, note=note)
+    return res, _every_point(point_classes(res, taken.z, res.params, algorithm), part, UNCLASSIFIED)
 
 
 def _output_point_format(reader, ctx: JobContext, source: Path) -> int | None:

@@ -230,14 +230,11 @@ def test_chunks_have_the_files_grid_edges(tmp_path, algorithm):
 def test_only_a_filter_needing_every_point_says_so():
     """The filter's own hook, not a parameter's name, says a run needs every point at once."""
     from aldpat.filters.streamed import streamable
-    from aldpat.tasks.filter import with_every_point
 
     auto = FILTERS["gapm"].params(auto=True)
     assert "--auto" in FILTERS["gapm"].needs_every_point(auto)
     assert not streamable("gapm", auto)
     assert all(spec.needs_every_point(spec.params()) is None for spec in FILTERS.values())
-    plain = FILTERS["pm"].params()
-    assert with_every_point("pm", plain, np.zeros(3), np.zeros(3), np.zeros(3)) is plain
 
 
 def test_ground_filter_takes_every_point_it_is_given():
@@ -252,11 +249,15 @@ def test_ground_filter_takes_every_point_it_is_given():
     gapm = FILTERS["gapm"].params
     with pytest.raises(ParamError, match="chunk: a chunk holds only some of the points, and --auto derives"):
         ground_filter(x, y, z, "gapm", gapm(auto=True, chunk=50.0))
-    derived = ground_filter(x, y, z, "gapm", gapm(auto=True)).params  # the params the filter ran with
+    told: list[str] = []
+    derived = ground_filter(x, y, z, "gapm", gapm(auto=True), note=told.append).params  # what it ran with
     assert derived == with_auto(gapm(), x, y, z) and derived.window_series != gapm().window_series
+    assert len(told) == 1 and told[0].startswith(f"--auto: cell = {derived.cell:g} m, window_series = [1, 2, 4, 8]")
     # chunk alone is how the command splits a file: the points given are filtered together all the same
-    assert np.array_equal(ground_filter(x, y, z, "pm", FILTERS["pm"].params(chunk=50.0)).point_marks,
-                          ground_filter(x, y, z, "pm").point_marks)
+    plain = FILTERS["pm"].params(chunk=50.0)
+    chunked = ground_filter(x, y, z, "pm", plain)
+    assert chunked.params is plain  # nothing derived where the filter needs no more than it is given
+    assert np.array_equal(chunked.point_marks, ground_filter(x, y, z, "pm").point_marks)
 
 
 @pytest.mark.parametrize("algorithm, options, message", [
