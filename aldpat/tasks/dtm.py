@@ -82,8 +82,9 @@ from aldpat.tasks.grid import (
 log = logging.getLogger(__name__)
 
 #: The low-outlier test's and the existing classes' options, which ``dtm`` takes itself and hands
-#: to its filter.
+#: to its filter (:meth:`DtmParams.ground_params`).
 LOW_OUTLIER_KEYS = tuple(f.name for f in (*fields(LowOutlierOption), *fields(ExistingClassesOption)))
+
 
 #: Filters that find ground (``outlier`` finds noise only: a DTM from it would keep the roofs).
 GROUND_FILTERS = tuple(sorted(name for name in FILTERS if name != "outlier"))
@@ -144,15 +145,23 @@ class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption
         return metres or None
 
     def ground_params(self) -> Any:
-        """The filter's parameters: its defaults, then ``filter_params``, then the low-outlier
-        test's options of ``dtm`` itself, then ``auto``."""
-        layers: list[tuple[str, dict]] = []
+        """The filter's parameters: its defaults, then ``dtm``'s low-outlier and class options as
+        defaults, then ``filter_params``, then those options set on ``dtm`` (:meth:`set_options`),
+        then ``auto``: what a parameter file sets stands unless the command sets another value, as
+        a command line ranks above a file everywhere."""
+        layers: list[tuple[str, dict]] = [("dtm", {name: getattr(self, name) for name in LOW_OUTLIER_KEYS})]
         if self.filter_params:
             layers.append((self.filter_params, load_toml(self.filter_params)))
-        layers.append(("dtm", {name: getattr(self, name) for name in LOW_OUTLIER_KEYS}))
+            layers.append(("dtm", self.set_options()))
         if self.auto:
             layers.append(("--auto", {"auto": True}))
         return resolve(FILTERS[self.algorithm].params, layers, where="filter_params: ").values
+
+    def set_options(self) -> dict[str, Any]:
+        """The low-outlier and existing-class options set on ``dtm`` to other than its defaults
+        (one set to its default is not told from one left alone: the file's value stands)."""
+        defaults = {f.name: f.default for f in fields(self)}
+        return {name: getattr(self, name) for name in LOW_OUTLIER_KEYS if getattr(self, name) != defaults[name]}
 
 
 def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> list[list[str]]:
@@ -225,6 +234,8 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     x, y, z, spec, count, own_ground, occupancy = made
     del made  # the points go with x, y, z below, before the raster is written
     ctx.note(f"{own_ground} ground ({_how(params)})")
+    if params.classes is None:
+        ctx.note(_low_outlier_test(params.ground_params()))
     out = ctx.outputs_for(source)[0].path
     raster, blank = terrain_raster(x, y, z, spec, params, crs=output_crs(params.crs, reader.crs, out, ctx.warn),
                                    where=source, occupancy=occupancy, note=ctx.note)
@@ -313,12 +324,22 @@ def _how(params: DtmParams) -> str:
     return f"class {params.classes}" if params.classes is not None else params.algorithm
 
 
+def _low_outlier_test(fparams: Any) -> str:
+    """The low-outlier test the filter ran, for the log: its options may come from the filter's
+    defaults, a ``filter_params`` file or ``dtm``'s own (:meth:`DtmParams.ground_params`)."""
+    if fparams.low_outliers is None:
+        return "low-outlier test off"
+    return (f"low-outlier test: {fparams.low_outliers:g} m, window {fparams.low_outlier_window} cells, reach "
+            f"{fparams.low_outlier_reach:g} m")
+
+
 def _set_aside(params: DtmParams) -> str:
     """Which points took no part, for the log."""
     if params.classes is not None:
         return f"withheld, not of class {params.classes}"
-    ignored = ",".join(map(str, params.ignore_classes or ())) or "none"
-    return f"withheld, classes {ignored}, returns {params.returns}"
+    fparams = params.ground_params()  # the filter's, which a filter_params file may have set
+    ignored = ",".join(map(str, fparams.ignore_classes or ())) or "none"
+    return f"withheld, classes {ignored}, returns {fparams.returns}"
 
 
 def filtered_ground(x: np.ndarray, y: np.ndarray, z: np.ndarray, params: DtmParams, ground_params,

@@ -116,6 +116,24 @@ def test_filter_parameters_and_auto(tiles, tmp_path):
         DtmParams(algorithm="pm", filter_params=str(params))
 
 
+def test_a_filter_params_files_low_outlier_settings_stand_unless_the_command_sets_them(tmp_path):
+    """``dtm``'s low-outlier and class options rank as a command line does: above a
+    ``--filter-params`` file when set, below it when left at their defaults (set 01 turns the
+    test off; a file's window, reach and classes stand)."""
+    assert DtmParams().ground_params().low_outlier_window == 2  # dtm's own default, the shared one
+    set01 = Path(__file__).resolve().parents[2] / "jobs" / "params" / "gapm-isprs-set01.toml"
+    assert DtmParams(filter_params=str(set01)).ground_params().low_outliers is None
+    own = tmp_path / "gapm.toml"
+    own.write_text("low_outlier_window = 5\nlow_outlier_reach = 30.0\nignore_classes = [7]\n")
+    from_file = DtmParams(filter_params=str(own)).ground_params()
+    assert (from_file.low_outlier_window, from_file.low_outlier_reach, from_file.ignore_classes) == (5, 30.0, (7,))
+    given = DtmParams(filter_params=str(own), low_outlier_window=3, low_outliers=None, ignore_classes=(18,))
+    assert given.set_options() == {"low_outlier_window": 3, "low_outliers": None, "ignore_classes": (18,)}
+    values = given.ground_params()
+    assert (values.low_outlier_window, values.low_outliers, values.ignore_classes, values.low_outlier_reach) == \
+        (3, None, (18,), 30.0)
+
+
 def test_neighbours_are_the_inputs_within_the_buffer(tmp_path):
     for k in range(3):  # three 100 m tiles in a row, 100 m apart
         np.savetxt(tmp_path / f"t{k}.txt", [[200.0 * k, 0, 1], [200.0 * k + 100, 100, 1], [200.0 * k + 50, 50, 1]])
