@@ -16,7 +16,9 @@ are spans too where they are level; they are objects either way.
 With ``enclosed``, a cell counts only where it lies in such a run along its row *and* along its
 column: a flat enclosed by steps down on all four sides. :func:`aldpat.filters.grid_stage.remnants`
 asks this of the ground a filter left, where a deck has gone with the objects around it and what
-stands so is a piece of roof whose taller parts were taken away.
+stands so is a piece of roof whose taller parts were taken away; there a run is level when its
+heights lie within a step of each other (one level of a building, as the raised-segment test
+joins cells), since a low roof falls to its gutters or steps by less than a storey.
 
 Rows are taken a block at a time and columns a block of them transposed, so that the grid is
 never copied whole; each block is a few vectorised passes over its cells.
@@ -37,13 +39,15 @@ BLOCK_LINES = 64
 
 def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
                  decode: Decode | None = None,
-                 spacing: np.ndarray | None = None, cell: float = 1.0, enclosed: bool = False) -> np.ndarray:
+                 spacing: np.ndarray | None = None, cell: float = 1.0, enclosed: bool = False,
+                 level: float = SPAN_LEVEL) -> np.ndarray:
     """Cells of level runs along rows or columns (with ``enclosed``: along rows and columns alike),
     bounded at both ends by steps down from them and at most ``max_cells`` long (bool, the shape
     of ``z``).
 
     ``z`` holds the filled lowest-point grid as heights, or codes that ``decode`` turns into
-    heights; ``spacing`` and ``cell`` as for :func:`aldpat.core.segments.raised_segments`.
+    heights; ``spacing`` and ``cell`` as for :func:`aldpat.core.segments.raised_segments`. A run's
+    heights lie within ``level`` (m; ``SPAN_LEVEL`` for a deck).
     """
     rows, cols = z.shape
     out = np.zeros((rows, cols), bool)
@@ -55,12 +59,12 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
 
     for a in range(0, rows, BLOCK_LINES):
         b = min(rows, a + BLOCK_LINES)
-        out[a:b] |= _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell)
+        out[a:b] |= _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell, level)
     for a in range(0, cols, BLOCK_LINES):
         b = min(cols, a + BLOCK_LINES)
         lines = np.ascontiguousarray(heights(z[:, a:b]).T)
         spaced = None if spacing is None else np.ascontiguousarray(spacing[:, a:b].T)
-        along_columns = _spans(lines, spaced, step, max_cells, cell).T
+        along_columns = _spans(lines, spaced, step, max_cells, cell, level).T
         if enclosed:
             out[:, a:b] &= along_columns
         else:
@@ -68,7 +72,8 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
     return out
 
 
-def _spans(z: np.ndarray, spacing: np.ndarray | None, step: float, max_cells: int, cell: float) -> np.ndarray:
+def _spans(z: np.ndarray, spacing: np.ndarray | None, step: float, max_cells: int, cell: float,
+           level: float) -> np.ndarray:
     """:func:`raised_spans` along the rows of ``z`` only."""
     lines, n = z.shape
     rise = np.diff(z, axis=1)  # from each cell to the next
@@ -90,6 +95,6 @@ def _spans(z: np.ndarray, spacing: np.ndarray | None, step: float, max_cells: in
     down_after = after & (flat[np.minimum(last + 1, flat.size - 1)] < flat[last])
     keep = down_before & down_after & (length <= max_cells)
     if keep.any():
-        level = np.maximum.reduceat(flat, first) - np.minimum.reduceat(flat, first)
-        keep &= level <= SPAN_LEVEL
+        relief = np.maximum.reduceat(flat, first) - np.minimum.reduceat(flat, first)
+        keep &= relief <= level
     return np.repeat(keep, length).reshape(lines, n)

@@ -105,7 +105,10 @@ def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption
     parts are gone, it is a flat standing above the ground on every side. A bridge deck or an
     embankment's crest steps down across its run only, and terrain on a slope rises along one
     direction at least, so neither is enclosed on all sides. The runs are those of raised spans,
-    with their step (``object_step``), length and levelness: no constant of its own.
+    with their step (``object_step``) and length; level here means heights within that step of
+    each other, what the raised-segment test takes for one level of a building: a low roof that
+    falls to its gutters, or steps by less than a storey between its parts, is one flat, as a
+    deck's 1 m levelness would not have it. No constant of its own.
     """
     from aldpat.core.spans import raised_spans
 
@@ -115,7 +118,7 @@ def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption
     filled_from = np.empty(surface.shape, np.uint8)
     fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
     flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
-                         spacing=filled_from, cell=cell, enclosed=True)
+                         spacing=filled_from, cell=cell, enclosed=True, level=params.object_step)
     return flats & ground
 
 

@@ -30,7 +30,7 @@ class IsprsScore:
 
 #: each filter's score with its defaults, best first
 ISPRS_SCORES: dict[str, IsprsScore] = {
-    "gapm": IsprsScore(2.61, held_out=2.85),
+    "gapm": IsprsScore(2.60, held_out=2.84),
     "atin": IsprsScore(3.46, held_out=5.69),
     "pm": IsprsScore(3.88),
     "pmcircle": IsprsScore(4.02),
