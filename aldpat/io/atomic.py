@@ -28,7 +28,7 @@ import shutil
 import socket
 import stat
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from aldpat.errors import AldpatError, OutputError, OutputExistsError
@@ -109,7 +109,7 @@ def _writer_gone(temporary: Path) -> bool:
     return m is not None and _owner_gone(int(m.group(1)), m.group(2))
 
 
-def _remove_if_gone(temporaries) -> None:
+def _remove_if_gone(temporaries: Iterable[Path]) -> None:
     for p in temporaries:
         if not _writer_gone(p):
             continue

@@ -19,7 +19,7 @@ import contextlib
 import math
 import shutil
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +30,8 @@ from aldpat.core.resources import check_disk, count_text
 from aldpat.core.workers import WorkerPool
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import scratch_dir
+from aldpat.io.registry import PointReader
+from aldpat.io.table import PointTable
 
 #: one spilled point: its row in the input, and its coordinates
 RECORD = np.dtype([("row", "<i8"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8")])
@@ -73,7 +75,7 @@ MOST_CHUNKS = 1_000_000
 _TEXT_POINT_BYTES = 24
 
 
-def expected_points(reader) -> int:
+def expected_points(reader: PointReader) -> int:
     """The points of an input: its header's count, or from a text file's size."""
     if reader.count is not None:
         return int(reader.count)
@@ -83,7 +85,7 @@ def expected_points(reader) -> int:
         return 0
 
 
-def check_spill(lattice: ChunkLattice, readers, folder: Path, path: Path | None = None) -> None:
+def check_spill(lattice: ChunkLattice, readers: Iterable[PointReader], folder: Path, path: Path | None = None) -> None:
     """Refuse, before a byte is spilled, spill files larger than the free disk of ``folder``;
     ``path`` is the input named. (How many copies the buffers make the options decide, and
     :meth:`ChunkLattice.check_copies` refuses with them.)"""
@@ -147,7 +149,7 @@ def scratch_folder(tmpdir: str | Path | None, beside: Path) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
-def spill_chunks(tables, lattice: ChunkLattice, *, tmpdir: str | Path | None = None) -> Iterator[SpilledChunks]:
+def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir: str | Path | None = None) -> Iterator[SpilledChunks]:
     """Spill the point tables ``tables`` (an input's chunks of rows, in order) by chunk; the
     folder is removed when the block ends, however it ends."""
     # within a scratch folder (:func:`scratch_folder`), else one of its own in the system's

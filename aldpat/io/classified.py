@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from aldpat.io.registry import PointReader
+from aldpat.io.table import PointTable
+
 #: ASPRS classes written by ``aldpat filter --result classified``
 UNCLASSIFIED = 1
 GROUND = 2
@@ -26,7 +29,7 @@ def for_point_format(classes: np.ndarray, las_point_format: int | None) -> np.nd
     return np.where(classes == HIGH_NOISE, LOW_NOISE, classes).astype(classes.dtype)
 
 
-def class_column_of(reader, table) -> int | None:
+def class_column_of(reader: PointReader, table: PointTable) -> int | None:
     """The column of a classified text result: the last one after x y z whose values are all
     ASPRS codes 1, 2, 7 or 18 with some 2."""
     for k in range(len(reader.names) - 1, 2, -1):
@@ -36,7 +39,7 @@ def class_column_of(reader, table) -> int | None:
     return None
 
 
-def ground_of(reader, table) -> np.ndarray | None:
+def ground_of(reader: PointReader, table: PointTable) -> np.ndarray | None:
     """Ground flags of a classified file, or None when it holds no classes."""
     if reader.format == "las":
         return np.asarray(table["classification"]) == GROUND
@@ -61,7 +64,7 @@ def parse_classes(text: str) -> tuple[int, ...] | None:
     return tuple(sorted(set(out)))
 
 
-def classes_of_table(table) -> np.ndarray | None:
+def classes_of_table(table: PointTable) -> np.ndarray | None:
     """The classes a point table carries: LAS ``classification`` or a text column ``class``."""
     for name in ("classification", "class"):
         if name in table.columns:
@@ -69,7 +72,7 @@ def classes_of_table(table) -> np.ndarray | None:
     return None
 
 
-def in_classes(table, classes: tuple[int, ...] | None) -> np.ndarray:
+def in_classes(table: PointTable, classes: tuple[int, ...] | None) -> np.ndarray:
     """Which points of ``table`` are of ``classes`` (every point for None). A table without
     classes has none of them."""
     if classes is None:
@@ -80,7 +83,7 @@ def in_classes(table, classes: tuple[int, ...] | None) -> np.ndarray:
     return np.isin(held, np.asarray(classes, dtype=np.int64))
 
 
-def withheld(table) -> np.ndarray | None:
+def withheld(table: PointTable) -> np.ndarray | None:
     """The withheld flag of a LAS table's points (None for other tables): points a LAS says are
     not to be used (LAS 1.4 R15: "should be considered deleted")."""
     record = table.record
@@ -89,7 +92,7 @@ def withheld(table) -> np.ndarray | None:
     return np.asarray(record["withheld"]).astype(bool)
 
 
-def product_points(table, classes: tuple[int, ...] | None) -> np.ndarray:
+def product_points(table: PointTable, classes: tuple[int, ...] | None) -> np.ndarray:
     """The points of ``table`` a grid or DTM of ``classes`` is made from: those of the classes
     (every one for None, ``--classes all``), withheld points only with ``all``."""
     keep = in_classes(table, classes)

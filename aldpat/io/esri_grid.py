@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -60,7 +61,7 @@ def header_lines(spec: GridSpec, nodata: float, *, ascii: bool = False) -> list[
 
 
 def write_float_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, nodata: float = DEFAULT_NODATA,
-                     crs=None, overwrite: bool = False) -> list[Path]:
+                     crs: Any = None, overwrite: bool = False) -> list[Path]:
     """Write ``path`` (.flt), its ``.hdr`` and, when ``crs`` is given, its ``.prj``; all or none."""
     path = Path(path)
     _square_cell(spec, path)
@@ -84,7 +85,7 @@ def write_float_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, no
 
 
 def write_ascii_grid(path: str | Path, values: np.ndarray, spec: GridSpec, *, nodata: float = DEFAULT_NODATA,
-                     crs=None, overwrite: bool = False) -> list[Path]:
+                     crs: Any = None, overwrite: bool = False) -> list[Path]:
     """Write an ESRI ASCII grid (northern row first) and, when ``crs`` is given, its ``.prj``."""
     path = Path(path)
     _square_cell(spec, path)

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -70,7 +70,7 @@ def _corrupt(path: Path, exc: Exception) -> InputFormatError:
 class LasReader:
     format = "las"
 
-    def __init__(self, path: str | Path, **_ignored):
+    def __init__(self, path: str | Path, **_ignored: object) -> None:
         import laspy  # imported when used: it adds half a second to every command's start-up
 
         self.path = Path(path)
@@ -197,7 +197,7 @@ class LasReader:
         return table
 
 
-def _table(record, names: tuple[str, ...], decimals: dict[str, int]) -> PointTable:
+def _table(record: Any, names: tuple[str, ...], decimals: dict[str, int]) -> PointTable:
     """The table of a laspy point record: ``names`` (x, y, z as float64, then the attributes
     read), the record kept for the writers."""
     cols = {"x": np.asarray(record.x, dtype=np.float64),
@@ -236,13 +236,13 @@ def z_codes(table: PointTable) -> np.ndarray:
     return np.asarray(table.record.Z)
 
 
-def new_point_format(names) -> int:
+def new_point_format(names: Iterable[str]) -> int:
     """The point format a LAS file made from non-LAS points gets: 6 (LAS 1.4) when they have a
     time, else 0."""
     return 6 if "t" in names or "gps_time" in names else 0
 
 
-def needs_wkt(crs) -> bool:
+def needs_wkt(crs: Any) -> bool:
     """Whether ``crs`` can be recorded as WKT only (LAS 1.4, formats 6-10): a CRS with a vertical
     part, or one without the EPSG code laspy's GeoTIFF keys hold."""
     from laspy.vlrs.geotiff import create_geotiff_projection_vlrs
@@ -256,7 +256,7 @@ def needs_wkt(crs) -> bool:
     return False
 
 
-def set_crs(header: laspy.LasHeader, crs) -> None:
+def set_crs(header: laspy.LasHeader, crs: Any) -> None:
     """Record ``crs`` in ``header`` in place of any CRS record: OGC WKT1 for point formats 6-10
     (PDAL and GDAL write WKT1, what LAS 1.4 readers parse), GeoTIFF keys for formats 0-5.
 
@@ -283,7 +283,7 @@ def set_crs(header: laspy.LasHeader, crs) -> None:
     header.global_encoding.wkt = True
 
 
-def holding_crs(header: laspy.LasHeader, crs) -> laspy.LasHeader:
+def holding_crs(header: laspy.LasHeader, crs: Any) -> laspy.LasHeader:
     """A copy of ``header`` recording ``crs`` (:func:`set_crs`): as LAS 1.4 (:func:`as_las14`,
     every attribute kept) when it is a format 0-5 header whose GeoTIFF keys cannot hold ``crs``."""
     header = as_las14(header) if header.point_format.id < 6 and needs_wkt(crs) else copy.deepcopy(header)
@@ -306,7 +306,7 @@ def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
     return header
 
 
-def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> laspy.LasHeader:
+def new_header(table: PointTable, *, crs: Any = None, decimals: dict | None = None) -> laspy.LasHeader:
     """A header for points that did not come from LAS: LAS 1.2 format 0, or LAS 1.4 format 6
     when a time exists or the CRS needs WKT (:func:`needs_wkt`)."""
     import laspy
@@ -325,7 +325,7 @@ def new_header(table: PointTable, *, crs=None, decimals: dict | None = None) -> 
     return header
 
 
-def _names_crs(header: laspy.LasHeader, crs) -> bool:
+def _names_crs(header: laspy.LasHeader, crs: Any) -> bool:
     """Whether a header already names ``crs`` (a header whose CRS records do not parse does not)."""
     try:
         known = header.parse_crs()
@@ -342,7 +342,7 @@ class LasWriter:
     """
 
     def __init__(self, path: Path, names: tuple[str, ...], *, template: laspy.LasHeader | None = None,
-                 crs=None, compress: bool | None = None):
+                 crs: Any = None, compress: bool | None = None) -> None:
         self.path = Path(path)
         self.names = tuple(names)
         self.template = template
@@ -434,7 +434,7 @@ class LasWriter:
         self._fh.write_points(points)
         self.count += n
 
-    def _stored_alike(self, record) -> bool:
+    def _stored_alike(self, record: Any) -> bool:
         """Whether ``record`` stores points as this file does (layout, scales, offsets), so that its
         bytes can be written as they are (another file's may not: a merge of tiles)."""
         if record.array.dtype != self._header.point_format.dtype():

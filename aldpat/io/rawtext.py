@@ -14,8 +14,9 @@ each batch of lines is checked against the parsed values (first and last line) b
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Self
+from typing import Any, BinaryIO, Self
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -29,7 +30,7 @@ _WHITE = np.zeros(256, dtype=bool)
 _WHITE[[9, 10, 13, 32]] = True
 
 
-def passthrough_ok(reader, names: tuple[str, ...], delimiter: str, out_suffix: str) -> bool:
+def passthrough_ok(reader: Any, names: tuple[str, ...], delimiter: str, out_suffix: str) -> bool:
     """True when copying input lines gives exactly what the formatted output would hold."""
     if getattr(reader, "format", None) != "text" or out_suffix.lower() in (".las", ".laz"):
         return False
@@ -69,7 +70,7 @@ class Lines:
                 return False
         return True
 
-    def pieces(self, rows: np.ndarray | slice):
+    def pieces(self, rows: np.ndarray | slice) -> Iterator[np.ndarray]:
         """The selected lines (a boolean mask, ascending indices or a slice) as byte arrays to
         write one after the other, each line ended by a newline. A slice copies its stretch of
         the file as it is (blank lines within a block of the file included), without a copy."""
@@ -94,11 +95,11 @@ class Lines:
             for a in range(0, len(sel), _GATHER_LINES):
                 yield _gather(buf, starts[sel[a:a + _GATHER_LINES]], ends[sel[a:a + _GATHER_LINES]])
 
-    def write(self, fh, rows: np.ndarray | slice) -> None:
+    def write(self, fh: BinaryIO, rows: np.ndarray | slice) -> None:
         """Write the selected lines to a binary file."""
         for piece in self.pieces(rows):
             if len(piece):
-                fh.write(memoryview(piece))
+                fh.write(piece.data)
 
     def gather(self, rows: np.ndarray | slice) -> bytes:
         """The selected lines as one bytes object (see :meth:`pieces`)."""
@@ -228,5 +229,5 @@ class RawLines:
     def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()

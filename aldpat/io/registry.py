@@ -98,7 +98,8 @@ def output_extension(source: Path | None, out_format: str | None) -> str:
 @contextlib.contextmanager
 def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = False,
                  like: PointSource | None = None,
-                 delimiter: str = "space", decimals: dict | None = None, crs=None, template=None) -> Iterator:
+                 delimiter: str = "space", decimals: dict | None = None, crs: Any = None, template: Any = None
+                 ) -> Iterator[LasWriter | TextWriter]:
     """Open an atomic point writer; the file appears under ``path`` only when the block succeeds.
 
     ``like`` is the source reader: a LAS output keeps its header (format, scale, offset, VLRs),

@@ -17,6 +17,7 @@ import itertools
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapefile
@@ -64,7 +65,7 @@ def shapefile_rings(rings: list[np.ndarray]) -> list[list[list[float]]]:
 PARTS = (".shp", ".shx", ".dbf", ".cpg")
 
 
-def write_polygons(path: str | Path, polygons: list[Polygon], fields: list[Field], *, crs=None,
+def write_polygons(path: str | Path, polygons: list[Polygon], fields: list[Field], *, crs: Any = None,
                    overwrite: bool = False) -> list[Path]:
     """Write a polygon shapefile (.shp .shx .dbf .cpg and .prj when ``crs``); return the files."""
     path = Path(path)

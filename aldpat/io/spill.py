@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.io.atomic import scratch_dir
+from aldpat.io.registry import PointReader
 from aldpat.io.table import PointTable
 
 BUCKET_POINTS = 2_000_000
@@ -28,10 +29,11 @@ BLOCK_CELLS = 16
 _REC = "__record"
 
 
-def estimate_points(reader) -> int:
+def estimate_points(reader: PointReader) -> int:
     """Points in a file: LAS headers know; for text, the file size over the mean line length."""
-    if getattr(reader, "count", None):
-        return int(reader.count)
+    count = reader.count
+    if count:
+        return int(count)
     size = os.path.getsize(reader.path)
     with open(reader.path, "rb") as fh:
         head = fh.read(1 << 16)

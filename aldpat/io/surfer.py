@@ -20,6 +20,7 @@ import logging
 import os
 import struct
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -100,7 +101,7 @@ def write_surfer(path: str | Path, values: np.ndarray, spec: GridSpec, *, fmt: s
     return path
 
 
-def _write_dsaa(fh, values: np.ndarray, spec: GridSpec) -> None:
+def _write_dsaa(fh: BinaryIO, values: np.ndarray, spec: GridSpec) -> None:
     zlo, zhi = _zrange(values)
     head = (f"DSAA\n{spec.nx} {spec.ny}\n{spec.xmin!r} {spec.xmax!r}\n{spec.ymin!r} {spec.ymax!r}\n"
             f"{zlo!r} {zhi!r}\n")
@@ -112,7 +113,7 @@ def _write_dsaa(fh, values: np.ndarray, spec: GridSpec) -> None:
         fh.write(("\n".join(lines) + "\n\n").encode("ascii"))
 
 
-def _write_dsbb(fh, values: np.ndarray, spec: GridSpec) -> None:
+def _write_dsbb(fh: BinaryIO, values: np.ndarray, spec: GridSpec) -> None:
     zlo, zhi = _zrange(values)
     fh.write(_DSBB_HEAD.pack(b"DSBB", spec.nx, spec.ny, spec.xmin, spec.xmax, spec.ymin, spec.ymax, zlo, zhi))
     for start in range(0, spec.ny, 512):
@@ -120,7 +121,7 @@ def _write_dsbb(fh, values: np.ndarray, spec: GridSpec) -> None:
         fh.write(np.where(np.isnan(block), BLANK, block).astype("<f4").tobytes())
 
 
-def _write_dsrb(fh, values: np.ndarray, spec: GridSpec, blank: float) -> None:
+def _write_dsrb(fh: BinaryIO, values: np.ndarray, spec: GridSpec, blank: float) -> None:
     zlo, zhi = _zrange(values)
     # Version 1 blanks every value >= BlankValue (Surfer's own), version 2 only == BlankValue.
     version = 1 if blank == BLANK else 2
@@ -201,7 +202,7 @@ def _read_dsaa(path: Path) -> tuple[np.ndarray, GridSpec]:
     return _blanked(values).reshape(ny, nx), spec
 
 
-def _node_values(fh, dtype: str, count: int, path: Path) -> np.ndarray:
+def _node_values(fh: BinaryIO, dtype: str, count: int, path: Path) -> np.ndarray:
     """``count`` node values from ``fh``: a header counting more nodes than the file's bytes
     hold is refused before anything is allocated for them (numpy would allocate them all)."""
     size = np.dtype(dtype).itemsize

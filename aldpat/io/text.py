@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -193,7 +194,8 @@ class TextReader:
         if rows_done == 0:
             raise InputFormatError("no points in file", path=self.path)
 
-    def _frames(self, sep: str, skip: int, size: int):
+    def _frames(self, sep: str, skip: int, size: int) -> Iterator[Any]:
+        """The numbers of the file in pandas frames of ``size`` rows (pandas' chunked reader)."""
         import pandas as pd
 
         return pd.read_csv(
@@ -215,7 +217,7 @@ class TextReader:
                 seen += 1
         return number
 
-    def _lines(self, fh) -> Iterator[tuple[int, str]]:
+    def _lines(self, fh: TextIO) -> Iterator[tuple[int, str]]:
         """``(number, line)`` of each line of ``fh`` from 1, none read longer than
         :data:`LONGEST_LINE` (a longer one is refused, naming it)."""
         number = 0

@@ -78,7 +78,7 @@ def column_formats(table: PointTable, names: tuple[str, ...], decimals: dict | N
     return fmts
 
 
-def format_block(table, names: tuple[str, ...], delimiter: str = " ", decimals: dict | None = None) -> np.ndarray:
+def format_block(table: PointTable, names: tuple[str, ...], delimiter: str = " ", decimals: dict | None = None) -> np.ndarray:
     """The rows of ``table`` as text lines (a uint8 array), with the columns and decimals of
     :func:`column_formats` (those :func:`aldpat.io.text.format_rows` uses too)."""
     n = len(table)

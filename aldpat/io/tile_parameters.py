@@ -9,6 +9,7 @@ before the first row are skipped, any other line that is not a row is an error n
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,7 +75,7 @@ def _parse_row(text: str) -> tuple[str, list[float]] | None:
     return parts[0].strip().strip('"'), numbers
 
 
-def _rows(path: Path):
+def _rows(path: Path) -> Iterator[tuple[str, list[float], int]]:
     """(path as written, seven numbers, line number) of every row; header lines before the first
     row are skipped, any other line that is not a row is an error naming it."""
     if not path.is_file():
