@@ -19,12 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import steps_between
 from aldpat.core.resources import check_memory, count_text
 from aldpat.errors import DataError
-
-ndimage = lazy_import("scipy.ndimage")
 
 log = logging.getLogger(__name__)
 
@@ -194,8 +191,9 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
     """Fill empty cells with the value of the nearest non-empty cell.
 
     Dissertation §4.2.1 "Grid-Based Nearest Neighbor Interpolation" (the layer-by-layer
-    search of Fig. 4-1 finds the Euclidean-nearest cell; an exact Euclidean distance transform
-    gives the same answer in one vectorized pass).
+    search of Fig. 4-1 finds the Euclidean-nearest cell; the exact Euclidean feature transform
+    of :mod:`aldpat.core.nearest_fill` gives the same answer a row at a time, without scratch
+    the size of the grid).
 
     Parameters
     ----------
@@ -231,53 +229,10 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
         if spacing is not None:
             spacing[...] = 0
         return out
-    idx = nearest_indices(empty)
-    if spacing is not None:
-        _distances(idx, spacing)
-    # one flat gather is about twice as fast as indexing with the two index planes; the flat
-    # index is built in place in the row plane (MAX_CELLS keeps it within int32)
-    flat = idx[0]
-    if flat.dtype != np.int64 and z.size >= 2**31:
-        flat = flat.astype(np.int64)
-    flat *= z.shape[1]
-    flat += idx[1]
-    source = out.ravel()
-    # row blocks, in place: a cell's nearest non-empty cell is itself when it holds a value, so
-    # the values read are never ones written
-    step = rows_per_block(z.shape[1], 1 << 22)
-    for a in range(0, z.shape[0], step):
-        np.take(source, flat[a:a + step], out=out[a:a + step])
+    from aldpat.core.nearest_fill import fill_rows
+
+    # a row at a time, in place: a cell's nearest non-empty cell is itself when it holds a value,
+    # so the values read are never ones written
+    fill_rows(out, np.ascontiguousarray(empty), spacing if spacing is not None else np.zeros((1, 1), np.uint8),
+              spacing is not None)
     return out
-
-
-def _distances(idx: np.ndarray, out: np.ndarray) -> None:
-    """Distance (cells, rounded up, at most 255) of every cell from the cell ``idx`` (a feature
-    transform, :func:`nearest_indices`) gives it, into ``out``: a block of rows at a time."""
-    rows, cols = out.shape
-    col = np.arange(cols, dtype=np.int32)
-    step = rows_per_block(cols, 1 << 20)
-    for a in range(0, rows, step):
-        b = min(rows, a + step)
-        dr = (idx[0][a:b] - np.arange(a, b, dtype=np.int32)[:, None]).astype(np.float32)
-        dc = (idx[1][a:b] - col[None, :]).astype(np.float32)
-        d = np.ceil(np.hypot(dr, dc, out=dr), out=dr)
-        np.minimum(d, 255, out=d)
-        out[a:b] = d
-
-
-def nearest_indices(empty: np.ndarray) -> np.ndarray:
-    """Row and column (int32, ``(2, rows, cols)``) of the nearest cell that is not ``empty``: the
-    feature transform of ``scipy.ndimage.distance_transform_edt``.
-
-    scipy's function first turns the mask into int64 and then int8 (8 bytes a cell of fresh
-    memory, about a third of its time on a large grid); its transform is called here on the
-    mask's own bytes when that entry point exists, and through the public function otherwise --
-    the same indices either way (``tests/core/test_lowest_grid.py``).
-    """
-    empty = np.ascontiguousarray(empty, dtype=bool)
-    transform = getattr(getattr(ndimage, "_nd_image", None), "euclidean_feature_transform", None)
-    if transform is None or empty.ndim != 2:
-        return ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
-    indices = np.zeros((2, *empty.shape), np.int32)
-    transform(empty.view(np.int8), None, indices)
-    return indices

@@ -110,16 +110,23 @@ def test_fill_nearest_all_or_nothing_empty():
 
 
 @pytest.mark.parametrize("share", [0.1, 0.5, 0.9, 0.999])
-def test_nearest_indices_are_scipys_feature_transform(share):
-    """The transform on the mask's own bytes gives scipy's indices, ties included."""
+def test_fill_nearest_takes_the_cell_of_scipys_feature_transform(share):
+    """Every empty cell takes the value of the very cell scipy's exact Euclidean feature
+    transform names, ties included, and its distance from it (cells, rounded up, at most 255)."""
     from scipy import ndimage
 
-    from aldpat.core.lowest_grid import nearest_indices
-
-    empty = np.random.default_rng(7).random((211, 347)) < share
-    empty[::17, ::13] = False  # regular ties: cells halfway between two holders
-    expected = ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
-    assert np.array_equal(nearest_indices(empty), expected)
+    rng = np.random.default_rng(7)
+    for shape in ((211, 347), (1, 40), (40, 1), (5, 3)):
+        empty = rng.random(shape) < share
+        empty[::17, ::13] = False  # regular ties: cells halfway between two holders
+        z = rng.integers(-10_000, 10_000, shape).astype(np.int32)
+        rows, cols = ndimage.distance_transform_edt(empty, return_distances=False, return_indices=True)
+        spacing = np.empty(shape, np.uint8)
+        filled = fill_nearest(z, empty, spacing=spacing)
+        assert np.array_equal(filled, z[rows, cols])
+        r, c = np.indices(shape)
+        distance = np.ceil(np.hypot((rows - r).astype(np.float32), (cols - c).astype(np.float32)))
+        assert np.array_equal(spacing, np.minimum(distance, 255).astype(np.uint8))
 
 
 def test_fill_nearest_in_place_on_height_codes():

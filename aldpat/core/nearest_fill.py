@@ -1,0 +1,108 @@
+"""Every empty cell of a grid filled from its Euclidean-nearest filled cell, a row at a time.
+
+The dissertation's grid-based nearest-neighbour interpolation (§4.2.1) gives an empty cell the
+height of the nearest non-empty cell. The exact answer is the feature transform of Maurer, Qi &
+Raghavan (2003), "A linear time algorithm for computing exact Euclidean distance transforms of
+binary images in arbitrary dimensions", IEEE Trans. PAMI 25(2): first, in each column, the
+nearest filled cell of every cell (one dimension); then, along each row, the lower envelope of
+the parabolas those column answers make (the partial Voronoi diagram of §3), kept as a stack.
+
+Done for the whole grid at once, the first step needs the column answers of every cell before
+the second starts: scipy's ``distance_transform_edt`` holds them, and its answers, as two int32
+planes (8 bytes a cell). Here the column answers of one row come from each column's filled
+cells just above and below it (kept as the rows go down, a column's next filled cell looked up
+only once it is passed), so each row is finished before the next and no grid-sized scratch is
+made. Ties are broken as that transform breaks them -- of two cells equally near, the upper one
+in a column and the first kept on the row's envelope -- and every comparison is made on the same
+float64 values in the same order, so a cell is filled from the very cell the transform names
+(``tests/core/test_lowest_grid.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from aldpat.core.compiled import compiled
+
+
+@compiled(nogil=True)
+def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray,
+              with_spacing: bool) -> None:  # pragma: no cover - compiled
+    """Fill the ``empty`` cells of ``values`` in place from their nearest non-empty cells (at
+    least one cell must be non-empty); with ``with_spacing``, each cell's distance from the cell
+    it was filled from (cells, rounded up, at most 255; 0 where it holds a value) into
+    ``spacing``."""
+    rows, cols = values.shape
+    above = np.full(cols, -1, np.int64)  # a column's last filled row before this one (-1: none)
+    below = np.full(cols, -1, np.int64)  # its first filled row from this one on (rows: none)
+    nearest = np.empty(cols, np.int64)  # the row of each column's filled cell nearest this row
+    kept = np.empty(cols, np.int64)  # the columns on the row's lower envelope
+    for r in range(rows):
+        for c in range(cols):
+            if below[c] < r:
+                above[c] = below[c]
+                k = r
+                while k < rows and empty[k, c]:
+                    k += 1
+                below[c] = k
+            a, b = above[c], below[c]
+            if b == r:
+                nearest[c] = r
+            elif a >= 0 and b < rows:
+                nearest[c] = a if r - a <= b - r else b  # equally near: the upper
+            elif a >= 0:
+                nearest[c] = a
+            elif b < rows:
+                nearest[c] = b
+            else:
+                nearest[c] = -1
+        top = _envelope(nearest, r, kept)
+        if top < 0:
+            continue
+        k = 0
+        for c in range(cols):
+            t0, t1 = float(nearest[kept[k]] - r), float(kept[k] - c)
+            near = t0 * t0 + t1 * t1
+            while k < top:
+                t0, t1 = float(nearest[kept[k + 1]] - r), float(kept[k + 1] - c)
+                after = t0 * t0 + t1 * t1
+                if near <= after:
+                    break
+                near = after
+                k += 1
+            if empty[r, c]:
+                fr, fc = nearest[kept[k]], kept[k]
+                values[r, c] = values[fr, fc]
+                if with_spacing:
+                    d = math.ceil(math.hypot(np.float32(fr - r), np.float32(fc - c)))
+                    spacing[r, c] = min(d, 255)
+            elif with_spacing:
+                spacing[r, c] = 0
+
+
+@compiled(nogil=True)
+def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray) -> int:  # pragma: no cover - compiled
+    """The columns whose nearest filled cells lie on the lower envelope along row ``r`` (Maurer
+    et al.'s ``RemoveFT`` test, in float64), into ``kept``; the index of the last (-1: none)."""
+    top = -1
+    for c in range(len(nearest)):
+        if nearest[c] < 0:
+            continue
+        w = float(nearest[c] - r)
+        w_r = w * w
+        fd = float(c)
+        while top >= 1:
+            f1 = float(kept[top])
+            a = f1 - float(kept[top - 1])
+            b = fd - f1
+            span = a + b
+            u = float(nearest[kept[top - 1]] - r)
+            v = float(nearest[kept[top]] - r)
+            if span * (v * v) - b * (u * u) - a * w_r - a * b * span <= 0.0:
+                break
+            top -= 1
+        top += 1
+        kept[top] = c
+    return top
