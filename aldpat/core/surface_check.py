@@ -22,9 +22,10 @@ from typing import Protocol
 import numpy as np
 
 from aldpat.core.compiled import compiled
-from aldpat.core.height_codes import Decode, Heights
+from aldpat.core.height_codes import Decode, FloatHeights, Heights
 from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.memory import release_free_memory
+from aldpat.core.rise import scale_and_offset
 
 #: Points tested at once (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
@@ -197,46 +198,72 @@ def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:  # 
 def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
     """Gradient magnitude of a grid surface (m/m, float32: a tolerance needs no more), central
     differences."""
-    return _slope(lambda a, b: np.asarray(surface[a:b], dtype=np.float64), surface.shape, cell)
-
-
-def _slope(rows_of: Callable[[int, int], np.ndarray], shape: tuple[int, int], cell: float) -> np.ndarray:
-    """:func:`slope_of` of the surface whose rows ``a:b`` ``rows_of(a, b)`` gives (float64), a strip
-    at a time with a row of margin: the central differences of the whole grid."""
-    rows, cols = shape
-    if min(rows, cols) < 2:
-        return np.zeros(shape, np.float32)
-    out = np.empty(shape, np.float32)
-    for a in range(0, rows, STRIP_ROWS):
-        b = min(rows, a + STRIP_ROWS)
-        lo, hi = max(0, a - 1), min(rows, b + 1)
-        _gradient_magnitude(rows_of(lo, hi), float(cell), a - lo, out[a:b])
+    out = np.zeros(surface.shape, np.float32)
+    if min(surface.shape) >= 2:
+        none = np.zeros((1, 1), np.int8)
+        _slope_grid(surface, none, none, False, False, 1.0, 0.0, float(cell), out)
     return out
 
 
 @compiled(nogil=True)
-def _gradient_magnitude(f: np.ndarray, cell: float, first: int, out: np.ndarray) -> None:  # pragma: no cover
-    """``hypot(gx, gy)`` of ``np.gradient(f, cell)`` (central differences ``(f[k + 1] - f[k - 1])
-    / (2 * cell)``, one-sided ``(f[1] - f[0]) / cell`` at the ends) for ``f``'s rows from
-    ``first``, as many as ``out`` has, rounded to float32."""
-    rows, cols = f.shape
+def _height_at(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, exact: bool, scaled: bool, scale: float,
+               offset: float, i: int, j: int) -> float:  # pragma: no cover - compiled
+    """The surface at cell (i, j) as float64; with ``exact``, a ground cell's (mark 0) own height
+    from its code (``code * scale + offset`` unfused, or the code itself when not ``scaled``)."""
+    if exact and marks[i, j] == 0:
+        if scaled:
+            h = codes[i, j] * scale
+            return h + offset
+        return np.float64(codes[i, j])
+    return np.float64(surface[i, j])
+
+
+@compiled(nogil=True)
+def _cell_slope(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, exact: bool, scaled: bool, scale: float,
+                offset: float, cell: float, i: int, j: int) -> np.float32:  # pragma: no cover - compiled
+    """``hypot(gx, gy)`` of ``np.gradient`` of the surface (:func:`_height_at`) at cell (i, j),
+    rounded to float32: central differences ``(f[k + 1] - f[k - 1]) / (2 * cell)``, one-sided
+    ``(f[1] - f[0]) / cell`` at the grid's edges. The grid is at least 2 x 2."""
+    rows, cols = surface.shape
     twice = 2.0 * cell
-    for k in range(out.shape[0]):
-        i = first + k
+    if i == 0:
+        gy = (_height_at(surface, marks, codes, exact, scaled, scale, offset, 1, j)
+              - _height_at(surface, marks, codes, exact, scaled, scale, offset, 0, j)) / cell
+    elif i == rows - 1:
+        gy = (_height_at(surface, marks, codes, exact, scaled, scale, offset, i, j)
+              - _height_at(surface, marks, codes, exact, scaled, scale, offset, i - 1, j)) / cell
+    else:
+        gy = (_height_at(surface, marks, codes, exact, scaled, scale, offset, i + 1, j)
+              - _height_at(surface, marks, codes, exact, scaled, scale, offset, i - 1, j)) / twice
+    if j == 0:
+        gx = (_height_at(surface, marks, codes, exact, scaled, scale, offset, i, 1)
+              - _height_at(surface, marks, codes, exact, scaled, scale, offset, i, 0)) / cell
+    elif j == cols - 1:
+        gx = (_height_at(surface, marks, codes, exact, scaled, scale, offset, i, j)
+              - _height_at(surface, marks, codes, exact, scaled, scale, offset, i, j - 1)) / cell
+    else:
+        gx = (_height_at(surface, marks, codes, exact, scaled, scale, offset, i, j + 1)
+              - _height_at(surface, marks, codes, exact, scaled, scale, offset, i, j - 1)) / twice
+    return np.float32(math.hypot(gx, gy))
+
+
+@compiled(nogil=True)
+def _slope_grid(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, exact: bool, scaled: bool, scale: float,
+                offset: float, cell: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    rows, cols = surface.shape
+    for i in range(rows):
         for j in range(cols):
-            if i == 0:
-                gy = (f[1, j] - f[0, j]) / cell
-            elif i == rows - 1:
-                gy = (f[i, j] - f[i - 1, j]) / cell
-            else:
-                gy = (f[i + 1, j] - f[i - 1, j]) / twice
-            if j == 0:
-                gx = (f[i, 1] - f[i, 0]) / cell
-            elif j == cols - 1:
-                gx = (f[i, j] - f[i, j - 1]) / cell
-            else:
-                gx = (f[i, j + 1] - f[i, j - 1]) / twice
-            out[k, j] = np.float32(math.hypot(gx, gy))
+            out[i, j] = _cell_slope(surface, marks, codes, exact, scaled, scale, offset, cell, i, j)
+
+
+@compiled(nogil=True)
+def _slopes_at(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scaled: bool, scale: float, offset: float,
+               cell: float, r: np.ndarray, c: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    out = np.zeros(len(r), np.float32)
+    if surface.shape[0] >= 2 and surface.shape[1] >= 2:
+        for k in range(len(r)):
+            out[k] = _cell_slope(surface, marks, codes, True, scaled, scale, offset, cell, r[k], c[k])
+    return out
 
 
 def bilinear(grid: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -270,7 +297,9 @@ class SurfaceTest:
     The surface is held as float32 (:func:`relaxed_surface`) with, where ``marks`` is given,
     the ground cells' (mark 0) exact heights read from ``heights`` (a grid and a function
     turning rows of it into float64 heights): the values of the float64 surface of
-    :func:`provisional_surface` at half its memory.
+    :func:`provisional_surface` at half its memory. Built over cells (:meth:`build`), its slope
+    is taken at the cells a point's tolerance reads, when it reads them (``slope`` None): the
+    values of :func:`slope_of` on that surface, without a second grid.
     """
 
     surface: np.ndarray | None
@@ -289,11 +318,8 @@ class SurfaceTest:
             return cls(None, None, cells.spec, threshold, slope_scalar)
         codes, decode = cells.codes, cells.heights.decode
         surface = relaxed_surface(lambda a, b: decode(codes[a:b]), marks)
-        release_free_memory()  # the pyramid's and the strips' scratch, before the slope's grid
-        test = cls(surface, None, cells.spec, threshold, slope_scalar, marks, (codes, decode))
-        if slope_scalar:
-            test.slope = _slope(test._rows, surface.shape, cells.spec.cell)
-        return test
+        release_free_memory()  # the pyramid's and the strips' scratch, before the points' pass
+        return cls(surface, None, cells.spec, threshold, slope_scalar, marks, (codes, decode))
 
     @classmethod
     def over(cls, surface: np.ndarray, spec: CellGridSpec, *, threshold: float, slope_scalar: float) -> SurfaceTest:
@@ -312,27 +338,31 @@ class SurfaceTest:
             values[exact] = decode(codes.ravel().take(flat[exact]))
         return values
 
-    def _rows(self, a: int, b: int) -> np.ndarray:
+    def _slopes(self, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """The slope (float32) at cells ``r, c``: held, or taken from the surface and the ground
+        cells' exact heights (:func:`slope_of` of the surface :meth:`_at` reads)."""
         assert self.surface is not None
-        values = self.surface[a:b].astype(np.float64)
-        if self.marks is not None and self.heights is not None:
-            codes, decode = self.heights
-            exact = self.marks[a:b] == 0
-            values[exact] = decode(codes[a:b][exact])
-        return values
+        if self.slope is not None:
+            return self.slope.ravel().take(r * self.slope.shape[1] + c)
+        assert self.marks is not None and self.heights is not None
+        codes, decode = self.heights
+        linear = scale_and_offset(decode)
+        if linear is None and not isinstance(getattr(decode, "__self__", None), FloatHeights):
+            raise TypeError(f"heights decoded by {decode!r}: neither scaled codes nor float heights")
+        scale, offset = linear if linear is not None else (1.0, 0.0)
+        return _slopes_at(self.surface, self.marks, codes, linear is not None, scale, offset, float(self.spec.cell),
+                          np.ascontiguousarray(r), np.ascontiguousarray(c))
 
     def test(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         out = np.zeros(len(z), bool)
         if self.surface is None:
             return out
-        slope = self.slope
         for a in range(0, len(z), _CHUNK):
             b = min(len(z), a + _CHUNK)
             corners = _corners(self.surface.shape, self.spec, x[a:b], y[a:b])  # once for both grids
             h = np.abs(z[a:b] - _blend(self._at, corners))
-            tolerance = self.threshold if slope is None else (
-                self.threshold + self.slope_scalar * _blend(
-                    lambda r, c: slope.ravel().take(r * slope.shape[1] + c), corners))
+            tolerance = self.threshold if not self.slope_scalar else (
+                self.threshold + self.slope_scalar * _blend(self._slopes, corners))
             out[a:b] = h <= tolerance
         return out
 

@@ -119,7 +119,9 @@ def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption
     fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
     flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
                          spacing=filled_from, cell=cell, enclosed=True, level=params.object_step)
-    return flats & ground
+    del surface, filled_from  # before the mask: this is the grid stage's fullest moment
+    flats &= ground
+    return flats
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params: LowOutlierOption,

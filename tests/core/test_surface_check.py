@@ -80,8 +80,10 @@ def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
 
     cells = type("Cells", (), {"codes": z, "heights": FloatHeights(), "spec": spec})()
     test = module.SurfaceTest.build(cells, marks, threshold=0.3, slope_scalar=1.0)
-    np.testing.assert_array_equal(test._rows(0, z.shape[0]), surface)
-    np.testing.assert_array_equal(test.slope, slope)
+    r, c = (i.ravel() for i in np.indices(z.shape))
+    np.testing.assert_array_equal(test._at(r, c).reshape(z.shape), surface)
+    assert test.slope is None  # taken at the cells the points read
+    np.testing.assert_array_equal(test._slopes(r, c).reshape(z.shape), slope)
     x = rng.uniform(0, 97 * 0.75, 5000)
     y = rng.uniform(0, 131 * 0.75, 5000)
     h = rng.uniform(40, 60, 5000)
