@@ -19,6 +19,7 @@ import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.clusters import Clusters, next_index, prev_index, take_rows
+from aldpat.core.compiled import compiled
 from aldpat.core.morphology import within
 
 ndimage = lazy_import("scipy.ndimage")
@@ -254,3 +255,109 @@ def candidate_thresholds(
         np.minimum(thresh, ct * k / max_divisor, out=thresh)
         out[s:s + chunk] = thresh
     return out
+
+
+def line_thresholds(z: np.ndarray, unfiltered: np.ndarray, positions: np.ndarray, half_window: int,
+                    cluster_threshold: float, *, max_divisor: float = 4.0) -> np.ndarray:
+    """:func:`candidate_thresholds` (without ``use_cluster_diff`` and ``break_slope``), compiled:
+    the same values to the bit, from one scan of each row holding a cell in question.
+
+    ``positions``: flat indices into ``z``, ascending. A row's clusters and minima are found in
+    one pass over its cells; a cell's window minima range is a stretch of the row's minima found
+    by binary search, as the vectorised version finds it; the arithmetic is the same, operation
+    for operation. Runs without Python's lock (threads may share the work).
+    """
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    n = z.shape[1]
+    if n > _COL_MASK:
+        raise ValueError(f"row of {n} cells is longer than the trend analysis supports")
+    positions = np.ascontiguousarray(positions, dtype=np.int64)
+    if positions.size > 1 and (np.diff(positions) < 0).any():
+        raise ValueError("positions must be ascending")
+    out = np.empty(positions.size)
+    _line_thresholds(z, np.ascontiguousarray(unfiltered, dtype=bool), positions, int(half_window),
+                     float(cluster_threshold), float(max_divisor), out)
+    return out
+
+
+@compiled(nogil=True)
+def _line_thresholds(z: np.ndarray, unfiltered: np.ndarray, positions: np.ndarray, k: int, ct: float,
+                     max_divisor: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    n = z.shape[1]
+    work = np.empty((4, n), np.int64)
+    cols = positions % n
+    s = 0
+    while s < positions.size:
+        row = positions[s] // n
+        e = s
+        while e < positions.size and positions[e] // n == row:
+            e += 1
+        row_thresholds(z[row], unfiltered[row], cols[s:e], k, ct, max_divisor, out[s:e], work)
+        s = e
+
+
+@compiled(nogil=True)
+def row_thresholds(zr: np.ndarray, ur: np.ndarray, cols: np.ndarray, k: int, ct: float, max_divisor: float,
+                   out: np.ndarray, work: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The adaptive thresholds of the cells ``cols`` of one row (heights ``zr``, unfiltered ``ur``)
+    into ``out``, as :func:`candidate_thresholds` computes them; ``work``: ``(4, n)`` int64. For
+    compiled callers (:mod:`aldpat.core.line_pass`)."""
+    n = zr.shape[0]
+    cluster_at, upos, mpos, mkey = work[0], work[1], work[2], work[3]
+    cap = ct * k / max_divisor
+    # clusters (MakeCluster): a new one where the height changes by more than ct per cell;
+    # a cell belongs to the cluster of the last unfiltered cell at or before it (-1: none)
+    m = 0
+    cluster = -1
+    for c in range(n):
+        if ur[c]:
+            if m == 0:
+                cluster += 1
+            else:
+                gap = float(c - upos[m - 1])
+                gap *= ct
+                if abs(zr[c] - zr[upos[m - 1]]) > gap:
+                    cluster += 1
+            upos[m] = c
+            m += 1
+        cluster_at[c] = cluster
+    # loose local minima of the unfiltered sequence (MakeTrendArray)
+    count = 0
+    for i in range(m):
+        zi = zr[upos[i]]
+        down = down_eq = up = up_eq = False
+        if i > 0:
+            dz = zi - zr[upos[i - 1]]
+            down = dz < 0.0
+            down_eq = dz <= 0.0
+        if i < m - 1:
+            dz = zr[upos[i + 1]] - zi
+            up = dz > 0.0
+            up_eq = dz >= 0.0
+        if (down and up_eq) or (down_eq and up) or (down and i == m - 1) or (up and i == 0):
+            mpos[count] = upos[i]
+            mkey[count] = (np.int64(np.rint(zi * _Z_SCALE)) << _COL_BITS) | upos[i]
+            count += 1
+    minima = mpos[:count]
+    for q in range(cols.size):
+        col = cols[q]
+        lq = max(col - k, 0)
+        rq = min(col + k, n - 1)
+        ci = cluster_at[col]
+        same = ci == cluster_at[lq] and ci == cluster_at[rq]
+        thresh = ct
+        # the window's minima range: from the last minimum at or before L to the first at or after R
+        a = max(np.searchsorted(minima, lq, side="right") - 1, 0)
+        b = min(np.searchsorted(minima, rq, side="left"), count - 1)
+        if a <= b:
+            low = mkey[a]
+            high = mkey[a]
+            for i in range(a + 1, b + 1):
+                low = min(low, mkey[i])
+                high = max(high, mkey[i])
+            rise = np.float64(high >> _COL_BITS) / _Z_SCALE - np.float64(low >> _COL_BITS) / _Z_SCALE
+            if same:
+                thresh = rise
+            else:
+                thresh = rise / max(abs((high & _COL_MASK) - (low & _COL_MASK)), 1) * k
+        out[q] = min(max(thresh, ct), cap)

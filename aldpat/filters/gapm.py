@@ -32,12 +32,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from aldpat.core import morphology, rise
+from aldpat.core import line_pass, morphology, rise
 from aldpat.core.auto_windows import SET01_CELL, auto_windows
 from aldpat.core.height_codes import Decode
 from aldpat.core.progressive import mark_dtype
 from aldpat.core.threads import thread_budget
-from aldpat.core.trend import candidate_thresholds
+from aldpat.core.trend import candidate_thresholds, line_thresholds
 from aldpat.errors import ParamError
 from aldpat.filters.grid_stage import low_outlier_reach
 from aldpat.filters.options import GroundParams, check_series
@@ -220,25 +220,38 @@ def adaptive_step(zc: np.ndarray, unfiltered: np.ndarray, k: int, ct: float, rul
         removed, zo = adaptive_step(np.ascontiguousarray(zc.T), np.ascontiguousarray(unfiltered.T), k, ct, rules,
                                     decode=decode)
         return removed.T, zo.T
-    init_bin, divisor, use_cluster_diff, edges = rules
-    if edges == "trend":
+    if rules.edges == "trend":
         zo, diff, zc = opened_along_trend(zc, k, decode)
     else:
         zo = morphology.opening(zc, k, window="line", axis=1)
         zc, diff = rise.heights_and_rise(zc, zo, decode)
-    if k < init_bin:
-        removed, _ = rise.removed_and_band(diff, unfiltered, ct, math.inf)
-        return removed, zo
-    # The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines 16-20):
-    # beyond that band the answer is known without the analysis, so clusters and minima are
-    # evaluated only for the cells inside it.
-    cap = ct * k / divisor
-    removed, band = rise.removed_and_band(diff, unfiltered, cap, min(ct, cap))
+    removed, band = rise.removed_and_band(diff, unfiltered, *decision_band(k, ct, rules))
     if band.size:
-        thresh = candidate_thresholds(zc, unfiltered, band, k, ct, max_divisor=divisor,
-                                      use_cluster_diff=use_cluster_diff)
-        removed.ravel()[band[diff.ravel()[band] > thresh]] = True
+        removed.ravel()[band[diff.ravel()[band] > adaptive_thresholds(zc, unfiltered, band, k, ct, rules)]] = True
     return removed, zo
+
+
+def decision_band(k: int, ct: float, rules: StepRules) -> tuple[float, float]:
+    """``(cap, floor)`` of a pass: an unfiltered cell rising more than ``cap`` above the opening is
+    removed; one rising more than ``floor`` (and not ``cap``) is left to the adaptive threshold.
+    Below ``init_thresh_bin`` the constant threshold ``ct`` decides alone (``floor`` infinite).
+    The adaptive threshold lies between min(ct, cap) and cap (CalThreshArray lines 16-20): beyond
+    that band the answer is known without the analysis, so clusters and minima are evaluated
+    only for the cells inside it."""
+    if k < rules.init_thresh_bin:
+        return ct, math.inf
+    cap = ct * k / rules.max_threshold_divisor
+    return cap, min(ct, cap)
+
+
+def adaptive_thresholds(heights: np.ndarray, unfiltered: np.ndarray, band: np.ndarray, k: int, ct: float,
+                        rules: StepRules) -> np.ndarray:
+    """The adaptive threshold (CalThreshArray, §6.2.3) of the cells ``band`` (flat indices into the
+    lines of ``heights``, taken as rows)."""
+    if rules.use_cluster_diff:
+        return candidate_thresholds(heights, unfiltered, band, k, ct, max_divisor=rules.max_threshold_divisor,
+                                    use_cluster_diff=True)
+    return line_thresholds(heights, unfiltered, band, k, ct, max_divisor=rules.max_threshold_divisor)
 
 
 def opened_along_trend(zc: np.ndarray, k: int, decode: Decode | None = None
@@ -289,12 +302,16 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
     Within a pass the rows (columns) are independent: blocks of them run on ``workers``
     threads, and each block writes its opened surface back over its own cells, which no other
     block reads. One surface grid therefore serves all passes and no pass allocates a grid
-    (fresh pages cost more than the filtering itself on large grids). A column pass copies a
-    narrow block of columns at a time into a transposed, contiguous array, so that every line
-    is read whole and the grid itself is never transposed. ``in_place``: ``z`` (C-contiguous)
-    is that surface grid, overwritten, instead of a copy of it. ``decode``: ``z`` holds height
-    codes (:mod:`aldpat.core.height_codes`), and so does the surface: 4 bytes a cell instead
-    of 8, each block's heights decoded as it is filtered.
+    (fresh pages cost more than the filtering itself on large grids). ``in_place``: ``z``
+    (C-contiguous) is that surface grid, overwritten, instead of a copy of it. ``decode``: ``z``
+    holds height codes (:mod:`aldpat.core.height_codes`), and so does the surface: 4 bytes a cell
+    instead of 8, each block's heights decoded as it is filtered.
+
+    A block is filtered by one compiled loop (:func:`aldpat.core.line_pass.filter_lines`: opening,
+    rise, decisions and adaptive thresholds, a column block read where it lies) that holds no
+    lock, so the threads share the cores. Codes of another decoding, float heights with NaN and
+    ``use_cluster_diff`` take :func:`adaptive_step` instead (numpy and scipy; a column block
+    copied into a transposed array and back), which gives the same marks.
     """
     dtype = z.dtype if decode is not None else np.dtype(np.float64)
     usable = in_place and z.dtype == dtype and z.flags.c_contiguous and z.flags.writeable
@@ -302,27 +319,31 @@ def adaptive_sequential(z: np.ndarray, p: GapmParams, *, workers: int | None = N
     mark = np.zeros(zc.shape, mark_dtype(max(p.window_series)))  # int16 unless a window is huge
     rules = StepRules.of(p)
     nr, nc = zc.shape
+    linear = rise.scale_and_offset(decode)
+    compiled = not rules.use_cluster_diff and (linear is not None or (decode is None and not np.isnan(zc).any()))
 
-    def row_block(a: int, k: int, ct: float) -> None:
-        b = min(a + BLOCK_ROWS, nr)
-        m = mark[a:b]
-        removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, rules, decode=decode)
-        zc[a:b] = zo
-        np.copyto(m, k, where=removed)
+    def block(a: int, k: int, ct: float, axis: int) -> None:
+        b = min(a + (BLOCK_ROWS if axis == 1 else BLOCK_COLUMNS), nr if axis == 1 else nc)
+        if compiled:
+            adaptive = (ct, rules.max_threshold_divisor) if k >= rules.init_thresh_bin else None
+            line_pass.filter_lines(zc, mark, a, b, axis, k, k, *decision_band(k, ct, rules), adaptive,
+                                   rules.edges == "trend", linear)
+        elif axis == 1:
+            m = mark[a:b]
+            removed, zo = adaptive_step(zc[a:b], m == 0, k, ct, rules, decode=decode)
+            zc[a:b] = zo
+            np.copyto(m, k, where=removed)
+        else:
+            m = mark[:, a:b]
+            zt = np.ascontiguousarray(zc[:, a:b].T)
+            removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, rules, decode=decode)
+            zc[:, a:b] = zo.T
+            np.copyto(m, k, where=removed.T)
 
-    def column_block(a: int, k: int, ct: float) -> None:
-        b = min(a + BLOCK_COLUMNS, nc)
-        m = mark[:, a:b]
-        zt = np.ascontiguousarray(zc[:, a:b].T)
-        removed, zo = adaptive_step(zt, np.ascontiguousarray((m == 0).T), k, ct, rules, decode=decode)
-        zc[:, a:b] = zo.T
-        np.copyto(m, k, where=removed.T)
-
-    blocks = {"row": (row_block, nr, BLOCK_ROWS), "column": (column_block, nc, BLOCK_COLUMNS)}
     with ThreadPoolExecutor(max_workers=max(1, workers or thread_budget())) as pool:
         for k, ct, direction in passes(p):
-            block, lines, step = blocks[direction]
-            list(pool.map(lambda a, block=block, k=k, ct=ct: block(a, k, ct), range(0, lines, step)))
+            axis, lines, step = (1, nr, BLOCK_ROWS) if direction == "row" else (0, nc, BLOCK_COLUMNS)
+            list(pool.map(lambda a, k=k, ct=ct, axis=axis: block(a, k, ct, axis), range(0, lines, step)))
     return mark
 
 

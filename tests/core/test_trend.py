@@ -116,3 +116,20 @@ def test_candidate_thresholds_on_a_few_rows_only():
     dense = threshold_array(z, make_clusters(z, unf, 1.0), local_minima(z, unf), 8, 1.0)
     pos = np.array([3 * 50 + 7, 3 * 50 + 40, 31 * 50 + 0, 39 * 50 + 49])  # rows 3, 31, 39
     np.testing.assert_allclose(candidate_thresholds(z, unf, pos, 8, 1.0), dense.ravel()[pos])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_line_thresholds_are_the_vectorised_ones_to_the_bit(seed):
+    from aldpat.core.trend import candidate_thresholds, line_thresholds
+
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        rows, n = int(rng.integers(1, 6)), int(rng.integers(1, 60))
+        # heights to the centimetre or metre: ties and level runs, as LAS heights give them
+        z = np.round(rng.normal(0, 1.5, (rows, n)).cumsum(axis=1), int(rng.integers(0, 3)))
+        unf = rng.random((rows, n)) > rng.uniform(0, 0.6)
+        k, ct = int(rng.integers(1, 25)), float(rng.choice([0.3, 0.5, 1.0, 2.0]))
+        pos = np.flatnonzero(unf & (rng.random((rows, n)) < 0.5))
+        want = candidate_thresholds(z, unf, pos, k, ct, max_divisor=3.0)
+        got = line_thresholds(z, unf, pos, k, ct, max_divisor=3.0)
+        assert np.array_equal(got.view(np.int64), want.view(np.int64))
