@@ -80,10 +80,11 @@ PDAL_ROWS = ("pdal-smrf", "pdal-dtm")
 PEER_OF = {"gapm-defaults": "pdal-smrf", "gapm-set01": "pdal-smrf", "dtm": "pdal-dtm", "multipass": None,
            "outlier": None, "grid-linear": None}
 
-#: PDAL 2.8.4 on this file when no PDAL runs here: (seconds, peak bytes, when and how measured).
+#: PDAL 2.8.4 on this file when no PDAL runs here: (seconds, peak bytes, when and how measured),
+#: from this script's own runs on a quiet machine (bench/README.md, "aldpat against PDAL").
 STORED = {
-    "pdal-smrf": (157.4, 6.7e9, "2026-11-24, a quiet machine (nothing else running), 2 cores"),
-    "pdal-dtm": (170.0, 6.9e9, "2026-11-24, a quiet machine (nothing else running), 2 cores"),
+    "pdal-smrf": (189.6, 6780 * 2**20, "bench_pdal.py 2026-11-25 02:25 UTC, 2 cores, load 0.4 -> 1.0"),
+    "pdal-dtm": (191.0, 6780 * 2**20, "bench_pdal.py 2026-11-24 23:32 UTC, 2 cores, load 1.0 -> 1.1"),
 }
 
 
@@ -282,7 +283,7 @@ def run(rows: list[str], against: str | None, repeat: int, file: Path | None) ->
         print(f"{bar}\n!! PDAL NOT RUN: {why}.\n!! The PDAL rows and ratios below QUOTE A STORED FIGURE, "
               "not a measurement of this run:")
         for row, (sec, peak, when) in STORED.items():
-            print(f"!!   {row}: {sec:.1f} s, {peak / 1e9:.1f} GB ({when})")
+            print(f"!!   {row}: {sec:.1f} s, {mib(peak)} ({when})")
         print("!! To run PDAL: set ALDPAT_PDAL to its command line or put pdal on PATH (conda install -c "
               "conda-forge pdal, or build PDAL 2.8 from source);\n!! a copy failing with 'libpdalcpp.so.18: "
               "file too short' needs a folder of real symlinks to its lib/libpdalcpp.so.18.x.y on "
@@ -298,7 +299,7 @@ def run(rows: list[str], against: str | None, repeat: int, file: Path | None) ->
             sec, peak, when = STORED[row]
             measured[row] = {"seconds": sec, "peak_bytes": peak, "load": f"stored: {when}"}
             stored.add(row)
-            print(f"| {row} | {sec:.1f} s | {points / sec / 1e6:.2f} M/s | {peak / 1e9:.1f} GB | STORED FIGURE, "
+            print(f"| {row} | {sec:.1f} s | {points / sec / 1e6:.2f} M/s | {mib(peak)} | STORED FIGURE, "
                   f"not measured now ({when}) | | |", flush=True)
             continue
         m = timed([*pdal, "pipeline", "--stdin"], stdin=json.dumps(pdal_pipeline(row, las)))
