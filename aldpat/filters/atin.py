@@ -72,7 +72,7 @@ from aldpat.core.grid_extent import steps_between
 from aldpat.core.lowest_grid import LowestGrid, fill_nearest, lowest_grid
 from aldpat.errors import DataError
 from aldpat.filters.grid_stage import raised_cells
-from aldpat.filters.marks import MARK_NON_GROUND
+from aldpat.filters.marks import MARK_GROUND, MARK_NON_GROUND
 from aldpat.filters.options import PointFilterParams, RaisedSegmentOption
 from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
@@ -212,13 +212,13 @@ def atin(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params: 
                 (0.0, 0.0, rx1 + buf - ox, ry1 + buf - oy), p.z_difference, p.angle_threshold,
                 p.angle_min_distance, p.mirror, p.best_per_triangle, MAX_ROUNDS)
             ground[sel[g]] = True
-            marks[cand[inner_c]] = np.where(ground[inner_c], 0, MARK_NON_GROUND)
+            marks[cand[inner_c]] = np.where(ground[inner_c], MARK_GROUND, MARK_NON_GROUND)
             ground[sel] = False
             mine = others[other_buckets.take(r, r, c, c)]
             if len(mine):
                 mine = mine[np.argsort(grid.cell_index[mine], kind="stable")]  # row-major: short walks
                 ok = tin_densify.passes(tin, x[mine] - ox, y[mine] - oy, z[mine], p.z_difference,
                                         p.angle_threshold, p.angle_min_distance, p.mirror)
-                marks[mine[ok]] = 0
+                marks[mine[ok]] = MARK_GROUND
     log.debug("atin: %d of %d points ground", int((marks == 0).sum()), len(z))
     return marks

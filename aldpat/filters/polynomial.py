@@ -48,7 +48,7 @@ from aldpat.core.lowest_grid import LowestGrid
 from aldpat.core.morphology import within
 from aldpat.core.surface_check import within_surface
 from aldpat.errors import ParamError
-from aldpat.filters.marks import MARK_NON_GROUND
+from aldpat.filters.marks import MARK_GROUND, MARK_NON_GROUND
 from aldpat.filters.options import PointFilterParams
 from aldpat.filters.registry import register_filter
 from aldpat.params import default_of, param
@@ -212,7 +212,7 @@ def polynomial_marks(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGr
         surface = ground_set.surface(ground, k)
         log.debug("window %d cells: %d candidates, %d joined", 2 * k + 1, int(cand.sum()), int(near.sum()))
     on_surface = within_surface(x, y, z, surface, grid.spec, threshold=p.outlier_tolerance, slope_scalar=0.0)
-    return np.where(on_surface, 0, MARK_NON_GROUND).astype(np.int32)
+    return np.where(on_surface, MARK_GROUND, MARK_NON_GROUND).astype(np.int32)
 
 
 def polynomial_buffer(params: IpfParams) -> float:

@@ -36,7 +36,7 @@ import numpy as np
 from aldpat._lazy import lazy_import
 from aldpat.core.lowest_grid import LowestGrid
 from aldpat.errors import ParamError
-from aldpat.filters.marks import MARK_NON_GROUND
+from aldpat.filters.marks import MARK_GROUND, MARK_NON_GROUND
 from aldpat.filters.options import PointFilterParams
 from aldpat.filters.registry import register_filter
 from aldpat.options import CellHeightOption, ElevationLimitsOption
@@ -118,4 +118,4 @@ def slope(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, params:
         non_ground |= z < params.min_z
     if params.max_z is not None:
         non_ground |= z > params.max_z
-    return np.where(non_ground, MARK_NON_GROUND, 0).astype(np.int32)
+    return np.where(non_ground, MARK_NON_GROUND, MARK_GROUND).astype(np.int32)
