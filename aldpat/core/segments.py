@@ -219,16 +219,24 @@ def _height(code: float, scaled: bool, scale: float, offset: float) -> float:  #
 
 
 @compiled(nogil=True)
+def step_limit(apart: int, step: np.float32, cell: np.float32, slope: np.float32,
+               reach: np.float32) -> np.float32:  # pragma: no cover - compiled
+    """:func:`step_limits` of one pair of cells ``apart`` (float32, as there): ``step``, or the
+    difference a slope of ``slope`` makes over the points' distance where they are at most
+    ``reach`` apart and it is more."""
+    distance = (np.float32(apart) + np.float32(1)) * cell
+    if distance <= reach:
+        return max(step, slope * distance)
+    return step
+
+
+@compiled(nogil=True)
 def _cut(first: float, second: float, apart: int, has_spacing: bool, step: np.float32, cell: np.float32,
          slope: np.float32, reach: np.float32) -> int:  # pragma: no cover - compiled
     """Flags of a step from height ``first`` to the neighbour's ``second``: 1 a step, 3 a step up
     to the neighbour, 0 none. The limit is :func:`step_limits`'s, in float32 as there."""
     rise = np.float32(second - first)
-    limit = step
-    if has_spacing:
-        distance = (np.float32(apart) + np.float32(1)) * cell
-        if distance <= reach:
-            limit = max(step, slope * distance)
+    limit = step_limit(apart, step, cell, slope, reach) if has_spacing else step
     if abs(rise) > limit:
         return 3 if rise > 0 else 1
     return 0

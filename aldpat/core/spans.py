@@ -21,15 +21,16 @@ heights lie within a step of each other (one level of a building, as the raised-
 joins cells), since a low roof falls to its gutters or steps by less than a storey.
 
 Rows are taken a block at a time and columns a block of them transposed, so that the grid is
-never copied whole; each block is a few vectorised passes over its cells.
+never copied whole; each block's lines are scanned once by a compiled loop.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
-from aldpat.core.segments import step_limits
+from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE, step_limit
 
 #: A span's heights lie within this range (m): a deck is level across its width.
 SPAN_LEVEL = 1.0
@@ -75,26 +76,43 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
 def _spans(z: np.ndarray, spacing: np.ndarray | None, step: float, max_cells: int, cell: float,
            level: float) -> np.ndarray:
     """:func:`raised_spans` along the rows of ``z`` only."""
+    out = np.empty(z.shape, bool)
+    _line_spans(np.ascontiguousarray(z, dtype=np.float64),
+                np.zeros((1, 1), np.uint8) if spacing is None else np.ascontiguousarray(spacing), spacing is not None,
+                float(step), np.float32(step), np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH),
+                int(max_cells), float(level), out)
+    return out
+
+
+@compiled(nogil=True)
+def _line_spans(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, step: float, step32: np.float32,
+                cell: np.float32, slope: np.float32, reach: np.float32, max_cells: int, level: float,
+                out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Each line's runs between steps (``|rise| > step``, or the float32 limit of
+    :func:`aldpat.core.segments.step_limits` where ``spacing`` is given, compared in float64),
+    marked where both neighbours outside the run are lower, it is at most ``max_cells`` long and
+    its heights lie within ``level``."""
     lines, n = z.shape
-    rise = np.diff(z, axis=1)  # from each cell to the next
-    apart = None if spacing is None else spacing[:, 1:].astype(np.uint16) + spacing[:, :-1]
-    cut = np.abs(rise) > step_limits(apart, step, cell)
-    # runs: the cells between two cuts; every line starts a run
-    starts = np.zeros((lines, n), bool)
-    starts[:, 0] = True
-    starts[:, 1:] = cut
-    first = np.flatnonzero(starts.ravel())
-    last = np.append(first[1:], lines * n) - 1
-    flat = z.ravel()
-    length = last - first + 1
-    col_first, col_last = first % n, last % n
-    # a step down from the run on either side: the neighbour before / after it is lower
-    before = col_first > 0
-    after = col_last < n - 1
-    down_before = before & (flat[np.maximum(first - 1, 0)] < flat[first])
-    down_after = after & (flat[np.minimum(last + 1, flat.size - 1)] < flat[last])
-    keep = down_before & down_after & (length <= max_cells)
-    if keep.any():
-        relief = np.maximum.reduceat(flat, first) - np.minimum.reduceat(flat, first)
-        keep &= relief <= level
-    return np.repeat(keep, length).reshape(lines, n)
+    for i in range(lines):
+        a = 0
+        while a < n:
+            b = a
+            while b + 1 < n:
+                rise = z[i, b + 1] - z[i, b]
+                limit = step
+                if has_spacing:
+                    limit = np.float64(step_limit(np.int64(spacing[i, b + 1]) + np.int64(spacing[i, b]), step32, cell,
+                                                  slope, reach))
+                if abs(rise) > limit:
+                    break
+                b += 1
+            keep = a > 0 and b < n - 1 and b - a + 1 <= max_cells and z[i, a - 1] < z[i, a] and z[i, b + 1] < z[i, b]
+            if keep:
+                high = low = z[i, a]
+                for k in range(a + 1, b + 1):
+                    high = max(high, z[i, k])
+                    low = min(low, z[i, k])
+                keep = high - low <= level
+            for k in range(a, b + 1):
+                out[i, k] = keep
+            a = b + 1

@@ -65,3 +65,42 @@ def test_enclosed_spans_are_flats_stepping_down_on_every_side():
     assert raised_spans(strip, 2.0, 40).any() and not raised_spans(strip, 2.0, 40, enclosed=True).any()
     slope = 0.3 * r + np.where((r >= 30) & (r < 50) & (c >= 40) & (c < 70), 3.0, 0.0)  # rises along its columns
     assert not raised_spans(slope, 2.0, 40, enclosed=True).any()
+
+
+def _reference_spans(z, spacing, step, max_cells, cell, level):
+    """One block of lines in the former vectorised form."""
+    from aldpat.core.segments import step_limits
+
+    lines, n = z.shape
+    rise = np.diff(z, axis=1)
+    apart = None if spacing is None else spacing[:, 1:].astype(np.uint16) + spacing[:, :-1]
+    cut = np.abs(rise) > step_limits(apart, step, cell)
+    starts = np.zeros((lines, n), bool)
+    starts[:, 0] = True
+    starts[:, 1:] = cut
+    first = np.flatnonzero(starts.ravel())
+    last = np.append(first[1:], lines * n) - 1
+    flat = z.ravel()
+    length = last - first + 1
+    down_before = (first % n > 0) & (flat[np.maximum(first - 1, 0)] < flat[first])
+    down_after = (last % n < n - 1) & (flat[np.minimum(last + 1, flat.size - 1)] < flat[last])
+    keep = down_before & down_after & (length <= max_cells)
+    if keep.any():
+        keep &= np.maximum.reduceat(flat, first) - np.minimum.reduceat(flat, first) <= level
+    return np.repeat(keep, length).reshape(lines, n)
+
+
+def test_compiled_line_scan_equals_the_vectorised_form():
+    """Runs, their steps (with and without the points' spacing), ends and levelness: the cells of
+    the former vectorised form exactly."""
+    from aldpat.core.spans import _spans
+
+    rng = np.random.default_rng(4)
+    for case in range(40):
+        lines, n = (int(k) for k in rng.integers(1, 30, 2))
+        z = np.round(rng.choice([0.0, 3.0, 6.0, 0.3, 2.0], (lines, n)) + rng.normal(0, 0.3, (lines, n)), 2)
+        spacing = rng.integers(0, 5, (lines, n)).astype(np.uint8) if case % 2 else None
+        step, max_cells = float(rng.choice([0.3, 1.5, 2.0])), int(rng.integers(0, 12))
+        level, cell = float(rng.choice([0.5, 2.0])), float(rng.choice([0.5, 1.0]))
+        assert np.array_equal(_spans(z, spacing, step, max_cells, cell, level),
+                              _reference_spans(z, spacing, step, max_cells, cell, level))
