@@ -206,14 +206,12 @@ def _filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, alo
     eroded = np.empty((n, lanes), grid.dtype)
     g = np.empty((n + 2 * kk, lanes), grid.dtype)
     h = np.empty((n + 2 * kk, lanes), grid.dtype)
-    heights = np.empty((n, lanes))
+    heights = np.empty((lanes, n))  # each line's own row: the threshold analysis reads it whole
     rise = np.empty((n, lanes))
-    unfiltered = np.empty((n, lanes), np.bool_)
+    unfiltered = np.empty((lanes, n), np.bool_)
     removed = np.empty((n, lanes), np.bool_)
     band = np.empty((lanes, n), np.int64)
     count = np.empty(lanes, np.int64)
-    line_z = np.empty(n)
-    line_free = np.empty(n, np.bool_)
     thresholds = np.empty(n)
     work = np.empty((4, n), np.int64)
     ends = trend and k > 0 and n >= 4
@@ -229,12 +227,12 @@ def _filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, alo
             for r in range(width):
                 for j in range(n):
                     codes[j, r] = grid[start + r, j]
-                    unfiltered[j, r] = mark[start + r, j] == 0
+                    unfiltered[r, j] = mark[start + r, j] == 0
         else:
             for j in range(n):
                 for r in range(width):
                     codes[j, r] = grid[j, start + r]
-                    unfiltered[j, r] = mark[j, start + r] == 0
+                    unfiltered[r, j] = mark[j, start + r] == 0
         for j in range(n):  # the lanes past the last line: copies of the first, never written back
             for r in range(width, lanes):
                 codes[j, r] = codes[j, 0]
@@ -249,19 +247,19 @@ def _filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, alo
                 else:
                     z = codes[j, r]
                     o = opened[j, r]
-                heights[j, r] = z
+                heights[r, j] = z
                 rise[j, r] = z - o
         removed[:] = False
         if ends:
             for r in range(width):
-                z, d = heights[:, r], rise[:, r]
+                z, d = heights[r], rise[:, r]
                 _trend_ends(z, n, k, first_end, last_end)
                 _onto_own_heights(z, codes[:, r], last_end, n - reach, n - pool, reach, pool, d, opened[:, r])
                 _onto_own_heights(z, codes[:, r], first_end, 0, 0, reach, pool, d, opened[:, r])
         count[:] = 0
         for j in range(n):
             for r in range(width):
-                if unfiltered[j, r]:
+                if unfiltered[r, j]:
                     if rise[j, r] > cap:
                         removed[j, r] = True
                     elif rise[j, r] > floor:
@@ -271,9 +269,7 @@ def _filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, alo
             for r in range(width):
                 if count[r]:
                     line_band = band[r, :count[r]]
-                    line_z[:] = heights[:, r]
-                    line_free[:] = unfiltered[:, r]
-                    row_thresholds(line_z, line_free, line_band, k, ct, divisor, thresholds, work)
+                    row_thresholds(heights[r], unfiltered[r], line_band, k, ct, divisor, thresholds, work)
                     for q in range(count[r]):
                         if rise[line_band[q], r] > thresholds[q]:
                             removed[line_band[q], r] = True
