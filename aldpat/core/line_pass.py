@@ -28,6 +28,8 @@ operations in the same order as :mod:`aldpat.core.morphology` computes it.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from aldpat.core.compiled import compiled
@@ -56,8 +58,28 @@ def filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, axis
     scale, offset = scale_offset if scale_offset is not None else (1.0, 0.0)
     adaptive = threshold is not None
     ct, divisor = threshold if threshold is not None else (1.0, 1.0)
-    _filter_lines(grid, mark, int(first), int(last), along_rows, int(k), min(int(k), n), int(label), float(cap),
-                  float(floor), adaptive, float(ct), float(divisor), bool(trend), decoded, float(scale), float(offset))
+    kk = min(int(k), n)  # wider sees the whole line from every cell: the same opening
+    _filter_lines(grid, mark, int(first), int(last), along_rows, int(k), kk, int(label), float(cap), float(floor),
+                  adaptive, float(ct), float(divisor), bool(trend), decoded, float(scale), float(offset),
+                  *_scratch(n, n + 2 * kk, grid.dtype))
+
+
+_held = threading.local()
+
+
+def _scratch(n: int, padded: int, dtype: np.dtype) -> tuple[np.ndarray, ...]:
+    """This thread's work arrays for lines of ``n`` cells (a pass's openings need ``padded``
+    cells): kept from one block to the next, since fresh pages for every block cost more than
+    filtering it (page faults and zeroing)."""
+    held = getattr(_held, "arrays", None)
+    if held is None or held[0].shape[0] != n or held[3].shape[0] < padded or held[0].dtype != dtype:
+        lanes = LANES
+        held = (np.empty((n, lanes), dtype), np.empty((n, lanes), dtype), np.empty((n, lanes), dtype),
+                np.empty((padded, lanes), dtype), np.empty((padded, lanes), dtype), np.empty((lanes, n)),
+                np.empty((n, lanes)), np.empty((lanes, n), np.bool_), np.empty((n, lanes), np.bool_),
+                np.empty((lanes, n), np.int64), np.empty(n), np.empty((4, n), np.int64))
+        _held.arrays = held
+    return held
 
 
 @compiled(nogil=True)
@@ -198,22 +220,13 @@ def _onto_own_heights(z: np.ndarray, codes: np.ndarray, trend: np.ndarray, ends:
 @compiled(nogil=True)
 def _filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, along_rows: bool, k: int, kk: int,
                   label: int, cap: float, floor: float, adaptive: bool, ct: float, divisor: float, trend: bool,
-                  decoded: bool, scale: float, offset: float) -> None:  # pragma: no cover - compiled
+                  decoded: bool, scale: float, offset: float, codes: np.ndarray, opened: np.ndarray,
+                  eroded: np.ndarray, g: np.ndarray, h: np.ndarray, heights: np.ndarray, rise: np.ndarray,
+                  unfiltered: np.ndarray, removed: np.ndarray, band: np.ndarray, thresholds: np.ndarray,
+                  work: np.ndarray) -> None:  # pragma: no cover - compiled
     n = grid.shape[1] if along_rows else grid.shape[0]
     lanes = LANES
-    codes = np.empty((n, lanes), grid.dtype)
-    opened = np.empty((n, lanes), grid.dtype)
-    eroded = np.empty((n, lanes), grid.dtype)
-    g = np.empty((n + 2 * kk, lanes), grid.dtype)
-    h = np.empty((n + 2 * kk, lanes), grid.dtype)
-    heights = np.empty((lanes, n))  # each line's own row: the threshold analysis reads it whole
-    rise = np.empty((n, lanes))
-    unfiltered = np.empty((lanes, n), np.bool_)
-    removed = np.empty((n, lanes), np.bool_)
-    band = np.empty((lanes, n), np.int64)
     count = np.empty(lanes, np.int64)
-    thresholds = np.empty(n)
-    work = np.empty((4, n), np.int64)
     ends = trend and k > 0 and n >= 4
     reach = min(2 * k, n)
     pool = min(4 * k, n)
