@@ -41,18 +41,23 @@ BLOCK_LINES = 64
 def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
                  decode: Decode | None = None,
                  spacing: np.ndarray | None = None, cell: float = 1.0, enclosed: bool = False,
-                 level: float = SPAN_LEVEL) -> np.ndarray:
+                 level: float = SPAN_LEVEL, within: np.ndarray | None = None) -> np.ndarray:
     """Cells of level runs along rows or columns (with ``enclosed``: along rows and columns alike),
     bounded at both ends by steps down from them and at most ``max_cells`` long (bool, the shape
     of ``z``).
 
     ``z`` holds the filled lowest-point grid as heights, or codes that ``decode`` turns into
     heights; ``spacing`` and ``cell`` as for :func:`aldpat.core.segments.raised_segments`. A run's
-    heights lie within ``level`` (m; ``SPAN_LEVEL`` for a deck).
+    heights lie within ``level`` (m; ``SPAN_LEVEL`` for a deck). With ``enclosed``, ``within`` (a
+    bool grid the caller gives up) keeps only its own cells: the result is made in it, in place of
+    a grid of its own.
     """
     rows, cols = z.shape
-    out = np.zeros((rows, cols), bool)
+    if within is not None and not enclosed:
+        raise ValueError("within= is for enclosed spans")
+    out = np.zeros((rows, cols), bool) if within is None else within
     if max_cells < 1 or min(rows, cols) < 3:
+        out[...] = False
         return out
 
     def heights(block: np.ndarray) -> np.ndarray:
@@ -60,7 +65,11 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
 
     for a in range(0, rows, BLOCK_LINES):
         b = min(rows, a + BLOCK_LINES)
-        out[a:b] |= _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell, level)
+        along_rows = _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell, level)
+        if within is None:
+            out[a:b] |= along_rows
+        else:
+            out[a:b] &= along_rows
     for a in range(0, cols, BLOCK_LINES):
         b = min(cols, a + BLOCK_LINES)
         lines = np.ascontiguousarray(heights(z[:, a:b]).T)

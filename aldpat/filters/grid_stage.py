@@ -95,7 +95,8 @@ def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption
     """The cells of ``ground`` that stand as flats on the ground the filter left: level runs at
     most ``object_span`` long bounded by steps down at both ends along their row *and* their
     column (:func:`aldpat.core.spans.raised_spans` with ``enclosed``), on the grid of the ground
-    cells' lowest points with every other cell filled from the nearest of them.
+    cells' lowest points with every other cell filled from the nearest of them. ``ground`` is
+    given up: the flats are made in it.
 
     What a filter leaves so is the lower part of a building whose taller parts it removed: a
     one-storey part inside a block, a podium below a tower. Among the tall parts the low roof
@@ -117,11 +118,9 @@ def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption
     surface = cells.codes.copy()
     filled_from = np.empty(surface.shape, np.uint8)
     fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
-    flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
-                         spacing=filled_from, cell=cell, enclosed=True, level=params.object_step)
-    del surface, filled_from  # before the mask: this is the grid stage's fullest moment
-    flats &= ground
-    return flats
+    # the flats are made in ``ground`` itself (given up by the caller): the grid stage's fullest moment
+    return raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
+                        spacing=filled_from, cell=cell, enclosed=True, level=params.object_step, within=ground)
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params: LowOutlierOption,

@@ -104,3 +104,17 @@ def test_compiled_line_scan_equals_the_vectorised_form():
         level, cell = float(rng.choice([0.5, 2.0])), float(rng.choice([0.5, 1.0]))
         assert np.array_equal(_spans(z, spacing, step, max_cells, cell, level),
                               _reference_spans(z, spacing, step, max_cells, cell, level))
+
+
+def test_enclosed_spans_made_within_a_mask_keep_only_its_cells():
+    """``within`` (given up) holds the enclosed spans inside it: the result of ANDing them with it."""
+    from aldpat.core.spans import raised_spans
+
+    rng = np.random.default_rng(9)
+    z = np.round(rng.choice([0.0, 3.0, 3.2, 6.0], (40, 50)) + rng.normal(0, 0.1, (40, 50)), 2)
+    mask = rng.random(z.shape) < 0.7
+    expected = raised_spans(z, 1.0, 8, enclosed=True, level=1.0) & mask
+    assert expected.any()
+    given = mask.copy()
+    made = raised_spans(z, 1.0, 8, enclosed=True, level=1.0, within=given)
+    assert made is given and np.array_equal(made, expected)

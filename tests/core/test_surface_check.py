@@ -84,6 +84,9 @@ def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
     np.testing.assert_array_equal(test._at(r, c).reshape(z.shape), surface)
     assert test.slope is None  # taken at the cells the points read
     np.testing.assert_array_equal(test._slopes(r, c).reshape(z.shape), slope)
+    order = rng.permutation(len(r))  # any order, cells met again and again: the same values
+    np.testing.assert_array_equal(test._slopes(np.tile(r[order], 3), np.tile(c[order], 3)),
+                                  np.tile(slope.ravel()[order], 3))
     x = rng.uniform(0, 97 * 0.75, 5000)
     y = rng.uniform(0, 131 * 0.75, 5000)
     h = rng.uniform(40, 60, 5000)
