@@ -77,7 +77,7 @@ def _scratch(n: int, padded: int, dtype: np.dtype) -> tuple[np.ndarray, ...]:
         held = (np.empty((n, lanes), dtype), np.empty((n, lanes), dtype), np.empty((n, lanes), dtype),
                 np.empty((padded, lanes), dtype), np.empty((padded, lanes), dtype), np.empty((lanes, n)),
                 np.empty((n, lanes)), np.empty((lanes, n), np.bool_), np.empty((n, lanes), np.bool_),
-                np.empty((lanes, n), np.int64), np.empty(n), np.empty((4, n), np.int64))
+                np.empty((lanes, n), np.int64), np.empty(n), np.empty((3, n), np.int64))
         _held.arrays = held
     return held
 

@@ -284,7 +284,7 @@ def line_thresholds(z: np.ndarray, unfiltered: np.ndarray, positions: np.ndarray
 def _line_thresholds(z: np.ndarray, unfiltered: np.ndarray, positions: np.ndarray, k: int, ct: float,
                      max_divisor: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
     n = z.shape[1]
-    work = np.empty((4, n), np.int64)
+    work = np.empty((3, n), np.int64)
     cols = positions % n
     s = 0
     while s < positions.size:
@@ -300,44 +300,48 @@ def _line_thresholds(z: np.ndarray, unfiltered: np.ndarray, positions: np.ndarra
 def row_thresholds(zr: np.ndarray, ur: np.ndarray, cols: np.ndarray, k: int, ct: float, max_divisor: float,
                    out: np.ndarray, work: np.ndarray) -> None:  # pragma: no cover - compiled
     """The adaptive thresholds of the cells ``cols`` of one row (heights ``zr``, unfiltered ``ur``)
-    into ``out``, as :func:`candidate_thresholds` computes them; ``work``: ``(4, n)`` int64. For
+    into ``out``, as :func:`candidate_thresholds` computes them; ``work``: ``(3, n)`` int64. For
     compiled callers (:mod:`aldpat.core.line_pass`)."""
     n = zr.shape[0]
-    cluster_at, upos, mpos, mkey = work[0], work[1], work[2], work[3]
+    cluster_at, mpos, mkey = work[0], work[1], work[2]
     cap = ct * k / max_divisor
-    # clusters (MakeCluster): a new one where the height changes by more than ct per cell;
-    # a cell belongs to the cluster of the last unfiltered cell at or before it (-1: none)
+    # one scan: clusters (MakeCluster: a new one where the height changes by more than ct per
+    # cell; a cell belongs to the cluster of the last unfiltered cell at or before it, -1: none)
+    # and the loose local minima of the unfiltered sequence (MakeTrendArray), each unfiltered
+    # cell judged once the next one is seen
     m = 0
     cluster = -1
+    count = 0
+    last = -1  # the last unfiltered cell, its height, and whether it lies below / not above the one before
+    z_last = 0.0
+    down = down_eq = False
     for c in range(n):
         if ur[c]:
+            zc = zr[c]
             if m == 0:
                 cluster += 1
             else:
-                gap = float(c - upos[m - 1])
+                gap = float(c - last)
                 gap *= ct
-                if abs(zr[c] - zr[upos[m - 1]]) > gap:
+                dz = zc - z_last
+                if abs(dz) > gap:
                     cluster += 1
-            upos[m] = c
+                up = dz > 0.0  # the last cell is lower than this one
+                up_eq = dz >= 0.0
+                if (down and up_eq) or (down_eq and up) or (up and m == 1):
+                    mpos[count] = last
+                    mkey[count] = (np.int64(np.rint(z_last * _Z_SCALE)) << _COL_BITS) | last
+                    count += 1
+                down = dz < 0.0  # this cell is lower than the last
+                down_eq = dz <= 0.0
+            last = c
+            z_last = zc
             m += 1
         cluster_at[c] = cluster
-    # loose local minima of the unfiltered sequence (MakeTrendArray)
-    count = 0
-    for i in range(m):
-        zi = zr[upos[i]]
-        down = down_eq = up = up_eq = False
-        if i > 0:
-            dz = zi - zr[upos[i - 1]]
-            down = dz < 0.0
-            down_eq = dz <= 0.0
-        if i < m - 1:
-            dz = zr[upos[i + 1]] - zi
-            up = dz > 0.0
-            up_eq = dz >= 0.0
-        if (down and up_eq) or (down_eq and up) or (down and i == m - 1) or (up and i == 0):
-            mpos[count] = upos[i]
-            mkey[count] = (np.int64(np.rint(zi * _Z_SCALE)) << _COL_BITS) | upos[i]
-            count += 1
+    if m > 1 and down:  # the last unfiltered cell, lower than the one before it
+        mpos[count] = last
+        mkey[count] = (np.int64(np.rint(z_last * _Z_SCALE)) << _COL_BITS) | last
+        count += 1
     minima = mpos[:count]
     for q in range(cols.size):
         col = cols[q]
