@@ -210,12 +210,12 @@ def _height_at(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, exact:
                offset: float, i: int, j: int) -> float:  # pragma: no cover - compiled
     """The surface at cell (i, j) as float64; with ``exact``, a ground cell's (mark 0) own height
     from its code (``code * scale + offset`` unfused, or the code itself when not ``scaled``)."""
-    if exact and marks[i, j] == 0:
-        if scaled:
-            h = codes[i, j] * scale
-            return h + offset
-        return np.float64(codes[i, j])
-    return np.float64(surface[i, j])
+    held = np.float64(surface[i, j])
+    if not exact:
+        return held
+    own = codes[i, j] * scale if scaled else np.float64(codes[i, j])
+    own = own + offset if scaled else own
+    return own if marks[i, j] == 0 else held  # both worked out: a select, not a branch per cell
 
 
 @compiled(nogil=True)
