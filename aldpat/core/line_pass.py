@@ -35,8 +35,9 @@ import numpy as np
 from aldpat.core.compiled import compiled
 from aldpat.core.trend import row_thresholds
 
-#: Lines filtered side by side (a group of columns: 32 bytes of each grid row it crosses).
-LANES = 8
+#: Lines filtered side by side: a group of columns of 4-byte codes reads one 64-byte cache line of
+#: each grid row it crosses.
+LANES = 16
 
 
 def filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, axis: int, k: int, label: int,
