@@ -86,6 +86,11 @@ def _distributed() -> Any:
         raise UsageError("--scheduler needs Dask's distributed scheduler: pip install 'aldpat[dask]'") from None
 
 
+#: Dask's own log lines below this level are not shown: its INFO lines (workers joining and
+#: leaving, a connection closed as a stopped run's workers end, with its traceback) are not news
+#: to the user, who reads aldpat's own lines; its warnings (a worker over its memory) are.
+DASK_LOG_LEVEL = logging.WARNING
+
 _clients: dict[str, Any] = {}
 _clients_lock = threading.Lock()
 
@@ -98,11 +103,12 @@ def client_for(scheduler: str) -> Any:
         if client is not None and client.status == "running":
             return client
         distributed = _distributed()
+        logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL)
         m = LOCAL_SCHEDULER.match(scheduler)
         if m:
             workers = int(m.group(1) or os.cpu_count() or 1)
             # the worker processes inherit the environment: each takes its part of the cores
-            _keep_malloc_defaults()
+            _worker_environment()
             before = os.environ.get(THREADS_ENV)
             os.environ[THREADS_ENV] = str(share_for(workers))
             try:
@@ -139,17 +145,21 @@ def _security(distributed: Any, scheduler: str) -> Any:
     return security
 
 
-def _keep_malloc_defaults() -> None:
-    """Dask starts its local workers with glibc's trim threshold at 64 kB, so that they hand memory
-    back at once; the filters allocate and free large arrays all the time, and at that setting
-    a worksheet of 16 tiles took 1.56 times its ``-j 1`` time on ``local:2``, and 1.07 times
-    without it (``bench/bench_chunks.py tiles``). The workers keep the C library's own threshold."""
+def _worker_environment() -> None:
+    """What Dask's local workers find in their environment as they start.
+
+    Dask starts them with glibc's trim threshold at 64 kB, so that they hand memory back at once;
+    the filters allocate and free large arrays all the time, and at that setting a worksheet of 16
+    tiles took 1.56 times its ``-j 1`` time on ``local:2``, and 1.07 times without it
+    (``bench/bench_chunks.py tiles``): the workers keep the C library's own threshold. And their
+    Dask logging starts at warnings (:data:`DASK_LOG_LEVEL`): a worker reads its logging settings
+    as it imports Dask, before the cluster's configuration reaches it."""
     import dask
 
     environ = dask.config.get("distributed.nanny.pre-spawn-environ", default={})
-    if "MALLOC_TRIM_THRESHOLD_" in environ:
-        dask.config.set({"distributed.nanny.pre-spawn-environ":
-                         {k: v for k, v in environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}})
+    environ = {k: v for k, v in environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    environ["DASK_LOGGING__DISTRIBUTED"] = logging.getLevelName(DASK_LOG_LEVEL).lower()
+    dask.config.set({"distributed.nanny.pre-spawn-environ": environ})
 
 
 @atexit.register

@@ -193,3 +193,32 @@ def test_the_progress_counts_the_chunks_finished_on_the_cluster(tmp_path):
     assert report.exit_code == 0
     assert (progress.jobs, progress.done) == (1, 1)
     assert progress.planned == progress.finished == 28  # told by the worker, heard by this client
+
+
+WORKER_SETTINGS = """
+import json, logging, os
+from aldpat.jobs.cluster import client_for
+
+def settings():
+    return logging.getLogger("distributed.batched").getEffectiveLevel(), os.environ.get("MALLOC_TRIM_THRESHOLD_")
+
+if __name__ == "__main__":
+    client = client_for("local:1")
+    print(json.dumps({"here": settings()[0], "workers": list(client.run(settings).values())}))
+"""
+
+
+def test_local_workers_start_with_dask_logging_at_warnings_and_the_c_librarys_trim(tmp_path):
+    """A stopped run's workers end with Dask's INFO lines ("Batched Comm Closed", with a traceback)
+    in this process and in each worker, which reads its logging settings as it imports Dask: both
+    start at warnings. The workers keep glibc's trim threshold (Dask sets 64 kB)."""
+    import json
+
+    script = tmp_path / "settings.py"
+    script.write_text(WORKER_SETTINGS)
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, env=env,
+                         cwd=tmp_path, check=False)
+    assert run.returncode == 0, run.stderr
+    got = json.loads(run.stdout.splitlines()[-1])
+    assert got == {"here": 30, "workers": [[30, None]]}
