@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -26,9 +27,12 @@ from aldpat.core.height_codes import Decode, FloatHeights, Heights
 from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.memory import release_free_memory
 from aldpat.core.rise import scale_and_offset
+from aldpat.core.threads import thread_budget
 
-#: Points tested at once (bounds temporaries on large inputs).
+#: Points tested at once in numpy (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
+#: Fewer points than this a thread, and the compiled test runs on fewer threads (starting one costs more).
+_POINTS_PER_THREAD = 1 << 16
 #: Jacobi sweeps at each level of the pyramid on the way back up (more change the result
 #: by under 0.01 points of ISPRS error: the coarse levels have already carried the far field).
 SWEEPS = 4
@@ -205,6 +209,25 @@ def slope_of(surface: np.ndarray, cell: float) -> np.ndarray:
     return out
 
 
+#: Relative distance within which ``sqrt(gx * gx + gy * gy)`` and ``hypot(gx, gy)`` lie (each is
+#: within about 2.2e-16 of the true length: three roundings halved by the root, against hypot's
+#: one), with a margin for the two products that test it.
+_HYPOT_SPREAD = 1e-15
+
+
+@compiled(nogil=True)
+def hypot32(gx: float, gy: float) -> np.float32:  # pragma: no cover - compiled
+    """``np.float32(math.hypot(gx, gy))`` at a third of its cost: the root of the squares, unless
+    the float32 value is not the same across :data:`_HYPOT_SPREAD` around it (the length lies by a
+    float32 rounding boundary), where hypot itself decides. Rounding is monotonic, so when both
+    ends of that interval round alike, hypot's value, which lies inside it, rounds to the same."""
+    root = math.sqrt(gx * gx + gy * gy)
+    low = np.float32(root * (1.0 - _HYPOT_SPREAD))
+    if low == np.float32(root * (1.0 + _HYPOT_SPREAD)):
+        return low
+    return np.float32(math.hypot(gx, gy))
+
+
 @compiled(nogil=True)
 def _height_at(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, exact: bool, scaled: bool, scale: float,
                offset: float, i: int, j: int) -> float:  # pragma: no cover - compiled
@@ -244,7 +267,7 @@ def _cell_slope(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, exact
     else:
         gx = (_height_at(surface, marks, codes, exact, scaled, scale, offset, i, j + 1)
               - _height_at(surface, marks, codes, exact, scaled, scale, offset, i, j - 1)) / twice
-    return np.float32(math.hypot(gx, gy))
+    return hypot32(gx, gy)
 
 
 @compiled(nogil=True)
@@ -346,14 +369,48 @@ class SurfaceTest:
             return self.slope.ravel().take(r * self.slope.shape[1] + c)
         assert self.marks is not None and self.heights is not None
         codes, decode = self.heights
-        linear = scale_and_offset(decode)
-        if linear is None and not isinstance(getattr(decode, "__self__", None), FloatHeights):
-            raise TypeError(f"heights decoded by {decode!r}: neither scaled codes nor float heights")
-        scale, offset = linear if linear is not None else (1.0, 0.0)
-        return _slopes_at(self.surface, self.marks, codes, linear is not None, scale, offset, float(self.spec.cell),
+        scaled, scale, offset = self._decoding(decode)
+        return _slopes_at(self.surface, self.marks, codes, scaled, scale, offset, float(self.spec.cell),
                           np.ascontiguousarray(r), np.ascontiguousarray(c))
 
     def test(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Which points are ground. Built over cells (:meth:`build`): one compiled loop over the
+        points (:func:`_test_points`), split among the process's threads; over a given surface, the
+        numpy form (:meth:`test_in_numpy`). Both give the same answer to the bit."""
+        if self.surface is None:
+            return np.zeros(len(z), bool)
+        if self.slope is not None or self.marks is None or self.heights is None:
+            return self.test_in_numpy(x, y, z)
+        codes, decode = self.heights
+        scaled, scale, offset = self._decoding(decode)
+        out = np.empty(len(z), bool)
+        x, y, z = (np.ascontiguousarray(v, dtype=np.float64) for v in (x, y, z))
+
+        def run(a: int, b: int) -> None:
+            _test_points(self.surface, self.marks, codes, scaled, scale, offset, float(self.spec.cell), float(self.spec.x0), float(self.spec.y0),
+                         float(self.threshold), float(self.slope_scalar), x[a:b], y[a:b], z[a:b], out[a:b])
+
+        pieces = min(thread_budget(), max(1, len(z) // _POINTS_PER_THREAD))
+        bounds = np.linspace(0, len(z), pieces + 1).astype(np.int64)
+        if pieces == 1:
+            run(0, len(z))
+        else:
+            with ThreadPoolExecutor(pieces) as pool:  # the compiled loop releases the GIL
+                list(pool.map(run, bounds[:-1], bounds[1:]))
+        return out
+
+    @staticmethod
+    def _decoding(decode: Decode) -> tuple[bool, float, float]:
+        """How a compiled loop reads the heights: ``(True, scale, offset)`` of scaled codes,
+        ``(False, 1, 0)`` of float heights, read as they are."""
+        linear = scale_and_offset(decode)
+        if linear is None and not isinstance(getattr(decode, "__self__", None), FloatHeights):
+            raise TypeError(f"heights decoded by {decode!r}: neither scaled codes nor float heights")
+        return (True, *linear) if linear is not None else (False, 1.0, 0.0)
+
+    def test_in_numpy(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """:meth:`test` in numpy, a block of points at a time: the form for a given surface and
+        slope grid, and the reference the compiled loop is held to."""
         out = np.zeros(len(z), bool)
         if self.surface is None:
             return out
@@ -365,6 +422,72 @@ class SurfaceTest:
                 self.threshold + self.slope_scalar * _blend(self._slopes, corners))
             out[a:b] = h <= tolerance
         return out
+
+
+@compiled(nogil=True)
+def _test_points(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scaled: bool, scale: float,
+                 offset: float, cell: float, x0: float, y0: float, threshold: float, slope_scalar: float,
+                 x: np.ndarray, y: np.ndarray, z: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    """:meth:`SurfaceTest.test_in_numpy` point by point, its operations in its order: the four
+    cell centres around a point (:func:`_corners`), the surface's and the slope's bilinear blends
+    (:func:`_blend` of :func:`_height_at` and of :func:`_cell_slope`'s float32 slopes, widened),
+    ``|z - surface| <= threshold + slope_scalar * slope``. The heights a point's four slopes read
+    -- the 4 x 4 cells around its corners, less theirs -- are read once into ``patch``."""
+    rows, cols = surface.shape
+    last_c, last_r = max(cols - 2, 0), max(rows - 2, 0)
+    sloped = slope_scalar != 0.0 and rows >= 2 and cols >= 2
+    patch = np.zeros((4, 4))  # rows r0 - 1 .. r0 + 2, columns c0 - 1 .. c0 + 2
+    for k in range(len(z)):
+        fc = min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0)
+        fr = min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0)
+        c0 = min(np.int64(fc), last_c)
+        r0 = min(np.int64(fr), last_r)
+        c1, r1 = min(c0 + 1, cols - 1), min(r0 + 1, rows - 1)
+        tc, tr = fc - c0, fr - r0
+        h00 = _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c0)
+        h01 = _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c1)
+        h10 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c0)
+        h11 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c1)
+        at = (h00 * (1 - tc) + h01 * tc) * (1 - tr) + (h10 * (1 - tc) + h11 * tc) * tr
+        tolerance = threshold
+        if slope_scalar != 0.0:
+            s00 = s01 = s10 = s11 = 0.0
+            if sloped:  # r1 = r0 + 1 and c1 = c0 + 1 here
+                patch[1, 1], patch[1, 2], patch[2, 1], patch[2, 2] = h00, h01, h10, h11
+                for a in range(4):
+                    i = r0 - 1 + a
+                    for b in range(4):
+                        j = c0 - 1 + b
+                        if (a == 0 or a == 3) == (b == 0 or b == 3) or i < 0 or j < 0 or i >= rows or j >= cols:
+                            continue  # a corner of the patch, a corner cell (read above), or off the grid
+                        patch[a, b] = _height_at(surface, marks, codes, True, scaled, scale, offset, i, j)
+                s00 = np.float64(_patch_slope(patch, 1, 1, r0, c0, rows, cols, cell))
+                s01 = np.float64(_patch_slope(patch, 1, 2, r0, c1, rows, cols, cell))
+                s10 = np.float64(_patch_slope(patch, 2, 1, r1, c0, rows, cols, cell))
+                s11 = np.float64(_patch_slope(patch, 2, 2, r1, c1, rows, cols, cell))
+            tolerance = threshold + slope_scalar * ((s00 * (1 - tc) + s01 * tc) * (1 - tr)
+                                                    + (s10 * (1 - tc) + s11 * tc) * tr)
+        out[k] = abs(z[k] - at) <= tolerance
+
+
+@compiled(nogil=True)
+def _patch_slope(patch: np.ndarray, a: int, b: int, i: int, j: int, rows: int, cols: int,
+                 cell: float) -> np.float32:  # pragma: no cover - compiled
+    """:func:`_cell_slope` at cell (i, j), held at (a, b) of a patch of the heights around it."""
+    twice = 2.0 * cell
+    if i == 0:
+        gy = (patch[a + 1, b] - patch[a, b]) / cell
+    elif i == rows - 1:
+        gy = (patch[a, b] - patch[a - 1, b]) / cell
+    else:
+        gy = (patch[a + 1, b] - patch[a - 1, b]) / twice
+    if j == 0:
+        gx = (patch[a, b + 1] - patch[a, b]) / cell
+    elif j == cols - 1:
+        gx = (patch[a, b] - patch[a, b - 1]) / cell
+    else:
+        gx = (patch[a, b + 1] - patch[a, b - 1]) / twice
+    return hypot32(gx, gy)
 
 
 def within_surface(x: np.ndarray, y: np.ndarray, z: np.ndarray, surface: np.ndarray, spec: CellGridSpec, *,

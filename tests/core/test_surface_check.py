@@ -141,3 +141,61 @@ def test_compiled_pyramid_and_slope_equal_the_numpy_form_bit_for_bit():
             z = np.round(rng.normal(0, 5, (rows, cols)).cumsum(axis=case % 2), 2)
             gy, gx = np.gradient(z, 0.75)
             assert np.array_equal(slope_of(z, 0.75).view(np.uint8), np.hypot(gx, gy).astype(np.float32).view(np.uint8))
+
+
+def test_compiled_point_test_equals_the_numpy_form_bit_for_bit(monkeypatch):
+    """The surface test built over cells runs as one compiled loop over the points, split among
+    threads: every point's answer is the numpy form's, for scaled codes and float heights, points
+    on the tolerance's edge, outside the grid, on grids one cell wide, with and without the slope
+    term, on one thread and on several."""
+    import aldpat.core.surface_check as module
+    from aldpat.core.height_codes import FloatHeights, ScaledHeights
+
+    rng = np.random.default_rng(23)
+    for case in range(40):
+        rows, cols = (int(n) for n in rng.integers(1, 30, 2))
+        spec = CellGridSpec(100.0, 200.0, 0.75, rows, cols)
+        heights = ScaledHeights(0.01, 250.0) if case % 2 else FloatHeights()
+        z = np.round(plane(spec) + rng.normal(0, 0.5, (rows, cols)), 2)
+        codes = np.round((z - 250.0) / 0.01).astype(np.int32) if case % 2 else z
+        marks = np.where(rng.random((rows, cols)) < 0.6, 0, 4).astype(np.int16)
+        marks.flat[0] = 0
+        cells = type("Cells", (), {"codes": codes, "heights": heights, "spec": spec})()
+        n = 3000
+        x = rng.uniform(99.0, 100.0 + 0.75 * cols + 1.0, n)  # some past every edge
+        y = rng.uniform(199.0, 200.0 + 0.75 * rows + 1.0, n)
+        for slope_scalar in (0.0, 1.5):
+            test = module.SurfaceTest.build(cells, marks, threshold=0.3, slope_scalar=slope_scalar)
+            corners = module._corners(test.surface.shape, spec, x, y)
+            at = module._blend(test._at, corners)
+            h = at + rng.uniform(-1.5, 1.5, n)
+            h[:50] = at[:50] + 0.3  # on the edge of the tolerance without the slope term
+            expected = test.test_in_numpy(x, y, h)
+            assert 0 < expected.sum() < n
+            for threads in ("1", "3"):
+                monkeypatch.setenv("ALDPAT_THREADS", threads)
+                monkeypatch.setattr(module, "_POINTS_PER_THREAD", 100)
+                np.testing.assert_array_equal(test.test(x, y, h), expected)
+
+
+def test_hypot32_is_float32_of_hypot_to_the_bit():
+    """The slope's length as float32 by the root of the squares equals float32(hypot) everywhere,
+    also where the length lies on a float32 rounding boundary (hypot decides there) and for
+    lengths too small, too large or not numbers."""
+    import math
+
+    from aldpat.core.surface_check import hypot32
+
+    rng = np.random.default_rng(3)
+    gx = rng.normal(0, 1, 200_000) * 10.0 ** rng.integers(-8, 8, 200_000)
+    gy = rng.normal(0, 1, 200_000) * 10.0 ** rng.integers(-8, 8, 200_000)
+    # lengths exactly halfway between two float32 values, and a hair either side of it
+    f = rng.uniform(0.01, 50, 2000).astype(np.float32)
+    halfway = (f.astype(np.float64) + np.nextafter(f, np.float32(np.inf)).astype(np.float64)) / 2
+    edge = np.concatenate([halfway, np.nextafter(halfway, 0), np.nextafter(halfway, np.inf)])
+    gx = np.concatenate([gx, edge, edge * 0.6, [0.0, 1e-300, 1e200, np.inf, np.nan, -3.0]])
+    gy = np.concatenate([gy, np.zeros(len(edge)), edge * 0.8, [0.0, 1e-300, 1e200, 1.0, 1.0, -4.0]])
+    for a, b in zip(gx, gy, strict=True):
+        with np.errstate(over="ignore"):  # 1e200's length is float32's infinity
+            want, got = np.float32(math.hypot(a, b)), np.float32(hypot32(a, b))  # a float32's value, exactly
+        assert want.tobytes() == got.tobytes() or (np.isnan(want) and np.isnan(got)), (a, b, want, got)
