@@ -229,10 +229,11 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
         if spacing is not None:
             spacing[...] = 0
         return out
-    from aldpat.core.nearest_fill import fill_rows
+    from aldpat.core.nearest_fill import fill_grid
+    from aldpat.core.threads import thread_budget
 
     # a row at a time, in place: a cell's nearest non-empty cell is itself when it holds a value,
     # so the values read are never ones written
-    fill_rows(out, np.ascontiguousarray(empty), spacing if spacing is not None else np.zeros((1, 1), np.uint8),
-              spacing is not None)
+    fill_grid(out, np.ascontiguousarray(empty), spacing if spacing is not None else np.zeros((1, 1), np.uint8),
+              spacing is not None, thread_budget())
     return out

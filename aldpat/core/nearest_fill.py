@@ -15,31 +15,62 @@ only once it is passed), so each row is finished before the next and no grid-siz
 made. Ties are broken as that transform breaks them -- of two cells equally near, the upper one
 in a column and the first kept on the row's envelope -- and every comparison is made on the same
 float64 values in the same order, so a cell is filled from the very cell the transform names
-(``tests/core/test_lowest_grid.py``).
+(``tests/core/test_lowest_grid.py``). Once each column's filled cells just above and below a row
+are known, the rows from there on need nothing of the rows before, so blocks of rows are filled
+on threads at once (:func:`fill_grid`).
 """
 
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from aldpat.core.compiled import compiled
 
+#: Rows a thread fills at the least: fewer, and the grid is filled on fewer threads.
+MIN_BLOCK_ROWS = 256
+
+
+def fill_grid(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_spacing: bool,
+              workers: int) -> None:
+    """:func:`fill_rows` over the whole grid, its rows split into up to ``workers`` blocks filled
+    on threads at once. Only empty cells are written and only filled ones read, so the blocks
+    share the grid safely, and each cell is filled as by one pass over all rows."""
+    rows = values.shape[0]
+    blocks = max(1, min(workers, rows // MIN_BLOCK_ROWS))
+    bounds = [rows * k // blocks for k in range(blocks + 1)]
+    if blocks == 1:
+        fill_rows(values, empty, spacing, with_spacing, 0, rows)
+        return
+    with ThreadPoolExecutor(blocks) as pool:  # the compiled rows release the GIL
+        list(pool.map(lambda a, b: fill_rows(values, empty, spacing, with_spacing, a, b), bounds[:-1], bounds[1:]))
+
 
 @compiled(nogil=True)
-def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray,
-              with_spacing: bool) -> None:  # pragma: no cover - compiled
-    """Fill the ``empty`` cells of ``values`` in place from their nearest non-empty cells (at
-    least one cell must be non-empty); with ``with_spacing``, each cell's distance from the cell
-    it was filled from (cells, rounded up, at most 255; 0 where it holds a value) into
-    ``spacing``."""
+def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_spacing: bool,
+              first: int, stop: int) -> None:  # pragma: no cover - compiled
+    """Fill the ``empty`` cells of rows ``first:stop`` of ``values`` in place from their nearest
+    non-empty cells anywhere in the grid (at least one cell must be non-empty); with
+    ``with_spacing``, each cell's distance from the cell it was filled from (cells, rounded up,
+    at most 255; 0 where it holds a value) into ``spacing``."""
     rows, cols = values.shape
     above = np.full(cols, -1, np.int64)  # a column's last filled row before this one (-1: none)
     below = np.full(cols, -1, np.int64)  # its first filled row from this one on (rows: none)
     nearest = np.empty(cols, np.int64)  # the row of each column's filled cell nearest this row
     kept = np.empty(cols, np.int64)  # the columns on the row's lower envelope
-    for r in range(rows):
+    if first > 0:  # the state the rows above would have left: each column's filled cells around ``first``
+        for c in range(cols):
+            k = first - 1
+            while k >= 0 and empty[k, c]:
+                k -= 1
+            above[c] = k
+            k = first
+            while k < rows and empty[k, c]:
+                k += 1
+            below[c] = k
+    for r in range(first, stop):
         for c in range(cols):
             if below[c] < r:
                 above[c] = below[c]

@@ -21,16 +21,20 @@ heights lie within a step of each other (one level of a building, as the raised-
 joins cells), since a low roof falls to its gutters or steps by less than a storey.
 
 Rows are taken a block at a time and columns a block of them transposed, so that the grid is
-never copied whole; each block's lines are scanned once by a compiled loop.
+never copied whole; each block's lines are scanned once by a compiled loop, the blocks of one
+direction on the process's threads at once.
 """
 
 from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE, step_limit
+from aldpat.core.threads import thread_budget
 
 #: A span's heights lie within this range (m): a deck is level across its width.
 SPAN_LEVEL = 1.0
@@ -63,14 +67,15 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
     def heights(block: np.ndarray) -> np.ndarray:
         return decode(block) if decode is not None else np.asarray(block, dtype=np.float64)
 
-    for a in range(0, rows, BLOCK_LINES):
+    def row_block(a: int) -> None:
         b = min(rows, a + BLOCK_LINES)
         along_rows = _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell, level)
         if within is None:
             out[a:b] |= along_rows
         else:
             out[a:b] &= along_rows
-    for a in range(0, cols, BLOCK_LINES):
+
+    def column_block(a: int) -> None:
         b = min(cols, a + BLOCK_LINES)
         lines = np.ascontiguousarray(heights(z[:, a:b]).T)
         spaced = None if spacing is None else np.ascontiguousarray(spacing[:, a:b].T)
@@ -79,6 +84,12 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
             out[:, a:b] &= along_columns
         else:
             out[:, a:b] |= along_columns
+
+    # the blocks of each direction write their own lines of ``out``: on threads at once, the rows
+    # before the columns (``enclosed`` keeps what both directions found)
+    with ThreadPoolExecutor(max(1, min(thread_budget(), rows // BLOCK_LINES, cols // BLOCK_LINES))) as pool:
+        list(pool.map(row_block, range(0, rows, BLOCK_LINES)))
+        list(pool.map(column_block, range(0, cols, BLOCK_LINES)))
     return out
 
 

@@ -109,12 +109,18 @@ def test_fill_nearest_all_or_nothing_empty():
         fill_nearest(z, np.zeros((3, 3), bool))
 
 
+@pytest.mark.parametrize("threads", [1, 2, 5])
 @pytest.mark.parametrize("share", [0.1, 0.5, 0.9, 0.999])
-def test_fill_nearest_takes_the_cell_of_scipys_feature_transform(share):
+def test_fill_nearest_takes_the_cell_of_scipys_feature_transform(share, threads, monkeypatch):
     """Every empty cell takes the value of the very cell scipy's exact Euclidean feature
-    transform names, ties included, and its distance from it (cells, rounded up, at most 255)."""
+    transform names, ties included, and its distance from it (cells, rounded up, at most 255);
+    the same with the rows split into blocks filled on threads at once."""
     from scipy import ndimage
 
+    import aldpat.core.nearest_fill
+
+    monkeypatch.setenv("ALDPAT_THREADS", str(threads))
+    monkeypatch.setattr(aldpat.core.nearest_fill, "MIN_BLOCK_ROWS", 7)
     rng = np.random.default_rng(7)
     for shape in ((211, 347), (1, 40), (40, 1), (5, 3)):
         empty = rng.random(shape) < share

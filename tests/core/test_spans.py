@@ -118,3 +118,22 @@ def test_enclosed_spans_made_within_a_mask_keep_only_its_cells():
     given = mask.copy()
     made = raised_spans(z, 1.0, 8, enclosed=True, level=1.0, within=given)
     assert made is given and np.array_equal(made, expected)
+
+
+def test_blocks_on_threads_give_the_one_thread_result(monkeypatch):
+    """The blocks of each direction run on threads at once: the spans, enclosed or not and within
+    a mask or not, are those of one thread taking the blocks in turn."""
+    from aldpat.core import spans as module
+
+    rng = np.random.default_rng(4)
+    z = np.round(rng.choice([0.0, 3.0, 3.2, 6.0], (90, 70)) + rng.normal(0, 0.1, (90, 70)), 2)
+    mask = rng.random(z.shape) < 0.7
+    monkeypatch.setattr(module, "BLOCK_LINES", 5)
+    results = {}
+    for threads in ("1", "4"):
+        monkeypatch.setenv("ALDPAT_THREADS", threads)
+        results[threads] = (raised_spans(z, 1.0, 8), raised_spans(z, 1.0, 8, enclosed=True, level=1.0),
+                            raised_spans(z, 1.0, 8, enclosed=True, level=1.0, within=mask.copy()))
+    assert all(r.any() for r in results["1"])
+    for one, many in zip(results["1"], results["4"], strict=True):
+        assert np.array_equal(one, many)
