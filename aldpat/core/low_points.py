@@ -36,15 +36,20 @@ the first test have the terrain around them read.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import CellGridSpec, rows_per_block
+from aldpat.core.threads import thread_budget
 
 ndimage = lazy_import("scipy.ndimage")
+T = TypeVar("T")
 
 #: Share of the terrain's cells (%) below its floor.
 FLOOR_RANK = 10
@@ -162,13 +167,26 @@ def block_lowest(codes: np.ndarray, real: np.ndarray, m: int, offset: tuple[int,
     top = _top(codes)
     out = np.full((brows, bcols), top, codes.dtype)
     step = max(1, rows_per_block(cols, 1 << 20) // m) * m
-    for a in range(-r_off, rows, step):  # main rows a .. a+step-1 (the first block starts before the grid)
+
+    def strip(a: int) -> None:  # main rows a .. a+step-1 (the first block starts before the grid)
         lo, hi = max(0, a), min(rows, a + step)
         part = np.full((step, bcols * m), top, codes.dtype)
         part[lo - a:hi - a, c_off:c_off + cols] = np.where(real[lo:hi], codes[lo:hi], top)
         b0 = (a + r_off) // m
         out[b0:b0 + step // m] = part.reshape(step // m, m, bcols, m).min(axis=(1, 3))[:brows - b0]
+
+    _on_threads(strip, range(-r_off, rows, step))  # each strip writes its own rows of blocks
     return out, out != top
+
+
+def _on_threads(work: Callable[[int], T], starts: range) -> list[T]:
+    """``work`` of every strip start, on the process's threads at once (numpy and scipy's filters
+    let go of the interpreter's lock), the results in the strips' order."""
+    workers = max(1, min(thread_budget(), len(starts)))
+    if workers == 1:
+        return [work(a) for a in starts]
+    with ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(work, starts))
 
 
 def _cells_below(codes: np.ndarray, decode: Decode, real: np.ndarray, blocks: np.ndarray, limit: np.ndarray, m: int,
@@ -195,25 +213,22 @@ def _pits(codes: np.ndarray, decode: Decode, real: np.ndarray, d: int, threshold
     lowest height of that band."""
     rows, cols = codes.shape
     top = _top(codes)
-    found: list[np.ndarray] = []
-    band_at: list[np.ndarray] = []
     step = rows_per_block(cols, 1 << 20)
-    for a in range(0, rows, step):
+
+    def strip(a: int) -> tuple[np.ndarray, np.ndarray]:
         b = min(rows, a + step)
         lo, hi = max(0, a - 2 * d), min(rows, b + 2 * d)
         # a minimum moves values only: on codes it is the minimum of the heights
         band = band_minimum(np.where(real[lo:hi], codes[lo:hi], top), d, top)[a - lo:b - lo]
-        deep = real[a:b] & (band != top)
-        flat = np.flatnonzero(deep)
-        if not len(flat):
-            continue
+        flat = np.flatnonzero(real[a:b] & (band != top))
         low = decode(band.ravel()[flat])
         keep = low - decode(codes[a:b].ravel()[flat]) > threshold
-        found.append(flat[keep] + a * cols)
-        band_at.append(low[keep])
+        return flat[keep] + a * cols, low[keep]
+
+    found = _on_threads(strip, range(0, rows, step))  # in the strips' order: flat indices ascending
     if not found:
         return np.zeros(0, np.int64), np.zeros(0)
-    return np.concatenate(found), np.concatenate(band_at)
+    return np.concatenate([f for f, _ in found]), np.concatenate([low for _, low in found])
 
 
 def band_minimum(z: np.ndarray, d: int, top: float) -> np.ndarray:

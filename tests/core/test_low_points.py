@@ -127,3 +127,25 @@ def test_below_looks_up_each_points_cell():
     z = np.array([9.0, 11.0, 19.0, 0.0, 0.0])
     assert low.below(cells, z).tolist() == [True, False, True, False, False]
     assert not NO_LOW_POINTS.below(cells, z).any()
+
+
+@pytest.mark.parametrize("spacing", [None, 3.0])
+def test_strips_on_threads_find_what_one_strip_finds(monkeypatch, spacing):
+    """The grid's strips are tested on threads at once: the cells and limits found, in order, are
+    those of the whole grid taken as one strip."""
+    import aldpat.core.low_points as module
+
+    rng = np.random.default_rng(8)
+    z = _slope(120, 90)
+    pits = rng.integers(0, z.size, 60)
+    z.ravel()[pits] -= rng.uniform(3, 30, len(pits))
+    if spacing:
+        z[np.arange(120) % 3 != 0] = np.nan
+        z[:, np.arange(90) % 3 != 0] = np.nan
+    whole = _find(z, spacing=spacing)
+    assert len(whole) > 5
+    monkeypatch.setattr(module, "rows_per_block", lambda cols, cells=0: 7)
+    for threads in ("1", "3"):
+        monkeypatch.setenv("ALDPAT_THREADS", threads)
+        strips = _find(z, spacing=spacing)
+        assert np.array_equal(strips.cells, whole.cells) and np.array_equal(strips.limits, whole.limits)
