@@ -84,7 +84,8 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
 
     The finest level -- all but a third of the pyramid's cells -- is made and relaxed a strip of
     rows at a time (each strip with ``SWEEPS`` rows of margin, the reach of its sweeps), so that
-    only the result is held whole: the values are those of relaxing the whole level at once.
+    only the result is held whole: the values are those of relaxing the whole level at once. The
+    strips are independent, and are taken on the process's threads at once.
     """
     rows, cols = ground.shape
 
@@ -101,10 +102,16 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
         return _relax(value, weight >= 1.0, 4 * SWEEPS)
     value = np.empty(((rows + 1) // 2, (cols + 1) // 2), np.float32)
     weight = np.empty_like(value)
-    for a in range(0, rows, STRIP_ROWS):
+
+    def pull_strip(a: int) -> None:
         strip_value, strip_weight = _pull(*finest(a, min(rows, a + STRIP_ROWS)))
         value[a // 2:a // 2 + len(strip_value)] = strip_value
         weight[a // 2:a // 2 + len(strip_weight)] = strip_weight
+
+    strips = range(0, rows, STRIP_ROWS)
+    workers = max(1, min(thread_budget(), len(strips)))
+    with ThreadPoolExecutor(workers) as pool:  # each strip writes its own rows; the compiled steps let go of the lock
+        list(pool.map(pull_strip, strips))
     levels = []
     while True:
         levels.append((value, weight))
@@ -117,12 +124,16 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
     del levels
     release_free_memory()  # the coarser levels' scratch, before the finest level's grid
     out = np.empty((rows, cols), np.float32)
-    for a in range(0, rows, STRIP_ROWS):
+
+    def relax_strip(a: int) -> None:
         b = min(rows, a + STRIP_ROWS)
         lo, hi = max(0, a - SWEEPS), min(rows, b + SWEEPS)
         fine_value, fine_weight = finest(lo, hi)
         fixed = fine_weight >= 1.0
         out[a:b] = _relax(_spread(value, fine_value, fixed, lo), fixed, SWEEPS)[a - lo:b - lo]
+
+    with ThreadPoolExecutor(workers) as pool:
+        list(pool.map(relax_strip, strips))
     return out
 
 

@@ -57,8 +57,8 @@ def test_points_within_threshold_plus_slope_term():
 
 
 def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
-    """The finest level relaxed a strip of rows at a time, and the slope taken a strip at a time,
-    are bit for bit those of the whole grid at once; the float32 surface with exact ground heights
+    """The finest level relaxed a strip of rows at a time (in turn or on threads at once), and the
+    slope taken a strip at a time, are bit for bit those of the whole grid at once; the float32 surface with exact ground heights
     of the surface test is the float64 surface."""
     import aldpat.core.surface_check as module
 
@@ -72,7 +72,9 @@ def test_strips_give_the_surface_and_slope_of_the_whole_grid(monkeypatch):
     slope = slope_of(surface, spec.cell)
     for rows in (2, 6, 64):
         monkeypatch.setattr(module, "STRIP_ROWS", rows)
-        np.testing.assert_array_equal(provisional_surface(z, ground, spec), surface)
+        for threads in ("1", "3"):  # the strips taken in turn, or on threads at once
+            monkeypatch.setenv("ALDPAT_THREADS", threads)
+            np.testing.assert_array_equal(provisional_surface(z, ground, spec), surface)
         np.testing.assert_array_equal(slope_of(surface, spec.cell), slope)
     marks = np.where(ground, 0, 4).astype(np.int16)
 
