@@ -443,7 +443,8 @@ def _test_points(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scal
     cell centres around a point (:func:`_corners`), the surface's and the slope's bilinear blends
     (:func:`_blend` of :func:`_height_at` and of :func:`_cell_slope`'s float32 slopes, widened),
     ``|z - surface| <= threshold + slope_scalar * slope``. The heights a point's four slopes read
-    -- the 4 x 4 cells around its corners, less theirs -- are read once into ``patch``."""
+    -- the 4 x 4 cells around its corners, less theirs -- are read once into ``patch``, and only for
+    a point the threshold alone does not take."""
     rows, cols = surface.shape
     last_c, last_r = max(cols - 2, 0), max(rows - 2, 0)
     sloped = slope_scalar != 0.0 and rows >= 2 and cols >= 2
@@ -460,7 +461,13 @@ def _test_points(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scal
         h10 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c0)
         h11 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c1)
         at = (h00 * (1 - tc) + h01 * tc) * (1 - tr) + (h10 * (1 - tc) + h11 * tc) * tr
+        off = abs(z[k] - at)
         tolerance = threshold
+        if slope_scalar > 0.0 and off <= threshold:
+            # the slope term only widens the tolerance (a positive scalar times a blend of slopes,
+            # none negative, with weights none negative): within the threshold, ground whatever it is
+            out[k] = True
+            continue
         if slope_scalar != 0.0:
             s00 = s01 = s10 = s11 = 0.0
             if sloped:  # r1 = r0 + 1 and c1 = c0 + 1 here
@@ -478,7 +485,7 @@ def _test_points(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scal
                 s11 = np.float64(_patch_slope(patch, 2, 2, r1, c1, rows, cols, cell))
             tolerance = threshold + slope_scalar * ((s00 * (1 - tc) + s01 * tc) * (1 - tr)
                                                     + (s10 * (1 - tc) + s11 * tc) * tr)
-        out[k] = abs(z[k] - at) <= tolerance
+        out[k] = off <= tolerance
 
 
 @compiled(nogil=True)

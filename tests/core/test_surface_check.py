@@ -166,7 +166,7 @@ def test_compiled_point_test_equals_the_numpy_form_bit_for_bit(monkeypatch):
         n = 3000
         x = rng.uniform(99.0, 100.0 + 0.75 * cols + 1.0, n)  # some past every edge
         y = rng.uniform(199.0, 200.0 + 0.75 * rows + 1.0, n)
-        for slope_scalar in (0.0, 1.5):
+        for slope_scalar in (0.0, 1.5, -0.2):  # a negative scalar narrows: no shortcut then
             test = module.SurfaceTest.build(cells, marks, threshold=0.3, slope_scalar=slope_scalar)
             corners = module._corners(test.surface.shape, spec, x, y)
             at = module._blend(test._at, corners)
