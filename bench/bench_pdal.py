@@ -5,6 +5,8 @@
     python bench/bench_pdal.py --rows multipass outlier --against REV   # the filters PDAL lacks
     python bench/bench_pdal.py --against main          # also the aldpat rows with the code of main:
                                                        # classes and DTM nodes compared point for point
+    python bench/bench_pdal.py --las14 --rows gapm-defaults dtm --against REV   # the same points as a
+                                                       # LAS 1.4 LAZ (point format 6, GPS times)
 
 Reads ``bench/data_paths.FSITE5`` (the ISPRS site FSite5, outside the repository) and builds once,
 under ``bench/_work/``, one LAS of 16 tiled copies of it: 10,053,120 points (the file
@@ -93,6 +95,23 @@ def source_file() -> Path:
     from bench_filters import build_sites  # the tiled FSite5 file the other filter benchmarks use
 
     return build_sites(POINTS)
+
+
+def las14_file(source: Path) -> Path:
+    """``source`` as today's surveys deliver it, built once beside it: LAS 1.4, point format 6
+    (layered LAZ), every field of the source kept and a GPS time added in file order (the pulses
+    about 10 us apart, jittered: the source holds none, and a constant step would compress to
+    nothing)."""
+    import laspy
+
+    out = source.with_name(f"{source.stem}_14.laz")
+    if not out.exists():
+        las = laspy.convert(laspy.read(source), point_format_id=6, file_version="1.4")
+        steps = np.random.default_rng(14).uniform(5e-6, 15e-6, len(las.points))
+        las.gps_time = 3.2e8 + np.cumsum(steps)
+        las.write(out.with_suffix(".tmp.laz"))
+        out.with_suffix(".tmp.laz").rename(out)
+    return out
 
 
 def load() -> str:
@@ -276,10 +295,10 @@ def row_line(row: str, points: int, m: dict, note: str, peer: dict | None, peer_
             f"{ratio} | {note} |")
 
 
-def run(rows: list[str], against: str | None, repeat: int, file: Path | None) -> None:
+def run(rows: list[str], against: str | None, repeat: int, file: Path | None, las14: bool = False) -> None:
     import laspy
 
-    las = file.resolve() if file else source_file()
+    las = file.resolve() if file else las14_file(source_file()) if las14 else source_file()
     with laspy.open(las) as reader:
         points = reader.header.point_count
     OUT.mkdir(parents=True, exist_ok=True)
@@ -349,8 +368,10 @@ def main() -> None:
     ap.add_argument("--against", metavar="REV", help="also run the aldpat rows with git revision REV and compare")
     ap.add_argument("--repeat", type=int, default=1, help="runs per aldpat row (best time, largest peak)")
     ap.add_argument("--file", type=Path, help="another LAS/LAZ file instead of the tiled FSite5")
+    ap.add_argument("--las14", action="store_true",
+                    help="the tiled FSite5 as a LAS 1.4 LAZ of point format 6 with GPS times (built once)")
     args = ap.parse_args()
-    run(args.rows, args.against, max(1, args.repeat), args.file)
+    run(args.rows, args.against, max(1, args.repeat), args.file, args.las14)
 
 
 if __name__ == "__main__":

@@ -44,6 +44,10 @@ class ExistingClassesOption(SharedOption):
     )
 
 
+#: The LAS dimensions :func:`taking_part` reads (a reader may decode just these and x, y, z).
+TAKING_PART_FIELDS = ("classification", "withheld", "return_number", "number_of_returns")
+
+
 def taking_part(table: PointTable, params: object) -> np.ndarray | None:
     """Which points of ``table`` take part in finding ground: not withheld, not of a class in
     ``params.ignore_classes``, of the returns ``params.returns`` names. None when every point

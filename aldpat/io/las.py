@@ -164,16 +164,30 @@ class LasReader:
         scale = float(self.header.scales[2])
         return ScaledHeights(scale, float(self.header.offsets[2])) if scale > 0 else None
 
-    def chunks(self, size: int = DEFAULT_CHUNK) -> Iterator[PointTable]:
+    def chunks(self, size: int = DEFAULT_CHUNK, *, only: Iterable[str] | None = None) -> Iterator[PointTable]:
+        """The file's points, ``size`` at a time. ``only``: the LAS dimensions the caller reads
+        besides x, y and z (:data:`DECODED_LAYERS` names those it may ask for); the tables then
+        hold just those columns, and a LAZ file of point formats 6-10 decodes just the layers
+        holding them (LAS 1.4 R15 §2.6's layered compression: no intensity, GPS time or colour
+        decoded to find a grid's lowest points). Such a table is for reading: its record's other
+        fields hold no data (the decoder repeats a compressed chunk's first point in them), and the
+        writers refuse it."""
         if self.count == 0:
             raise InputFormatError("no points in file", path=self.path)
         import laspy
 
+        names, selection, part = self.names, laspy.DecompressionSelection.all(), None
+        if only is not None:
+            wanted = set(only)
+            names = tuple(n for n in self.names if n in ("x", "y", "z") or n in wanted)
+            selection, part = decompression_selection(wanted), frozenset(names)
         done = 0
         try:
-            with laspy.open(self.path) as fh:
+            with laspy.open(self.path, decompression_selection=selection) as fh:
                 for chunk in fh.chunk_iterator(size):
-                    table = _table(chunk, self.names, self.decimals)
+                    table = _table(chunk, names, self.decimals)
+                    if part is not None:
+                        table.meta["decoded_only"] = part
                     self.check_within_header(table.columns, done)
                     done += len(chunk)
                     yield table
@@ -195,6 +209,37 @@ class LasReader:
         table = next(iter(self.chunks(size=max(self.count, 1))))
         units.advance(len(table))
         return table
+
+
+#: The layers of a LAZ file of point formats 6-10 (laspy's ``DecompressionSelection`` flags) that
+#: hold each LAS dimension a caller of :meth:`LasReader.chunks` may ask for alone; x, y, z, the
+#: returns and the scanner channel are always decoded.
+DECODED_LAYERS = {
+    "classification": "CLASSIFICATION",
+    **dict.fromkeys(("synthetic", "key_point", "withheld", "overlap", "scan_direction_flag",
+                     "edge_of_flight_line"), "FLAGS"),
+    "intensity": "INTENSITY", "scan_angle": "SCAN_ANGLE", "user_data": "USER_DATA",
+    "point_source_id": "POINT_SOURCE_ID", "gps_time": "GPS_TIME",
+    **dict.fromkeys(("red", "green", "blue"), "RGB"), "nir": "NIR",
+}
+
+
+def decompression_selection(dimensions: Iterable[str]) -> Any:
+    """laspy's selection of the LAZ layers holding ``dimensions`` (:data:`DECODED_LAYERS`): the
+    coordinates, returns and channel always; every layer when one of them is not named there (an
+    extra-bytes dimension, the waveform's). Files of point formats 0-5 are compressed point by
+    point and decode whole whatever is selected."""
+    import laspy
+
+    flags = laspy.DecompressionSelection
+    selection = flags.XY_RETURNS_CHANNEL | flags.Z
+    for name in dimensions:
+        if name in ("return_number", "number_of_returns", "scanner_channel"):
+            continue
+        if name not in DECODED_LAYERS:
+            return flags.all()
+        selection |= getattr(flags, DECODED_LAYERS[name])
+    return selection
 
 
 def _table(record: Any, names: tuple[str, ...], decimals: dict[str, int]) -> PointTable:
@@ -384,6 +429,8 @@ class LasWriter:
     def write(self, table: PointTable) -> None:
         import laspy
 
+        if "decoded_only" in table.meta:  # its record's other fields were never decoded
+            raise AssertionError("a table read with only= is for reading, not for writing")
         if self._fh is None:
             self._open(table)
         n = len(table)

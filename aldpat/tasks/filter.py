@@ -34,7 +34,7 @@ from aldpat.errors import ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.marks import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
-from aldpat.filters.survey import ground_flags, survey_classes, taking_part
+from aldpat.filters.survey import TAKING_PART_FIELDS, ground_flags, survey_classes, taking_part
 from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, classes_of_table, for_point_format
 from aldpat.io.las import new_point_format
@@ -250,7 +250,10 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         check_writable(path, overwrite=ctx.overwrite)
 
     def coded_chunks():
-        for table in units.counted(reader.chunks(STREAM_CHUNK), "read + grid", reader.count):
+        # the grid's pass reads x, y, z and what says whether a point takes part: a LAZ of point
+        # formats 6-10 decodes no other layer
+        chunks = reader.chunks(STREAM_CHUNK, only=TAKING_PART_FIELDS)
+        for table in units.counted(chunks, "read + grid", reader.count):
             part = taking_part(table, params)  # the points set aside are no cell's lowest
             if part is None:
                 yield table.x, table.y, z_codes(table)

@@ -187,3 +187,64 @@ def test_low_outliers_are_found_in_the_two_passes(tmp_path, monkeypatch, runner,
                               "--cell", "1"])
     assert out.exit_code == 0, out.output
     assert np.array_equal(np.asarray(laspy.read(tmp_path / "again" / "fsite5_pit_gapm.laz").classification), cls)
+
+
+def _las14(path: Path, seed: int = 3) -> laspy.LasData:
+    """STRIP as a LAS 1.4 file of point format 7 (layered LAZ), with a GPS time, colours, withheld
+    points and a vendor's noise class to decode or not."""
+    las = laspy.convert(laspy.read(STRIP), point_format_id=7, file_version="1.4")
+    rng = np.random.default_rng(seed)
+    n = len(las.points)
+    las.gps_time = np.sort(rng.uniform(3e8, 3e8 + 600, n))
+    las.red, las.green, las.blue = (rng.integers(0, 65535, n).astype(np.uint16) for _ in range(3))
+    las.intensity = rng.integers(0, 4000, n).astype(np.uint16)
+    las.classification = np.where(rng.random(n) < 0.01, 7, 0).astype(np.uint8)
+    las.withheld = rng.random(n) < 0.01
+    las.write(path)
+    return las
+
+
+def test_a_chunk_read_with_only_holds_what_a_full_read_holds_and_is_never_written(tmp_path):
+    """``chunks(only=...)`` of a LAS 1.4 LAZ: x, y, z and the dimensions named equal a full
+    read's, no other column is made, the layers not named are not decoded (their fields do not
+    hold the points' values), and a LAS writer refuses such a table."""
+    from aldpat.filters.survey import TAKING_PART_FIELDS
+    from aldpat.io.las import LasWriter
+
+    path = tmp_path / "strip14.laz"
+    _las14(path)
+    reader = LasReader(path)
+    full = list(reader.chunks(4_000))
+    part = list(reader.chunks(4_000, only=TAKING_PART_FIELDS))
+    assert len(full) == len(part) > 1
+    for a, b in zip(full, part, strict=True):
+        assert set(b.columns) == {"x", "y", "z", "classification", "return_number", "number_of_returns"}
+        for name in b.columns:
+            assert np.array_equal(a.columns[name], b.columns[name])
+        assert np.array_equal(a.record["withheld"], b.record["withheld"]) and np.asarray(a.record["withheld"]).any()
+        for skipped in ("gps_time", "red", "intensity"):
+            assert not np.array_equal(a.record[skipped], b.record[skipped])
+    with pytest.raises(AssertionError, match="for reading"):
+        LasWriter(tmp_path / "out.laz", tuple(part[0].columns), template=reader.header).write(part[0])
+
+
+def test_streamed_gapm_on_a_las14_laz_equals_the_whole_file(tmp_path):
+    """In a fresh ``aldpat`` process, gapm's defaults on a LAS 1.4 LAZ whose grid pass decodes
+    only coordinates, classes, flags and returns: the classes of ``ground_filter`` on the points
+    held in memory (withheld and noise points set aside as there), every other field written as
+    read."""
+    from aldpat.filters.survey import taking_part
+    from aldpat.io.las import las_table
+
+    path = tmp_path / "strip14.laz"
+    las = _las14(path)
+    x, y, z = (np.asarray(v, dtype=np.float64) for v in (las.x, las.y, las.z))
+    params = FILTERS["gapm"].params(cell=1.0)
+    part = taking_part(las_table(las), params)
+    assert part is not None and not part.all()
+    expected = ground_filter(x[part], y[part], z[part], "gapm", params).is_ground
+    aldpat("filter", "gapm", path, "--odir", tmp_path / "out", "--cell", "1").ok()
+    got = laspy.read(tmp_path / "out" / "strip14_gapm.laz")
+    assert np.array_equal(np.asarray(got.classification)[part] == 2, expected)
+    for name in ("gps_time", "red", "intensity", "withheld", "X"):
+        assert np.array_equal(np.asarray(got[name]), np.asarray(las[name]))
