@@ -25,6 +25,7 @@ from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.resources import check_memory, count_text
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.io.prefetch import read_ahead
 from aldpat.io.table import PointTable
 from aldpat.io.text import MAX_COORDINATE
 
@@ -168,10 +169,14 @@ class LasReader:
         """The file's points, ``size`` at a time. ``only``: the LAS dimensions the caller reads
         besides x, y and z (:data:`DECODED_LAYERS` names those it may ask for); the tables then
         hold just those columns, and a LAZ file of point formats 6-10 decodes just the layers
-        holding them (LAS 1.4 R15 §2.6's layered compression: no intensity, GPS time or colour
+        holding them (LASzip's layered compression of those formats: no intensity, GPS time or colour
         decoded to find a grid's lowest points). Such a table is for reading: its record's other
         fields hold no data (the decoder repeats a compressed chunk's first point in them), and the
-        writers refuse it."""
+        writers refuse it. The next chunk is read on a thread while the caller works on this one
+        (:func:`aldpat.io.prefetch.read_ahead`)."""
+        return read_ahead(self._chunks(size, only))
+
+    def _chunks(self, size: int, only: Iterable[str] | None) -> Iterator[PointTable]:
         if self.count == 0:
             raise InputFormatError("no points in file", path=self.path)
         import laspy
