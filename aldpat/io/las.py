@@ -165,16 +165,19 @@ class LasReader:
         scale = float(self.header.scales[2])
         return ScaledHeights(scale, float(self.header.offsets[2])) if scale > 0 else None
 
-    def chunks(self, size: int = DEFAULT_CHUNK, *, only: Iterable[str] | None = None) -> Iterator[PointTable]:
+    def chunks(self, size: int = DEFAULT_CHUNK, *, only: Iterable[str] | None = None,
+               ahead: bool = False) -> Iterator[PointTable]:
         """The file's points, ``size`` at a time. ``only``: the LAS dimensions the caller reads
         besides x, y and z (:data:`DECODED_LAYERS` names those it may ask for); the tables then
         hold just those columns, and a LAZ file of point formats 6-10 decodes just the layers
         holding them (LASzip's layered compression of those formats: no intensity, GPS time or colour
         decoded to find a grid's lowest points). Such a table is for reading: its record's other
         fields hold no data (the decoder repeats a compressed chunk's first point in them), and the
-        writers refuse it. The next chunk is read on a thread while the caller works on this one
-        (:func:`aldpat.io.prefetch.read_ahead`)."""
-        return read_ahead(self._chunks(size, only))
+        writers refuse it. With ``ahead``, the next chunk is read on a thread while the caller
+        works on this one (:func:`aldpat.io.prefetch.read_ahead`): a chunk more held, for a pass
+        that holds little else."""
+        chunks = self._chunks(size, only)
+        return read_ahead(chunks) if ahead else chunks
 
     def _chunks(self, size: int, only: Iterable[str] | None) -> Iterator[PointTable]:
         if self.count == 0:

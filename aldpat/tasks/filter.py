@@ -250,9 +250,9 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         check_writable(path, overwrite=ctx.overwrite)
 
     def coded_chunks():
-        # the grid's pass reads x, y, z and what says whether a point takes part: a LAZ of point
-        # formats 6-10 decodes no other layer
-        chunks = reader.chunks(STREAM_CHUNK, only=TAKING_PART_FIELDS)
+        # the grid's pass reads x, y, z and what says whether a point takes part (a LAZ of point
+        # formats 6-10 decodes no other layer), the next chunk read while this one is gridded
+        chunks = reader.chunks(STREAM_CHUNK, only=TAKING_PART_FIELDS, ahead=True)
         for table in units.counted(chunks, "read + grid", reader.count):
             part = taking_part(table, params)  # the points set aside are no cell's lowest
             if part is None:
