@@ -65,13 +65,8 @@ class Occupancy:
         """Mark the cells of points ``x``, ``y`` (points outside the lattice are counted, not marked)."""
         s = self.spec
         self.count += len(x)
-        col = np.floor((np.asarray(x, np.float64) - s.xmin) / s.dx + 0.5)
-        row = np.floor((np.asarray(y, np.float64) - s.ymin) / s.dy + 0.5)
-        inside = (col >= 0) & (col < s.nx) & (row >= 0) & (row < s.ny)
-        flat = row[inside].astype(np.intp)
-        flat *= s.nx
-        flat += col[inside].astype(np.intp)
-        _set_bits(self.bits, flat)
+        _occupy(self.bits, np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64), float(s.xmin),
+                float(s.ymin), float(s.dx), float(s.dy), int(s.nx), int(s.ny))
 
     @property
     def cells(self) -> np.ndarray:
@@ -94,11 +89,17 @@ class Occupancy:
 
 
 @compiled(nogil=True)
-def _set_bits(bits: np.ndarray, flat: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Set bit ``i`` of ``bits`` (``numpy.packbits`` order: the first in a byte its highest) for
-    every ``i`` of ``flat``."""
-    for i in flat:
-        bits[i >> 3] |= np.uint8(0x80 >> (i & 7))
+def _occupy(bits: np.ndarray, x: np.ndarray, y: np.ndarray, xmin: float, ymin: float, dx: float, dy: float,
+            nx: int, ny: int) -> None:  # pragma: no cover - compiled
+    """Set the bit of the node whose cell holds each point (``floor((x - xmin) / dx + 0.5)``,
+    the same for rows; points off the lattice, NaN ones too, set none), in ``numpy.packbits``
+    order: node ``k`` is bit ``0x80 >> (k % 8)`` of byte ``k // 8``. One pass, no scratch."""
+    for i in range(len(x)):
+        col = np.floor((x[i] - xmin) / dx + 0.5)
+        row = np.floor((y[i] - ymin) / dy + 0.5)
+        if col >= 0 and col < nx and row >= 0 and row < ny:
+            k = int(row) * nx + int(col)
+            bits[k >> 3] |= np.uint8(0x80 >> (k & 7))
 
 
 def mean_spacing(occupancy: Occupancy) -> float | None:
