@@ -361,9 +361,17 @@ class SurfaceTest:
             b = min(len(z), a + _CHUNK)
             corners = _corners(self.surface.shape, self.spec, x[a:b], y[a:b])  # once for both grids
             h = np.abs(z[a:b] - _blend(self._at, corners))
-            tolerance = self.threshold if not self.slope_scalar else (
-                self.threshold + self.slope_scalar * _blend(self._slopes, corners))
-            out[a:b] = h <= tolerance
+            if not self.slope_scalar:
+                out[a:b] = h <= self.threshold
+                continue
+            ok = h <= self.threshold
+            # the slope term only widens the tolerance (a positive scalar times a blend of
+            # slopes, none negative, with weights none negative): a point within the threshold
+            # is ground whatever the slope, so the slope is read for the others only
+            rest = np.flatnonzero(~ok) if self.slope_scalar > 0 else np.arange(len(h))
+            slope = _blend(self._slopes, tuple(part[rest] for part in corners))
+            ok[rest] = h[rest] <= self.threshold + self.slope_scalar * slope
+            out[a:b] = ok
         return out
 
 
