@@ -15,14 +15,12 @@ from __future__ import annotations
 import functools
 import logging
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from aldpat.core.grid_extent import steps_between
 from aldpat.core.resources import check_memory, count_text
-from aldpat.core.threads import thread_budget
 from aldpat.errors import DataError
 
 log = logging.getLogger(__name__)
@@ -30,10 +28,6 @@ log = logging.getLogger(__name__)
 #: Refuse grids larger than this many cells: a stray far-away point or a tiny cell would
 #: otherwise exhaust memory before anything useful happens.
 MAX_CELLS = 400_000_000
-
-#: Fewest rows of a band :func:`fill_nearest` gives a thread of its own.
-FILL_BAND_ROWS = 256
-
 #: what a cell of the filters' grids takes while they run (the lowest point's height and index,
 #: the opened and filled surfaces, marks), checked against the memory there is before they are made
 BYTES_PER_CELL = 48
@@ -238,16 +232,7 @@ def fill_nearest(z: np.ndarray, empty: np.ndarray | None = None, *, out: np.ndar
     from aldpat.core.nearest_fill import fill_rows
 
     # a row at a time, in place: a cell's nearest non-empty cell is itself when it holds a value,
-    # so the values read are never ones written; bands of rows on the process's threads
-    empty = np.ascontiguousarray(empty)
-    spaced = spacing if spacing is not None else np.zeros((1, 1), np.uint8)
-    rows = out.shape[0]
-    bands = max(1, min(thread_budget(), rows // FILL_BAND_ROWS))
-    edges = [rows * k // bands for k in range(bands + 1)]
-    if bands == 1:
-        fill_rows(out, empty, spaced, spacing is not None, 0, rows)
-    else:
-        with ThreadPoolExecutor(bands) as pool:
-            list(pool.map(lambda k: fill_rows(out, empty, spaced, spacing is not None, edges[k], edges[k + 1]),
-                          range(bands)))
+    # so the values read are never ones written
+    fill_rows(out, np.ascontiguousarray(empty), spacing if spacing is not None else np.zeros((1, 1), np.uint8),
+              spacing is not None)
     return out

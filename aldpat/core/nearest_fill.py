@@ -29,26 +29,17 @@ from aldpat.core.compiled import compiled
 
 @compiled(nogil=True)
 def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray,
-              with_spacing: bool, first: int, stop: int) -> None:  # pragma: no cover - compiled
-    """Fill the ``empty`` cells of rows ``first:stop`` of ``values`` in place from their nearest
-    non-empty cells (at least one cell of the grid must be non-empty); with ``with_spacing``, each
-    cell's distance from the cell it was filled from (cells, rounded up, at most 255; 0 where it
-    holds a value) into ``spacing``.
-
-    A band of rows reads only cells holding a value, which no band writes, and writes only its
-    own rows: bands run on several threads at once, each giving its rows what one pass over the
-    whole grid gives them."""
+              with_spacing: bool) -> None:  # pragma: no cover - compiled
+    """Fill the ``empty`` cells of ``values`` in place from their nearest non-empty cells (at
+    least one cell must be non-empty); with ``with_spacing``, each cell's distance from the cell
+    it was filled from (cells, rounded up, at most 255; 0 where it holds a value) into
+    ``spacing``."""
     rows, cols = values.shape
     above = np.full(cols, -1, np.int64)  # a column's last filled row before this one (-1: none)
     below = np.full(cols, -1, np.int64)  # its first filled row from this one on (rows: none)
-    for c in range(cols):  # a band's first row starts from the filled rows above it, as the pass
-        k = first - 1      # over the grid reaches it: taken as ``above`` at row ``first``
-        while k >= 0 and empty[k, c]:
-            k -= 1
-        below[c] = k
     nearest = np.empty(cols, np.int64)  # the row of each column's filled cell nearest this row
     kept = np.empty(cols, np.int64)  # the columns on the row's lower envelope
-    for r in range(first, stop):
+    for r in range(rows):
         for c in range(cols):
             if below[c] < r:
                 above[c] = below[c]

@@ -26,14 +26,11 @@ never copied whole; each block's lines are scanned once by a compiled loop.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE, step_limit
-from aldpat.core.threads import thread_budget
 
 #: A span's heights lie within this range (m): a deck is level across its width.
 SPAN_LEVEL = 1.0
@@ -66,29 +63,22 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
     def heights(block: np.ndarray) -> np.ndarray:
         return decode(block) if decode is not None else np.asarray(block, dtype=np.float64)
 
-    def along_rows(a: int) -> None:
+    for a in range(0, rows, BLOCK_LINES):
         b = min(rows, a + BLOCK_LINES)
-        found = _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell, level)
+        along_rows = _spans(heights(z[a:b]), None if spacing is None else spacing[a:b], step, max_cells, cell, level)
         if within is None:
-            out[a:b] |= found
+            out[a:b] |= along_rows
         else:
-            out[a:b] &= found
-
-    def along_columns(a: int) -> None:
+            out[a:b] &= along_rows
+    for a in range(0, cols, BLOCK_LINES):
         b = min(cols, a + BLOCK_LINES)
         lines = np.ascontiguousarray(heights(z[:, a:b]).T)
         spaced = None if spacing is None else np.ascontiguousarray(spacing[:, a:b].T)
-        found = _spans(lines, spaced, step, max_cells, cell, level).T
+        along_columns = _spans(lines, spaced, step, max_cells, cell, level).T
         if enclosed:
-            out[:, a:b] &= found
+            out[:, a:b] &= along_columns
         else:
-            out[:, a:b] |= found
-
-    # blocks of lines on the process's threads (each writes its own lines of ``out``; the
-    # compiled loop and numpy's copies hold no lock), the rows before the columns
-    with ThreadPoolExecutor(thread_budget()) as pool:
-        list(pool.map(along_rows, range(0, rows, BLOCK_LINES)))
-        list(pool.map(along_columns, range(0, cols, BLOCK_LINES)))
+            out[:, a:b] |= along_columns
     return out
 
 

@@ -266,47 +266,6 @@ def _slopes_at(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scaled
     return out
 
 
-@compiled(nogil=True)
-def _test_points(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scaled: bool, scale: float, offset: float,
-                 x0: float, y0: float, cell: float, threshold: float, slope_scalar: float, x: np.ndarray, y: np.ndarray,
-                 z: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compiled
-    """:meth:`SurfaceTest.test` over a built surface, a point at a time: the corners of
-    :func:`_corners`, the blend of :func:`_blend` over :func:`_height_at` and, past the threshold
-    only (the slope term never narrows the tolerance), over :func:`_cell_slope` -- the same float64
-    operations in the same order, so the same classes, without the arrays of every step."""
-    rows, cols = surface.shape
-    sloped = rows >= 2 and cols >= 2
-    for k in range(len(z)):
-        fc = (x[k] - x0) / cell - 0.5
-        fr = (y[k] - y0) / cell - 0.5
-        if math.isnan(fc) or math.isnan(fr):  # a NaN coordinate lies on no cell: not ground
-            out[k] = False
-            continue
-        fc = min(max(fc, 0.0), cols - 1.0)
-        fr = min(max(fr, 0.0), rows - 1.0)
-        c0 = min(int(fc), max(cols - 2, 0))
-        r0 = min(int(fr), max(rows - 2, 0))
-        c1 = min(c0 + 1, cols - 1)
-        r1 = min(r0 + 1, rows - 1)
-        tc = fc - c0
-        tr = fr - r0
-        at = ((_height_at(surface, marks, codes, True, scaled, scale, offset, r0, c0) * (1 - tc)
-               + _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c1) * tc) * (1 - tr)
-              + (_height_at(surface, marks, codes, True, scaled, scale, offset, r1, c0) * (1 - tc)
-                 + _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c1) * tc) * tr)
-        h = abs(z[k] - at)
-        if h <= threshold or not slope_scalar:
-            out[k] = h <= threshold
-            continue
-        slope = 0.0
-        if sloped:
-            slope = ((_cell_slope(surface, marks, codes, True, scaled, scale, offset, cell, r0, c0) * (1 - tc)
-                      + _cell_slope(surface, marks, codes, True, scaled, scale, offset, cell, r0, c1) * tc) * (1 - tr)
-                     + (_cell_slope(surface, marks, codes, True, scaled, scale, offset, cell, r1, c0) * (1 - tc)
-                        + _cell_slope(surface, marks, codes, True, scaled, scale, offset, cell, r1, c1) * tc) * tr)
-        out[k] = h <= threshold + slope_scalar * slope
-
-
 def bilinear(grid: np.ndarray, spec: CellGridSpec, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``grid`` (values at cell centres) at points x, y, bilinearly; edges held constant."""
     return _blend(lambda r, c: grid[r, c], _corners(grid.shape, spec, x, y))
@@ -398,30 +357,13 @@ class SurfaceTest:
         out = np.zeros(len(z), bool)
         if self.surface is None:
             return out
-        if self.slope is None and self.marks is not None and self.heights is not None and self.slope_scalar >= 0:
-            codes, decode = self.heights
-            linear = scale_and_offset(decode)
-            if linear is not None or isinstance(getattr(decode, "__self__", None), FloatHeights):
-                scale, offset = linear if linear is not None else (1.0, 0.0)
-                _test_points(self.surface, self.marks, codes, linear is not None, scale, offset, float(self.spec.x0),
-                             float(self.spec.y0), float(self.spec.cell), float(self.threshold),
-                             float(self.slope_scalar), *(np.ascontiguousarray(a, np.float64) for a in (x, y, z)), out)
-                return out
         for a in range(0, len(z), _CHUNK):
             b = min(len(z), a + _CHUNK)
             corners = _corners(self.surface.shape, self.spec, x[a:b], y[a:b])  # once for both grids
             h = np.abs(z[a:b] - _blend(self._at, corners))
-            if not self.slope_scalar:
-                out[a:b] = h <= self.threshold
-                continue
-            ok = h <= self.threshold
-            # the slope term only widens the tolerance (a positive scalar times a blend of
-            # slopes, none negative, with weights none negative): a point within the threshold
-            # is ground whatever the slope, so the slope is read for the others only
-            rest = np.flatnonzero(~ok) if self.slope_scalar > 0 else np.arange(len(h))
-            slope = _blend(self._slopes, tuple(part[rest] for part in corners))
-            ok[rest] = h[rest] <= self.threshold + self.slope_scalar * slope
-            out[a:b] = ok
+            tolerance = self.threshold if not self.slope_scalar else (
+                self.threshold + self.slope_scalar * _blend(self._slopes, corners))
+            out[a:b] = h <= tolerance
         return out
 
 
