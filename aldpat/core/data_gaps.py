@@ -7,8 +7,8 @@ of any class, and a bridge there is invented terrain. The two are told apart by 
 input, whatever its class: a node with no point within ``gap`` of it is blank.
 
 The test is made on the DTM's own lattice: an occupancy grid (a node is occupied when a point lies
-in its cell, half a cell either side) is filled chunk by chunk as points are read -- a byte a node,
-whatever the point count -- and a node is in a gap when no occupied node lies within ``gap`` of it
+in its cell, half a cell either side) is filled chunk by chunk as points are read -- a bit a node,
+whatever the point count, since it is held through the whole ground filter -- and a node is in a gap when no occupied node lies within ``gap`` of it
 (exact Euclidean distance between node centres, rounded as ``scipy.ndimage.distance_transform_edt``
 rounds it; a point lies at most half a cell diagonal from its node's centre).
 
@@ -49,23 +49,29 @@ COVER_BLOCK_SPACINGS = 3.0
 
 @dataclass
 class Occupancy:
-    """Which nodes of ``spec`` have a point in their cell, and how many points were added."""
+    """Which nodes of ``spec`` have a point in their cell, and how many points were added.
+
+    Kept as one bit a node (``bits``, row-major in ``numpy.packbits`` order): a DTM holds it from
+    its first reading pass to its gaps, through the ground filter's fullest moments."""
 
     spec: GridSpec
-    cells: np.ndarray = field(init=False)
+    bits: np.ndarray = field(init=False)
     count: int = 0
 
     def __post_init__(self) -> None:
-        self.cells = np.zeros(self.spec.shape, bool)
+        self.bits = np.zeros(-(-self.spec.nx * self.spec.ny // 8), np.uint8)
 
     def add(self, x: np.ndarray, y: np.ndarray) -> None:
         """Mark the cells of points ``x``, ``y`` (points outside the lattice are counted, not marked)."""
         s = self.spec
         self.count += len(x)
-        col = np.floor((np.asarray(x, np.float64) - s.xmin) / s.dx + 0.5)
-        row = np.floor((np.asarray(y, np.float64) - s.ymin) / s.dy + 0.5)
-        inside = (col >= 0) & (col < s.nx) & (row >= 0) & (row < s.ny)
-        self.cells[row[inside].astype(np.intp), col[inside].astype(np.intp)] = True
+        _occupy(self.bits, np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64), float(s.xmin),
+                float(s.ymin), float(s.dx), float(s.dy), int(s.nx), int(s.ny))
+
+    @property
+    def cells(self) -> np.ndarray:
+        """The occupied nodes as a bool grid of ``spec``'s shape (a new array each time)."""
+        return np.unpackbits(self.bits, count=self.spec.nx * self.spec.ny).view(bool).reshape(self.spec.shape)
 
     def on(self, spec: GridSpec, cells: np.ndarray | None = None) -> np.ndarray:
         """``cells`` (default: the occupancy) at the nodes of ``spec``, a window of the same
@@ -80,6 +86,20 @@ class Occupancy:
         if rs < re and cs < ce:
             out[rs - r0:re - r0, cs - c0:ce - c0] = cells[rs:re, cs:ce]
         return out
+
+
+@compiled(nogil=True)
+def _occupy(bits: np.ndarray, x: np.ndarray, y: np.ndarray, xmin: float, ymin: float, dx: float, dy: float,
+            nx: int, ny: int) -> None:  # pragma: no cover - compiled
+    """Set the bit of the node whose cell holds each point (``floor((x - xmin) / dx + 0.5)``,
+    the same for rows; points off the lattice, NaN ones too, set none), in ``numpy.packbits``
+    order: node ``k`` is bit ``0x80 >> (k % 8)`` of byte ``k // 8``. One pass, no scratch."""
+    for i in range(len(x)):
+        col = np.floor((x[i] - xmin) / dx + 0.5)
+        row = np.floor((y[i] - ymin) / dy + 0.5)
+        if col >= 0 and col < nx and row >= 0 and row < ny:
+            k = int(row) * nx + int(col)
+            bits[k >> 3] |= np.uint8(0x80 >> (k & 7))
 
 
 def mean_spacing(occupancy: Occupancy) -> float | None:

@@ -161,12 +161,13 @@ class CellClasses:
             ci = flat_cell_indices(xs, ys, spec, origin=self.origin) if cell_index is None else cell_index[a:b]
             cm = flat_marks[ci]
             pm = cm.astype(np.int32)
-            # a cell left out of the grid (empty, or a low outlier's) has no lowest point
-            other = np.flatnonzero((zs != decode(codes[ci])) | (cm == MARK_INTERPOLATED))
-            if len(other) and (marks or self.surface is None):
-                h = zs[other] - self._ground_height(xs[other], ys[other])
-                ok = h <= self.tolerance  # NaN (no ground around) compares False
-                pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_NON_GROUND))
+            if marks or self.surface is None:  # else the surface test alone decides
+                # a cell left out of the grid (empty, or a low outlier's) has no lowest point
+                other = np.flatnonzero((zs != decode(codes[ci])) | (cm == MARK_INTERPOLATED))
+                if len(other):
+                    h = zs[other] - self._ground_height(xs[other], ys[other])
+                    ok = h <= self.tolerance  # NaN (no ground around) compares False
+                    pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_NON_GROUND))
             if self.surface is not None:
                 ig = self.surface.test(xs, ys, zs)
                 pm[ig] = MARK_GROUND

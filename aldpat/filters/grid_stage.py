@@ -29,7 +29,8 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params: GroundParams, spacin
     Peak memory is what makes 1 m cells over a large survey possible, so the steps hold as
     little at once as they can: the empty cells are filled in the codes themselves when the
     run owns them (``empty`` remembers which they were), the filter gets the one float64 grid
-    and may overwrite it, and it never sees a second copy.
+    and may overwrite it, and it never sees a second copy; a mask waiting for a later step is
+    held as bits, and the marks take over ``empty`` as soon as they exist.
     """
     one_arena()  # before the filter's threads start: their scratch is then returned with the rest
     empty = cells.heights.is_empty(cells.codes)
@@ -40,9 +41,15 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params: GroundParams, spacin
     fill_nearest(filled, empty, out=filled, spacing=filled_from)
     raised = None
     if filled_from is not None:
-        raised = raised_cells(filled, params, cells.spec.cell, filled_from, decode=cells.heights.decode)
+        # the empty cells as bits while the segments hold their labels (4 bytes a cell), and the
+        # raised ones while the filter holds its scratch: two of the stage's fullest moments
+        packed = _Bits(empty)
+        del empty
+        raised = _Bits(raised_cells(filled, params, cells.spec.cell, filled_from, decode=cells.heights.decode))
         del filled_from
         release_free_memory()
+        empty = packed.unpacked()
+        del packed
     read_only = empty.view()
     read_only.flags.writeable = False
     if spec.takes_codes:
@@ -61,14 +68,25 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params: GroundParams, spacin
     if marks.dtype not in (np.int16, np.int32) or not marks.flags.writeable or marks is given:
         marks = marks.astype(np.int32)
     del given
+    marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
+    del read_only, empty
     release_free_memory()  # the filter's scratch, before the surface and the points' pass
     if raised is not None:
-        marks[raised & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
+        marks[raised.unpacked() & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
         del raised
         if getattr(params, "object_span", 0.0) > 0:
-            marks[remnants(cells, (marks == MARK_GROUND) & ~empty, params, cells.spec.cell)] = MARK_RAISED_SEGMENT
-    marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
+            marks[remnants(cells, marks, params, cells.spec.cell)] = MARK_RAISED_SEGMENT
     return marks, low
+
+
+class _Bits:
+    """A bool grid held as one bit a cell (an eighth of its bytes) while it waits for a later step."""
+
+    def __init__(self, mask: np.ndarray) -> None:
+        self.bits, self.shape = np.packbits(mask, axis=None), mask.shape
+
+    def unpacked(self) -> np.ndarray:
+        return np.unpackbits(self.bits, count=math.prod(self.shape)).view(bool).reshape(self.shape)
 
 
 def raised_cells(filled: np.ndarray, params: RaisedSegmentOption, cell: float, filled_from: np.ndarray | None = None,
@@ -91,12 +109,12 @@ def raised_cells(filled: np.ndarray, params: RaisedSegmentOption, cell: float, f
     return raised
 
 
-def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption, cell: float) -> np.ndarray:
-    """The cells of ``ground`` that stand as flats on the ground the filter left: level runs at
-    most ``object_span`` long bounded by steps down at both ends along their row *and* their
-    column (:func:`aldpat.core.spans.raised_spans` with ``enclosed``), on the grid of the ground
-    cells' lowest points with every other cell filled from the nearest of them. ``ground`` is
-    given up: the flats are made in it.
+def remnants(cells: CellHeights, marks: np.ndarray, params: RaisedSegmentOption, cell: float) -> np.ndarray:
+    """The ground cells (``marks`` 0; empty cells marked ``MARK_INTERPOLATED``) that stand as
+    flats on the ground the filter left: level runs at most ``object_span`` long bounded by steps
+    down at both ends along their row *and* their column (:func:`aldpat.core.spans.raised_spans`
+    with ``enclosed``), on the grid of the ground cells' lowest points with every other cell
+    filled from the nearest of them.
 
     What a filter leaves so is the lower part of a building whose taller parts it removed: a
     one-storey part inside a block, a podium below a tower. Among the tall parts the low roof
@@ -113,14 +131,29 @@ def remnants(cells: CellHeights, ground: np.ndarray, params: RaisedSegmentOption
     """
     from aldpat.core.spans import raised_spans
 
+    ground = marks == MARK_GROUND
     if not ground.any():
-        return np.zeros(ground.shape, bool)
-    surface = cells.codes.copy()
+        return ground
+    in_place = cells.owned and cells.codes.flags.c_contiguous
+    if in_place:
+        # the run's own codes take the surface, and those of the non-empty cells that are not
+        # ground -- which the points' pass compares its points with -- are put back after: a
+        # copy of those cells, not of the grid. No later step reads the code of a cell marked
+        # empty (the surface test reads the ground cells', the classes compare a point with its
+        # cell's lowest height only where the cell is not marked empty).
+        surface = cells.codes
+        held = np.flatnonzero((marks != MARK_GROUND) & (marks != MARK_INTERPOLATED))
+        saved = surface.reshape(-1)[held]
+    else:
+        surface = cells.codes.copy()
     filled_from = np.empty(surface.shape, np.uint8)
     fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
-    # the flats are made in ``ground`` itself (given up by the caller): the grid stage's fullest moment
-    return raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
-                        spacing=filled_from, cell=cell, enclosed=True, level=params.object_step, within=ground)
+    # the flats are made in ``ground`` itself, not in a grid of their own
+    flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
+                         spacing=filled_from, cell=cell, enclosed=True, level=params.object_step, within=ground)
+    if in_place:
+        surface.reshape(-1)[held] = saved
+    return flats
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params: LowOutlierOption,

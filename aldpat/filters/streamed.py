@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.height_codes import Decode, ScaledHeights
+from aldpat.core.height_codes import Decode, LinearDecode, ScaledHeights
 from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, floor_index, grid_spec
 from aldpat.filters.classify import CellClasses, CellHeights
@@ -215,7 +215,9 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
     except Unstreamable as exc:
         log.info("%s: %s; reading the file whole", reader.path, exc)
         return None
-    xs, ys, zs = [], [], []
+    # the ground points are kept as the file's own integers while the grid is held (12 bytes a
+    # point, not 24), and turned into coordinates once it is let go
+    kept: tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]] = ([], [], [])
     lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]
     count = 0
     for table in units.counted(reader.chunks(chunk), "classify", reader.count):
@@ -223,19 +225,22 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
         ground = classes.classify(x, y, z, marks=False)[1]
         if used is not None:
             ground = ground & used(table)
-        xs.append(x[ground])
-        ys.append(y[ground])
-        zs.append(z[ground])
+        assert table.record is not None  # read from LAS/LAZ
+        for parts, name in zip(kept, "XYZ", strict=True):
+            parts.append(np.asarray(table.record[name])[ground])
         count += len(x)
         lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
         hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
     del classes
-    return _joined(xs), _joined(ys), _joined(zs), count, (lo[0], lo[1], hi[0], hi[1])
+    xs, ys, zs = (_decoded(parts, float(scale), float(offset))
+                  for parts, scale, offset in zip(kept, reader.header.scales, reader.header.offsets, strict=True))
+    return xs, ys, zs, count, (lo[0], lo[1], hi[0], hi[1])
 
 
-def _joined(parts: list[np.ndarray]) -> np.ndarray:
-    """The chunks' arrays as one, each chunk let go once copied: joining x, y and z in turn holds
-    one coordinate twice, not all three."""
-    out = np.concatenate(parts) if parts else np.zeros(0)
+def _decoded(parts: list[np.ndarray], scale: float, offset: float) -> np.ndarray:
+    """The chunks' integers as one array of coordinates (``integer * scale + offset``, the
+    float64 laspy reads: :class:`aldpat.core.height_codes.LinearDecode`), each chunk let go once
+    joined."""
+    codes = np.concatenate(parts) if parts else np.zeros(0, np.int32)
     parts.clear()
-    return out
+    return LinearDecode(scale, offset)(codes)
