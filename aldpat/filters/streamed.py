@@ -181,7 +181,8 @@ class ChunkNoise:
 
 def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk: int, *,
                   used: Callable[[PointTable], np.ndarray] | None = None,
-                  seen: Callable[[PointTable], object] | None = None
+                  seen: Callable[[PointTable], object] | None = None,
+                  reads: tuple[str, ...] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, Extent] | None:
     """The ground points of a LAS/LAZ file in two passes (what ``aldpat dtm`` triangulates): x, y
     and z of the ground points, the file's point count and its points' extent; the points
@@ -191,7 +192,9 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
     caller reads it whole. The classes are those of :func:`aldpat.filters.driver.ground_filter`.
     ``used(table) -> mask`` selects the points taking part (withheld and ignored classes do not);
     the extent is every point's. ``seen(table)`` is shown every chunk of the first pass, every
-    point of the file (a DTM's occupancy grid: :mod:`aldpat.core.data_gaps`).
+    point of the file (a DTM's occupancy grid: :mod:`aldpat.core.data_gaps`). ``reads``: the LAS
+    dimensions ``used`` and ``seen`` read besides x, y and z, when known: both passes then decode
+    no other (:meth:`aldpat.io.las.LasReader.chunks`' ``only``), and the first reads ahead.
     """
     from aldpat.io.las import z_codes
 
@@ -201,7 +204,7 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
         return None
 
     def coded_chunks() -> Iterator[CodedChunk]:
-        for table in units.counted(reader.chunks(chunk), "read + grid", reader.count):
+        for table in units.counted(reader.chunks(chunk, only=reads, ahead=True), "read + grid", reader.count):
             if seen is not None:
                 seen(table)
             if used is None:
@@ -220,7 +223,7 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
     kept: tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]] = ([], [], [])
     lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]
     count = 0
-    for table in units.counted(reader.chunks(chunk), "classify", reader.count):
+    for table in units.counted(reader.chunks(chunk, only=reads), "classify", reader.count):
         x, y, z = (np.asarray(a, np.float64) for a in (table.x, table.y, table.z))
         ground = classes.classify(x, y, z, marks=False)[1]
         if used is not None:

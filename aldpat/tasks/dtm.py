@@ -54,7 +54,7 @@ from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.options import LowOutlierOption
 from aldpat.filters.streamed import stream_ground, streamable
-from aldpat.filters.survey import ExistingClassesOption, taking_part
+from aldpat.filters.survey import TAKING_PART_FIELDS, ExistingClassesOption, taking_part
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.classified import parse_classes, product_points
 from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
@@ -193,7 +193,8 @@ def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> lis
 
 def points_used(params: DtmParams):
     """``used(table) -> mask``: the points a DTM is made from -- with ``classes``, those of the
-    classes (the file's own ground), else those taking part in finding ground."""
+    classes (the file's own ground), else those taking part in finding ground. Either reads no
+    LAS dimension but x, y, z and :data:`~aldpat.filters.survey.TAKING_PART_FIELDS`."""
     if params.classes is not None:
         classes = parse_classes(params.classes)
         return lambda table: product_points(table, classes)
@@ -271,7 +272,7 @@ def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints
         return None  # a header far wider than its points: read whole, on the points' own extent
     occupancy = Occupancy(outer)
     made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK, used=points_used(params),
-                         seen=lambda table: occupancy.add(table.x, table.y))
+                         seen=lambda table: occupancy.add(table.x, table.y), reads=TAKING_PART_FIELDS)
     if made is None:
         return None
     x, y, z, count, (xmin, ymin, xmax, ymax) = made

@@ -248,3 +248,19 @@ def test_streamed_gapm_on_a_las14_laz_equals_the_whole_file(tmp_path):
     assert np.array_equal(np.asarray(got.classification)[part] == 2, expected)
     for name in ("gps_time", "red", "intensity", "withheld", "X"):
         assert np.array_equal(np.asarray(got[name]), np.asarray(las[name]))
+
+
+def test_dtm_of_a_las14_laz_equals_the_dtm_of_the_same_points_as_las(tmp_path):
+    """``aldpat dtm`` decodes only coordinates, classes, flags and returns of a LAS 1.4 LAZ, in a
+    fresh process: its DTM is, node for node, that of the same points in an uncompressed LAS
+    (every field read), with the withheld and noise points set aside in both."""
+    import rasterio
+
+    las = _las14(tmp_path / "strip14.laz")
+    las.write(tmp_path / "plain14.las")
+    for name in ("strip14.laz", "plain14.las"):
+        aldpat("dtm", tmp_path / name, "--cell", "2", "--odir", tmp_path / "out").ok()
+    with rasterio.open(tmp_path / "out" / "strip14_dtm.tif") as a, rasterio.open(tmp_path / "out" / "plain14_dtm.tif") as b:
+        first, second = a.read(1, masked=True), b.read(1, masked=True)
+        assert a.transform == b.transform and first.count() > 1000
+        assert np.array_equal(first.mask, second.mask) and np.array_equal(first.filled(0), second.filled(0))
