@@ -118,10 +118,8 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
         if min(value.shape) <= 2 or weight.min() >= 1.0:
             break
         value, weight = _pull(value, weight)
-    value = _relax(levels[-1][0], levels[-1][1] >= 1.0, 4 * SWEEPS)
-    for fine_value, fine_weight in reversed(levels[:-1]):
-        value = _push(value, fine_value, fine_weight >= 1.0)
-    del levels
+    value = _push_up(levels)
+    del levels  # nothing else holds a level now (the pushes' own names went with them)
     release_free_memory()  # the coarser levels' scratch, before the finest level's grid
     out = np.empty((rows, cols), np.float32)
 
@@ -135,6 +133,15 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
     with ThreadPoolExecutor(workers) as pool:
         list(pool.map(relax_strip, strips))
     return out
+
+
+def _push_up(levels: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """The pyramid's ``(value, weight)`` levels, finest first, relaxed from the coarsest up to the
+    finest of them (:func:`_push`)."""
+    value = _relax(levels[-1][0], levels[-1][1] >= 1.0, 4 * SWEEPS)
+    for fine_value, fine_weight in reversed(levels[:-1]):
+        value = _push(value, fine_value, fine_weight >= 1.0)
+    return value
 
 
 def _push(value: np.ndarray, fine_value: np.ndarray, fixed: np.ndarray) -> np.ndarray:
