@@ -86,8 +86,8 @@ PEER_OF = {"gapm-defaults": "pdal-smrf", "gapm-set01": "pdal-smrf", "dtm": "pdal
 #: PDAL 2.8.4 on this file when no PDAL runs here: (seconds, peak bytes, when and how measured),
 #: from this script's own runs on a quiet machine (bench/README.md, "aldpat against PDAL").
 STORED = {
-    "pdal-smrf": (189.6, 6780 * 2**20, "bench_pdal.py 2026-11-25 02:25 UTC, 2 cores, load 0.4 -> 1.0"),
-    "pdal-dtm": (191.0, 6780 * 2**20, "bench_pdal.py 2026-11-24 23:32 UTC, 2 cores, load 1.0 -> 1.1"),
+    "pdal-smrf": (192.5, 6780 * 2**20, "bench_pdal.py 2026-11-28 02:34 UTC, 2 cores, load 1.3 -> 1.0"),
+    "pdal-dtm": (195.3, 6782 * 2**20, "bench_pdal.py 2026-11-28 02:37 UTC, 2 cores, load 1.0 -> 1.0"),
 }
 
 

@@ -85,7 +85,7 @@ def cells(args: str) -> str:
 STEPS: tuple[Step, ...] = (
     Step("pdal", "core", 10.0,
          "bench/README 'aldpat against PDAL' (a new same-run table; every ratio) and README.md "
-         "'Big files' (gapm 23.5 s / 962 MiB, set 01 8.6 s / 588 MiB, PDAL 189.6 s / 6,780 MiB); "
+         "'Big files' (gapm, set 01 and dtm against PDAL's smrf and DTM pipeline, their times and peaks); "
          "'dtm after its filter' (dtm, pdal-dtm, grid-linear over gapm); 'multipass and outlier'",
          (f"{PY} bench/bench_pdal.py --rows {PDAL_ROWS}",),
          (f"{PY} bench/bench_pdal.py --file {FSITE8} --rows {PDAL_ROWS}",), needs="ALDPAT_PDAL"),
