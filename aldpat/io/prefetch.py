@@ -38,17 +38,21 @@ def read_ahead(chunks: Iterator[T]) -> Iterator[T]:
     handoff: queue.Queue[T | _Done] = queue.Queue(maxsize=1)
     left = threading.Event()
 
+    def hand_over(item: T | _Done) -> bool:
+        """Put ``item`` where the caller takes it; False when the caller has left instead."""
+        while not left.is_set():
+            try:
+                handoff.put(item, timeout=_WAIT)
+                return True
+            except queue.Full:
+                continue
+        return False
+
     def produce() -> None:
         end = _Done()
         try:
             for item in chunks:
-                while not left.is_set():
-                    try:
-                        handoff.put(item, timeout=_WAIT)
-                        break
-                    except queue.Full:
-                        continue
-                if left.is_set():
+                if not hand_over(item):
                     break
         except BaseException as exc:  # noqa: BLE001  (handed over whole to the caller's thread)
             end = _Done(exc)
@@ -56,12 +60,7 @@ def read_ahead(chunks: Iterator[T]) -> Iterator[T]:
             close = getattr(chunks, "close", None)
             if close is not None:
                 close()  # the source's own clean-up (its open file), on this thread
-        while not left.is_set():
-            try:
-                handoff.put(end, timeout=_WAIT)
-                return
-            except queue.Full:
-                continue
+        hand_over(end)
 
     thread = threading.Thread(target=produce, name="aldpat-read-ahead", daemon=True)
     thread.start()
