@@ -123,6 +123,9 @@ def client_for(scheduler: str) -> Any:
                 else:
                     os.environ[THREADS_ENV] = before
             client = distributed.Client(cluster)
+            from aldpat.jobs.worker_logging import LocalWorkerLogging
+
+            client.register_plugin(LocalWorkerLogging())  # the scheduler's going away at the end is not news
         else:
             security = _security(distributed, scheduler)
             try:

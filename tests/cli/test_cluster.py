@@ -222,3 +222,27 @@ def test_local_workers_start_with_dask_logging_at_warnings_and_the_c_librarys_tr
     assert run.returncode == 0, run.stderr
     got = json.loads(run.stdout.splitlines()[-1])
     assert got == {"here": 30, "workers": [[30, None]]}
+
+
+def test_local_workers_drop_only_the_record_of_a_heartbeat_that_met_a_closed_scheduler():
+    """Dask logs a heartbeat meeting the closing scheduler of a local cluster as an ERROR with a
+    traceback, after the run's own lines: aldpat's local workers drop that record and no other;
+    a local cluster's workers have the filter installed."""
+    import logging
+
+    from aldpat.jobs.cluster import client_for
+    from aldpat.jobs.worker_logging import NoHeartbeatLostRecord
+
+    def record(message: str) -> logging.LogRecord:
+        return logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1, message, None, None)
+
+    quiet = NoHeartbeatLostRecord()
+    assert not quiet.filter(record("Failed to communicate with scheduler during heartbeat."))
+    assert quiet.filter(record("Unexpected exception during heartbeat. Closing worker."))
+    assert quiet.filter(record("Worker is at 95% memory usage."))
+    client = client_for("local:1")
+
+    def installed() -> bool:
+        return any(type(f).__name__ == "NoHeartbeatLostRecord" for f in logging.getLogger("distributed.worker").filters)
+
+    assert all(client.run(installed).values())
