@@ -20,7 +20,6 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +31,7 @@ from aldpat.core.compiled import compiled
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.grid_nodes import NODE_BLOCK, grid_points, node_coordinates, row_blocks, worker_count
 from aldpat.core.kriging import krige
+from aldpat.core.threads import on_threads
 from aldpat.core.tin_raster import tin_block
 from aldpat.errors import UsageError
 
@@ -356,8 +356,7 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
         _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out)
 
     blocks = [(i, j) for j in range(nby) for i in range(nbx)]
-    with ThreadPoolExecutor(worker_count(workers)) as pool:  # the compiled TIN and qhull release the GIL
-        list(pool.map(run, blocks))
+    on_threads(run, blocks, worker_count(workers))  # the compiled TIN and qhull release the GIL
     return out
 
 

@@ -23,7 +23,6 @@ pair counts.
 from __future__ import annotations
 
 import logging
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +31,7 @@ from numpy.typing import ArrayLike
 from aldpat._lazy import lazy_import
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.grid_nodes import grid_points, node_coordinates, row_blocks, worker_count
+from aldpat.core.threads import on_threads
 from aldpat.errors import UsageError
 
 optimize = lazy_import("scipy.optimize")
@@ -164,8 +164,7 @@ def krige(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, model: st
             vals[dist[:, 0] > max_distance] = np.nan
         out[r0:r1] = vals.reshape(r1 - r0, spec.nx)
 
-    with ThreadPoolExecutor(worker_count(workers)) as pool:  # LAPACK and the KD-tree release the GIL
-        list(pool.map(run, list(row_blocks(spec, _BLOCK))))
+    on_threads(run, list(row_blocks(spec, _BLOCK)), worker_count(workers))  # LAPACK and the KD-tree release the GIL
     return out
 
 

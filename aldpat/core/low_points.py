@@ -36,20 +36,16 @@ the first test have the terrain around them read.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TypeVar
 
 import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import CellGridSpec, rows_per_block
-from aldpat.core.threads import thread_budget
+from aldpat.core.threads import on_threads
 
 ndimage = lazy_import("scipy.ndimage")
-T = TypeVar("T")
 
 #: Share of the terrain's cells (%) below its floor.
 FLOOR_RANK = 10
@@ -175,18 +171,8 @@ def block_lowest(codes: np.ndarray, real: np.ndarray, m: int, offset: tuple[int,
         b0 = (a + r_off) // m
         out[b0:b0 + step // m] = part.reshape(step // m, m, bcols, m).min(axis=(1, 3))[:brows - b0]
 
-    _on_threads(strip, range(-r_off, rows, step))  # each strip writes its own rows of blocks
+    on_threads(strip, range(-r_off, rows, step))  # each strip writes its own rows of blocks
     return out, out != top
-
-
-def _on_threads(work: Callable[[int], T], starts: range) -> list[T]:
-    """``work`` of every strip start, on the process's threads at once (numpy and scipy's filters
-    let go of the interpreter's lock), the results in the strips' order."""
-    workers = max(1, min(thread_budget(), len(starts)))
-    if workers == 1:
-        return [work(a) for a in starts]
-    with ThreadPoolExecutor(workers) as pool:
-        return list(pool.map(work, starts))
 
 
 def _cells_below(codes: np.ndarray, decode: Decode, real: np.ndarray, blocks: np.ndarray, limit: np.ndarray, m: int,
@@ -225,7 +211,7 @@ def _pits(codes: np.ndarray, decode: Decode, real: np.ndarray, d: int, threshold
         keep = low - decode(codes[a:b].ravel()[flat]) > threshold
         return flat[keep] + a * cols, low[keep]
 
-    found = _on_threads(strip, range(0, rows, step))  # in the strips' order: flat indices ascending
+    found = on_threads(strip, range(0, rows, step))  # in the strips' order: flat indices ascending
     if not found:
         return np.zeros(0, np.int64), np.zeros(0)
     return np.concatenate([f for f, _ in found]), np.concatenate([low for _, low in found])

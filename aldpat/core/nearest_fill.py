@@ -23,11 +23,12 @@ on threads at once (:func:`fill_grid`).
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
+from itertools import pairwise
 
 import numpy as np
 
 from aldpat.core.compiled import compiled
+from aldpat.core.threads import on_threads
 
 #: Rows a thread fills at the least: fewer, and the grid is filled on fewer threads.
 MIN_BLOCK_ROWS = 256
@@ -41,11 +42,8 @@ def fill_grid(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
     rows = values.shape[0]
     blocks = max(1, min(workers, rows // MIN_BLOCK_ROWS))
     bounds = [rows * k // blocks for k in range(blocks + 1)]
-    if blocks == 1:
-        fill_rows(values, empty, spacing, with_spacing, 0, rows)
-        return
-    with ThreadPoolExecutor(blocks) as pool:  # the compiled rows release the GIL
-        list(pool.map(lambda a, b: fill_rows(values, empty, spacing, with_spacing, a, b), bounds[:-1], bounds[1:]))
+    on_threads(lambda piece: fill_rows(values, empty, spacing, with_spacing, *piece), list(pairwise(bounds)),
+               blocks)  # the compiled rows release the GIL
 
 
 @compiled(nogil=True)

@@ -27,14 +27,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from aldpat.core import morphology
 from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import rows_per_block
-from aldpat.core.threads import thread_budget
+from aldpat.core.threads import on_threads
 
 log = logging.getLogger(__name__)
 
@@ -123,15 +122,7 @@ def _line_pass(surface: np.ndarray, k: int, axis: int, dh: np.floating, candidat
         candidates[part] &= ~removed
         block[...] = opened
 
-    starts = range(0, lines, step)
-    workers = min(thread_budget(), len(starts))
-    if workers <= 1:
-        for a in starts:
-            one(a)
-        return
-    with ThreadPoolExecutor(workers) as pool:
-        for _ in pool.map(one, starts):
-            pass
+    on_threads(one, range(0, lines, step))
 
 
 def heights_grid(z: np.ndarray, dtype: type, decode: Decode | None) -> np.ndarray:

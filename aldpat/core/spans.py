@@ -27,14 +27,12 @@ direction on the process's threads at once.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE, step_limit
-from aldpat.core.threads import thread_budget
+from aldpat.core.threads import on_threads, thread_budget
 
 #: A span's heights lie within this range (m): a deck is level across its width.
 SPAN_LEVEL = 1.0
@@ -87,9 +85,9 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
 
     # the blocks of each direction write their own lines of ``out``: on threads at once, the rows
     # before the columns (``enclosed`` keeps what both directions found)
-    with ThreadPoolExecutor(max(1, min(thread_budget(), rows // BLOCK_LINES, cols // BLOCK_LINES))) as pool:
-        list(pool.map(row_block, range(0, rows, BLOCK_LINES)))
-        list(pool.map(column_block, range(0, cols, BLOCK_LINES)))
+    workers = max(1, min(thread_budget(), rows // BLOCK_LINES, cols // BLOCK_LINES))
+    on_threads(row_block, range(0, rows, BLOCK_LINES), workers)
+    on_threads(column_block, range(0, cols, BLOCK_LINES), workers)
     return out
 
 

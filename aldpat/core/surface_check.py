@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from itertools import pairwise
 from typing import Protocol
 
 import numpy as np
@@ -27,7 +27,7 @@ from aldpat.core.height_codes import Decode, FloatHeights, Heights
 from aldpat.core.lowest_grid import CellGridSpec
 from aldpat.core.memory import release_free_memory
 from aldpat.core.rise import scale_and_offset
-from aldpat.core.threads import thread_budget
+from aldpat.core.threads import on_threads, thread_budget
 
 #: Points tested at once in numpy (bounds temporaries on large inputs).
 _CHUNK = 1 << 21
@@ -109,9 +109,7 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
         weight[a // 2:a // 2 + len(strip_weight)] = strip_weight
 
     strips = range(0, rows, STRIP_ROWS)
-    workers = max(1, min(thread_budget(), len(strips)))
-    with ThreadPoolExecutor(workers) as pool:  # each strip writes its own rows; the compiled steps let go of the lock
-        list(pool.map(pull_strip, strips))
+    on_threads(pull_strip, strips)  # each strip writes its own rows; the compiled steps let go of the lock
     levels = []
     while True:
         levels.append((value, weight))
@@ -130,8 +128,7 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
         fixed = fine_weight >= 1.0
         out[a:b] = _relax(_spread(value, fine_value, fixed, lo), fixed, SWEEPS)[a - lo:b - lo]
 
-    with ThreadPoolExecutor(workers) as pool:
-        list(pool.map(relax_strip, strips))
+    on_threads(relax_strip, strips)
     return out
 
 
@@ -404,17 +401,14 @@ class SurfaceTest:
         out = np.empty(len(z), bool)
         x, y, z = (np.ascontiguousarray(v, dtype=np.float64) for v in (x, y, z))
 
-        def run(a: int, b: int) -> None:
+        def run(piece: tuple[int, int]) -> None:
+            a, b = piece
             _test_points(self.surface, self.marks, codes, scaled, scale, offset, float(self.spec.cell), float(self.spec.x0), float(self.spec.y0),
                          float(self.threshold), float(self.slope_scalar), x[a:b], y[a:b], z[a:b], out[a:b])
 
         pieces = min(thread_budget(), max(1, len(z) // _POINTS_PER_THREAD))
-        bounds = np.linspace(0, len(z), pieces + 1).astype(np.int64)
-        if pieces == 1:
-            run(0, len(z))
-        else:
-            with ThreadPoolExecutor(pieces) as pool:  # the compiled loop releases the GIL
-                list(pool.map(run, bounds[:-1], bounds[1:]))
+        bounds = np.linspace(0, len(z), pieces + 1).astype(np.int64).tolist()
+        on_threads(run, list(pairwise(bounds)), pieces)  # the compiled loop releases the GIL
         return out
 
     @staticmethod

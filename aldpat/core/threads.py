@@ -9,6 +9,12 @@ cores, two processes of two threads each ran slower than one process.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+P = TypeVar("P")
+T = TypeVar("T")
 
 ENV = "ALDPAT_THREADS"
 
@@ -32,3 +38,16 @@ def share_for(processes: int) -> int:
 def set_budget(threads: int) -> None:
     """Set this process's budget (in a pool worker, before it runs anything)."""
     os.environ[ENV] = str(max(1, threads))
+
+
+def on_threads(work: Callable[[P], T], pieces: Sequence[P], workers: int | None = None) -> list[T]:
+    """``work`` of every piece (a strip, a block of lines, a range of points), on up to
+    ``workers`` threads at once (default: the process's budget), the results in the pieces'
+    order. The pieces must write disjoint parts of their outputs, and the work must let go of
+    the interpreter's lock (numpy, scipy and the ``nogil`` compiled loops do) to gain anything.
+    With one piece or one thread the work runs here, piece after piece."""
+    count = max(1, min(thread_budget() if workers is None else workers, len(pieces)))
+    if count == 1:
+        return [work(piece) for piece in pieces]
+    with ThreadPoolExecutor(count) as pool:
+        return list(pool.map(work, pieces))
