@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.compiled import compiled
 from aldpat.core.resources import check_disk, count_text
 from aldpat.core.workers import WorkerPool
 from aldpat.errors import ParamError, UsageError
@@ -159,7 +160,6 @@ def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir:
         owned: set[tuple[int, int]] = set()
         start = 0
         low, high = np.array([np.inf, np.inf]), np.array([-np.inf, -np.inf])
-        reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
         for table in tables:
             n = len(table)
             if n == 0:
@@ -170,16 +170,11 @@ def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir:
             low = np.minimum(low, [records["x"].min(), records["y"].min()])
             high = np.maximum(high, [records["x"].max(), records["y"].max()])
             col, row = lattice.index(records["x"], records["y"])
-            owned.update(zip(col.tolist(), row.tolist(), strict=False))
+            own = _distinct_chunks(col, row)
+            owned.update(zip(own[:, 0].tolist(), own[:, 1].tolist(), strict=True))
             if len(owned) > MOST_CHUNKS:
                 raise too_many_chunks(lattice, len(owned))
-            for dc in range(-reach, reach + 1):
-                for dr in range(-reach, reach + 1):
-                    take = _in_buffer(records, col + dc, row + dr, lattice) if (dc or dr) else slice(None)
-                    part = records[take]
-                    if not len(part):
-                        continue
-                    _append_by_chunk(folder, part, (col + dc)[take], (row + dr)[take])
+            _append_by_chunk(folder, records, col, row, own, lattice)
             start += n
         # a chunk that holds only buffer points has nothing of its own to classify
         chunks = sorted(owned, key=lambda cr: (cr[1], cr[0]))
@@ -189,27 +184,78 @@ def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir:
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def _in_buffer(records: np.ndarray, col: np.ndarray, row: np.ndarray, lattice: ChunkLattice) -> np.ndarray:
-    """Which points lie in the buffered extent of chunk (col, row) of each point."""
+def _distinct_chunks(col: np.ndarray, row: np.ndarray) -> np.ndarray:
+    """The distinct ``(col, row)`` pairs, sorted by column then row (an array of two columns)."""
+    c0, r0 = int(col.min()), int(row.min())
+    cols, rows = int(col.max()) - c0 + 1, int(row.max()) - r0 + 1
+    if cols * rows <= 4 * len(col) + 4096:  # the usual case: a few chunks, marked on their span
+        seen = np.zeros(cols * rows, bool)
+        seen[(col - c0) * rows + (row - r0)] = True
+        at = np.flatnonzero(seen)
+        return np.stack([at // rows + c0, at % rows + r0], axis=1)
+    order = np.lexsort((row, col))  # points scattered over a wide span: sort them
+    pairs = np.stack([col[order], row[order]], axis=1)
+    first = np.ones(len(pairs), bool)
+    first[1:] = np.any(pairs[1:] != pairs[:-1], axis=1)
+    return pairs[first]
+
+
+def _append_by_chunk(folder: Path, records: np.ndarray, col: np.ndarray, row: np.ndarray, own: np.ndarray,
+                     lattice: ChunkLattice) -> None:
+    """Append each point of ``records`` (of chunk ``col``, ``row``; ``own`` the distinct chunks,
+    sorted) to the spill file of every chunk whose buffered extent holds it, in input order."""
+    reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
+    around = np.arange(-reach, reach + 1)
+    near = np.stack(np.meshgrid(around, around, indexing="ij"), axis=-1).reshape(-1, 2)
+    # every chunk a point's buffer may reach: its own and its neighbours within the reach, sorted
+    chunks = np.unique((own[:, None, :] + near[None, :, :]).reshape(-1, 2), axis=0)
     ox, oy = lattice.origin
-    b = lattice.buffer
-    x0 = ox + col * lattice.size
-    y0 = oy + row * lattice.size
-    return ((records["x"] >= x0 - b) & (records["x"] < x0 + lattice.size + b)
-            & (records["y"] >= y0 - b) & (records["y"] < y0 + lattice.size + b))
+    args = (records["x"], records["y"], col, row, np.ascontiguousarray(chunks[:, 0]), np.ascontiguousarray(chunks[:, 1]),
+            float(ox), float(oy), float(lattice.size), float(lattice.buffer), reach)
+    counts = np.zeros(len(chunks), np.int64)
+    _place_copies(*args, counts, np.zeros(0, np.int64))
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    order = np.empty(int(counts.sum()), np.int64)
+    _place_copies(*args, starts.copy(), order)
+    copies = records[order]
+    for k in np.flatnonzero(counts):
+        with open(folder / f"chunk_{chunks[k, 0]}_{chunks[k, 1]}.bin", "ab") as fh:
+            copies[starts[k]:starts[k] + counts[k]].tofile(fh)
 
 
-def _append_by_chunk(folder: Path, part: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
-    """Append each point of ``part`` to the spill file of its chunk, keeping input order."""
-    key = np.stack([col, row], axis=1)
-    order = np.lexsort((np.arange(len(part)), row, col))  # by chunk, input order within each
-    key = key[order]
-    part = part[order]
-    cuts = np.flatnonzero(np.any(np.diff(key, axis=0) != 0, axis=1)) + 1
-    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(part)], strict=False):
-        c, r = int(key[a, 0]), int(key[a, 1])
-        with open(folder / f"chunk_{c}_{r}.bin", "ab") as fh:
-            part[a:b].tofile(fh)
+@compiled(nogil=True)
+def _place_copies(x: np.ndarray, y: np.ndarray, col: np.ndarray, row: np.ndarray, chunk_cols: np.ndarray,
+                  chunk_rows: np.ndarray, ox: float, oy: float, size: float, buffer: float, reach: int,
+                  at: np.ndarray, order: np.ndarray) -> None:  # pragma: no cover - compiled
+    """For every point, and every chunk (``chunk_cols``, ``chunk_rows``: sorted by column, then
+    row) within ``reach`` of its own whose buffered extent holds it: with an empty ``order``,
+    count it in ``at`` of that chunk; else write the point's index at ``order[at[chunk]]`` and
+    advance ``at``. Points are taken in input order, so each chunk's copies keep it."""
+    filling = len(order) > 0
+    m = len(chunk_cols)
+    for i in range(len(x)):
+        for dc in range(-reach, reach + 1):
+            c = col[i] + dc
+            x0 = ox + c * size
+            if (dc != 0) and not (x[i] >= x0 - buffer and x[i] < x0 + size + buffer):
+                continue
+            for dr in range(-reach, reach + 1):
+                r = row[i] + dr
+                if dc != 0 or dr != 0:  # its own chunk holds it whatever the buffer
+                    y0 = oy + r * size
+                    if not (x[i] >= x0 - buffer and x[i] < x0 + size + buffer
+                            and y[i] >= y0 - buffer and y[i] < y0 + size + buffer):
+                        continue
+                lo, hi = 0, m  # the chunk's place among the sorted chunks
+                while lo < hi:
+                    mid = (lo + hi) // 2
+                    if chunk_cols[mid] < c or (chunk_cols[mid] == c and chunk_rows[mid] < r):
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                if filling:
+                    order[at[lo]] = i
+                at[lo] += 1
 
 
 def map_chunks(fn: Callable, jobs: list[tuple], workers: int = 1) -> Iterator:

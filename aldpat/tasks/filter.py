@@ -307,7 +307,11 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     def every_table():  # the points taking part, input after input
         for reader in readers:
             counts.append(0)
-            for table in reader.chunks():
+            # the spill keeps x, y, z alone: of a LAS/LAZ (a LAZ of point formats 6-10 decodes no
+            # other layer) only what says whether a point takes part besides, the next chunk read
+            # while this one spills
+            tables = reader.chunks(only=TAKING_PART_FIELDS, ahead=True) if reader.format == "las" else reader.chunks()
+            for table in tables:
                 part = taking_part(table, params)
                 taken = table if part is None else table.take(part)
                 counts[-1] += len(taken)
