@@ -14,6 +14,17 @@ each in a fresh process: wall time, points per second, peak memory of the proces
 and the cluster, the parent's; each chunk process holds one chunk with its buffer), and the sum
 of the chunks' own filtering times from the log.
 
+``python bench/bench_chunks.py dense --points 100 [--layers 10] [--las14] [--chunked 2000] [--compare]``
+-- a dense file of about N million points: the tiled FSite5 copies (4 x 4 for 100 M) laid ``--layers``
+times over one another, each layer shifted by under a metre (as overlapping flight lines lie), so
+about 3.5 points/m2 over 33 km2; one LAZ (with ``--las14`` LAS 1.4, point format 6, GPS times
+added), built once under ``bench/_work/``. ``aldpat filter gapm`` with its defaults, LAZ in and
+LAZ out, in a fresh process (the two-pass streamed path): wall time, points per second, peak
+memory. ``--chunked C`` also runs ``--chunk C -j 2`` on the same file (equal work: the same
+points and classes written) and gives the ratio of the rates. ``--compare`` runs ``ground_filter``
+on all the points held in memory in another fresh process (about 10 GB at 100 M) and counts the
+points whose class differs from the streamed run's.
+
 ``python bench/bench_chunks.py tiles --tiles 16`` -- 16 LAS tiles of about 1 M points (copies of
 ISPRS samp12, urban, 1 point/m2, side by side) through a worksheet (gapm, then a 1 m TIN grid)
 with ``-j 1``, ``-j 2`` and ``--scheduler local:2``: wall time of each run.
@@ -143,6 +154,113 @@ def run_memory(millions: float, chunk: float, whole: bool) -> None:
               + (f"  [{m['notes'][0]}]" if m["notes"] else ""))
 
 
+def build_dense(millions: float, layers: int, las14: bool) -> Path:
+    """The tiled FSite5 copies of ``millions / layers`` M points laid ``layers`` times over one
+    another, layer ``k`` shifted by the fractional parts of ``k`` times two irrational steps (under a
+    metre each way), written layer by layer as one LAZ (made once)."""
+    import laspy
+
+    base = build_sites(int(millions * 1e6 / layers))
+    out = base.with_name(f"{base.stem}_dense{layers}{'_14' if las14 else ''}.laz")
+    if out.exists():
+        return out
+    las = laspy.read(base)
+    if las14:
+        las = laspy.convert(las, point_format_id=6, file_version="1.4")
+    header = las.header
+    X, Y = np.asarray(las.points.array["X"]).copy(), np.asarray(las.points.array["Y"]).copy()
+    tmp = out.with_suffix(".part.laz")
+    rng = np.random.default_rng(14)
+    with laspy.open(tmp, mode="w", header=header, do_compress=True) as dst:
+        for k in range(layers):
+            dx, dy = (k * 0.6180339887) % 1.0, (k * 0.4142135624) % 1.0
+            las.points.array["X"] = X + round(dx / header.scales[0])
+            las.points.array["Y"] = Y + round(dy / header.scales[1])
+            if las14:  # each layer a later flight; pulses about 10 us apart, jittered
+                las.gps_time = 3.2e8 + k * 1e4 + np.cumsum(rng.uniform(5e-6, 15e-6, len(X)))
+            dst.write_points(las.points)
+            print(f"  layer {k + 1} of {layers} written", flush=True)
+    tmp.rename(out)
+    return out
+
+
+def _filter_code(laz: Path, out: str, options: dict) -> str:
+    """A fresh process's run of gapm's defaults on ``laz``, noting whether the streamed path
+    gave way to reading the file whole."""
+    return ("import logging\n"
+            "from aldpat.tasks import get_task\n"
+            "class Seen(logging.Handler):\n"
+            "    whole = False\n"
+            "    def emit(self, record):\n"
+            "        Seen.whole |= 'reading the file whole' in record.getMessage()\n"
+            "logging.getLogger('aldpat').addHandler(Seen())\n"
+            "logging.getLogger('aldpat').setLevel(logging.INFO)\n"
+            f"r = get_task('filter', 'gapm')([{str(laz)!r}], odir={out!r}, result='classified', **{options!r})\n"
+            "assert r.exit_code == 0, [x.error for x in r.results]\n"
+            "result = {'whole': Seen.whole, 'notes': r.results[0].notes}\n")
+
+
+def _classes_of(path: Path) -> np.ndarray:
+    import laspy
+
+    with laspy.open(path) as reader:
+        return np.concatenate([np.asarray(c.classification) for c in reader.chunk_iterator(5_000_000)])
+
+
+def run_dense(millions: float, layers: int, las14: bool, chunked: float | None, compare: bool) -> None:
+    import laspy
+
+    laz = build_dense(millions, layers, las14)
+    n = laspy.open(laz).header.point_count
+    print(f"{laz.name}: {n:,} points in {layers} layers; aldpat filter gapm (defaults) --result classified, "
+          "LAZ out", flush=True)
+    runs = [("streamed", {})]
+    if chunked:
+        runs.append((f"--chunk {chunked:g} -j 2", {"chunk": chunked, "jobs": 2}))
+    rates = {}
+    with tempfile.TemporaryDirectory(dir=laz.parent) as keep:
+        streamed_out = Path(keep) / f"{laz.stem}_gapm.laz"
+        for label, options in runs:
+            with tempfile.TemporaryDirectory(dir=laz.parent) as out:
+                m = measure(_filter_code(laz, out, options))
+                written = Path(out) / f"{laz.stem}_gapm.laz"
+                if label == "streamed":
+                    written.rename(streamed_out)
+                else:
+                    differ = int((_classes_of(written) != _classes_of(streamed_out)).sum())
+            rates[label] = n / m["seconds"]
+            how = " (the streamed path gave way: read whole)" if m["whole"] else ""
+            print(f"  {label}: {m['seconds']:.1f} s, {rates[label] / 1e6:.2f} M points/s, "
+                  f"peak {mib(m['peak_bytes'])}{how}" + ("" if label == "streamed" else
+                                                        f", {differ:,} points' classes differ from the streamed run"),
+                  flush=True)
+            for note in m["notes"]:
+                print(f"    [{note}]", flush=True)
+        if chunked:
+            print(f"  streamed rate / chunked rate: {rates['streamed'] / rates[runs[1][0]]:.2f}")
+        if compare:
+            code = ("import laspy, numpy as np\n"
+                    "from aldpat.filters import FILTERS, ground_filter\n"
+                    "from aldpat.filters.survey import taking_part\n"
+                    "from aldpat.io.las import las_table\n"
+                    f"las = laspy.read({str(laz)!r})\n"
+                    "params = FILTERS['gapm'].params()\n"
+                    "part = taking_part(las_table(las), params)\n"
+                    "part = np.ones(len(las.points), bool) if part is None else part\n"
+                    "x, y, z = (np.asarray(v, dtype=np.float64)[part] for v in (las.x, las.y, las.z))\n"
+                    "del las\n"
+                    "ground = ground_filter(x, y, z, 'gapm', params).is_ground\n"
+                    f"np.save({str(Path(keep) / 'ground.npy')!r}, ground)\n"
+                    f"np.save({str(Path(keep) / 'part.npy')!r}, part)\n"
+                    "result = {}\n")
+            m = measure(code)
+            ground, part = np.load(Path(keep) / "ground.npy"), np.load(Path(keep) / "part.npy")
+            written = _classes_of(streamed_out)[part] == 2
+            print(f"  whole file in memory (ground_filter): {m['seconds']:.1f} s, peak {mib(m['peak_bytes'])}; "
+                  f"{int((written != ground).sum()):,} of {len(ground):,} points' ground calls differ from "
+                  "the streamed run", flush=True)
+
+
 def run_tiles(count: int) -> None:
     import laspy
 
@@ -186,6 +304,12 @@ def main() -> None:
     m.add_argument("--points", type=float, default=100.0, help="millions of points")
     m.add_argument("--chunk", type=float, default=2000.0)
     m.add_argument("--whole", action="store_true", help="also the whole file at once (memory grows with it)")
+    d = sub.add_parser("dense", help="gapm's defaults streamed over a dense LAZ of N M points")
+    d.add_argument("--points", type=float, default=100.0, help="millions of points")
+    d.add_argument("--layers", type=int, default=10, help="copies of the tiled site laid over one another")
+    d.add_argument("--las14", action="store_true", help="LAS 1.4, point format 6 (as surveys are delivered)")
+    d.add_argument("--chunked", type=float, metavar="C", help="also --chunk C -j 2 on the same file")
+    d.add_argument("--compare", action="store_true", help="also every point in memory: classes identical?")
     t = sub.add_parser("tiles", help="a worksheet over tiles with -j 1, -j 2 and a local Dask cluster")
     t.add_argument("--tiles", type=int, default=16)
     args = ap.parse_args()
@@ -193,6 +317,8 @@ def main() -> None:
         run_agree(args.chunk, args.point_buffer, args.filters, args.sites)
     elif args.command == "memory":
         run_memory(args.points, args.chunk, args.whole)
+    elif args.command == "dense":
+        run_dense(args.points, args.layers, args.las14, args.chunked, args.compare)
     else:
         run_tiles(args.tiles)
 

@@ -148,6 +148,15 @@ STEPS: tuple[Step, ...] = (
          (f"{PY} -m aldpat dtm jobs/data/samp24.txt --cell 2 --odir bench/_work/readme-lines --overwrite",)),
     # 2026-11-23: 482 + 345 + 597 s; since then gapm's defaults do about twice the work and its
     # automatic buffer grew from 378.75 to 501.75 m (about 1.2 x the points per chunk)
+    Step("dense", "core", 4.0,
+         "bench/README 'A dense 100 M-point LAZ': the streamed rows and the points held in memory "
+         "(100,531,200 points of LAS 1.4 LAZ, built once: 432 MB)",
+         (f"{PY} bench/bench_chunks.py dense --points 100 --las14 --compare",),
+         (f"{PY} bench/bench_chunks.py dense --points 2 --layers 4 --las14 --compare",)),
+    Step("dense-chunked", "long", 5.0,
+         "bench/README 'A dense 100 M-point LAZ': the --chunk 2000 -j 2 rows and the ratio to the streamed run",
+         (f"{PY} bench/bench_chunks.py dense --points 100 --las14 --chunked 2000",),
+         (f"{PY} bench/bench_chunks.py dense --points 2 --layers 4 --las14 --chunked 800",)),
     Step("chunks-memory", "long", 50.0,
          "bench/README 'A 100 M-point file in chunks': the memory table (-j 1, -j 2, local:2 on "
          "100,531,200 points of LAZ); builds a 100 M-point LAS and LAZ once (about 5 GB)",
