@@ -274,9 +274,7 @@ def _map(fn: Callable, jobs: list[tuple], workers: int) -> Iterator:
         from distributed import worker_client
 
         with worker_client() as client:
-            futures = [client.submit(fn, *job, pure=False) for job in jobs]
-            for fut in futures:
-                yield fut.result()
+            yield from _each_once([client.submit(fn, *job, pure=False) for job in jobs])
         return
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
@@ -284,9 +282,18 @@ def _map(fn: Callable, jobs: list[tuple], workers: int) -> Iterator:
         return
     pool = WorkerPool(workers)
     try:
-        for fut in pool.submit_all(fn, jobs):
-            yield fut.result()
+        yield from _each_once(pool.submit_all(fn, jobs))
     except BaseException:  # an interruption, or a chunk that failed: the others are of no use
         pool.stop()
         raise
     pool.close()
+
+
+def _each_once(futures: list) -> Iterator:
+    """The futures' results in order, each future let go of once its result is handed on: a
+    future keeps its result (on a Dask cluster, the cluster keeps it for the future), so a list
+    of every chunk's futures held every chunk's result until the last one -- memory growing with
+    the file (1.2 GB more at 100 M points)."""
+    futures.reverse()
+    while futures:
+        yield futures.pop().result()

@@ -55,3 +55,24 @@ def test_every_chunk_holds_what_the_rule_puts_in_it_in_input_order(size, buffer,
             assert got["row"].tolist() == rows
             assert np.array_equal(got["x"], x[rows]) and np.array_equal(got["z"], z[rows])
             assert got.dtype == RECORD
+
+
+def test_each_chunks_result_is_let_go_of_once_handed_on():
+    """A chunk's result lives as long as its caller keeps it, not until the last chunk is done
+    (the futures kept every result: memory grew with the file)."""
+    import gc
+    import weakref
+    from concurrent.futures import Future
+
+    from aldpat.io.chunks import _each_once
+
+    futures = []
+    for k in range(3):
+        fut: Future = Future()
+        fut.set_result(np.full(10, k))
+        futures.append(fut)
+    results = _each_once(futures)
+    first = weakref.ref(next(results))
+    gc.collect()
+    assert first() is None  # handed on and dropped by this caller: gone
+    assert [int(r[0]) for r in results] == [1, 2]
