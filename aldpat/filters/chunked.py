@@ -102,7 +102,7 @@ def filter_chunks(tables: Iterable[PointTable], algorithm: str, params: GroundPa
             seconds += t
         marks.flush()
         classes.flush()
-        return ChunkRun(marks, classes, n, len(spilled.chunks), seconds)
+        return ChunkRun(marks, classes, n, len(spilled.chunks), seconds, spilled.spilled)
 
 
 @dataclass
@@ -112,6 +112,7 @@ class ChunkRun:
     points: int
     chunks: int
     seconds: float  # the chunks' own filtering time, summed over them
+    filtered: int  # points the chunks filtered: their own, and their buffers' copies
 
 
 def _filter_one_chunk(spilled: SpilledChunks, col: int, row: int, algorithm: str, params: Any, classes_of: ClassesOf,

@@ -110,6 +110,7 @@ class SpilledChunks:
     points: int
     chunks: list[tuple[int, int]]
     bounds: tuple[float, float, float, float] | None = None  # of every point: xmin, ymin, xmax, ymax
+    spilled: int = 0  # points written to the chunks' files: each point once, and again for each buffer holding it
 
     def extent(self, col: int, row: int) -> tuple[float, float, float, float] | None:
         """The input's extent clipped to chunk (col, row) with its buffer (its last cell's edge
@@ -158,7 +159,7 @@ def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir:
         else scratch_dir(".aldpat-scratch-", tempfile.gettempdir())
     try:
         owned: set[tuple[int, int]] = set()
-        start = 0
+        start = spilled = 0
         low, high = np.array([np.inf, np.inf]), np.array([-np.inf, -np.inf])
         for table in tables:
             n = len(table)
@@ -174,12 +175,12 @@ def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir:
             owned.update(zip(own[:, 0].tolist(), own[:, 1].tolist(), strict=True))
             if len(owned) > MOST_CHUNKS:
                 raise too_many_chunks(lattice, len(owned))
-            _append_by_chunk(folder, records, col, row, own, lattice)
+            spilled += _append_by_chunk(folder, records, col, row, own, lattice)
             start += n
         # a chunk that holds only buffer points has nothing of its own to classify
         chunks = sorted(owned, key=lambda cr: (cr[1], cr[0]))
         bounds = (float(low[0]), float(low[1]), float(high[0]), float(high[1])) if start else None
-        yield SpilledChunks(lattice, folder, start, chunks, bounds)
+        yield SpilledChunks(lattice, folder, start, chunks, bounds, spilled)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
@@ -201,9 +202,10 @@ def _distinct_chunks(col: np.ndarray, row: np.ndarray) -> np.ndarray:
 
 
 def _append_by_chunk(folder: Path, records: np.ndarray, col: np.ndarray, row: np.ndarray, own: np.ndarray,
-                     lattice: ChunkLattice) -> None:
+                     lattice: ChunkLattice) -> int:
     """Append each point of ``records`` (of chunk ``col``, ``row``; ``own`` the distinct chunks,
-    sorted) to the spill file of every chunk whose buffered extent holds it, in input order."""
+    sorted) to the spill file of every chunk whose buffered extent holds it, in input order;
+    the number of copies written."""
     reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
     around = np.arange(-reach, reach + 1)
     near = np.stack(np.meshgrid(around, around, indexing="ij"), axis=-1).reshape(-1, 2)
@@ -221,6 +223,7 @@ def _append_by_chunk(folder: Path, records: np.ndarray, col: np.ndarray, row: np
     for k in np.flatnonzero(counts):
         with open(folder / f"chunk_{chunks[k, 0]}_{chunks[k, 1]}.bin", "ab") as fh:
             copies[starts[k]:starts[k] + counts[k]].tofile(fh)
+    return len(order)
 
 
 @compiled(nogil=True)

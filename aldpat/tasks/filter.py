@@ -323,8 +323,9 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
                              workers=ctx.workers)
         where = "the Dask cluster" if on_dask_worker() else f"{ctx.workers} process(es)"
         ctx.note(f"--chunk: {done.chunks} chunks of {plan.lattice.size:g} m ({plan.cells} cells) with "
-                 f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {done.points} points, on "
-                 f"{where}; the chunks' own filtering {done.seconds:.1f} s")
+                 f"{plan.lattice.buffer:g} m buffers over {len(sources)} input(s), {done.points} points "
+                 f"({done.filtered} filtered with the buffers' copies), on {where}; the chunks' own "
+                 f"filtering {done.seconds:.1f} s")
         offset = 0
         for src, reader, outs, count in zip(sources, readers, outputs, counts, strict=False):
             _write_from_classes(src, reader, outs, params, ctx, StoredClasses(done.marks, done.classes, offset, params),

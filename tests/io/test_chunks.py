@@ -50,6 +50,7 @@ def test_every_chunk_holds_what_the_rule_puts_in_it_in_input_order(size, buffer,
         assert spilled.chunks == sorted(set(zip(col.tolist(), row.tolist(), strict=True)), key=lambda cr: (cr[1], cr[0]))
         found = {tuple(int(v) for v in p.stem.split("_")[1:]): p for p in spilled.folder.glob("chunk_*.bin")}
         assert set(found) == set(expected)
+        assert spilled.spilled == sum(len(rows) for rows in expected.values())  # each copy counted once
         for (c, r), rows in expected.items():
             got = spilled.read(c, r)
             assert got["row"].tolist() == rows
