@@ -256,6 +256,8 @@ def _place_copies(x: np.ndarray, y: np.ndarray, col: np.ndarray, row: np.ndarray
                         lo = mid + 1
                     else:
                         hi = mid
+                if lo == m or chunk_cols[lo] != c or chunk_rows[lo] != r:
+                    continue  # not among the chunks (cannot be: they hold every point's reach); no stray write
                 if filling:
                     order[at[lo]] = i
                 at[lo] += 1
