@@ -127,6 +127,15 @@ def steps_between(lo: float, hi: float, cell: float, what: str = "range") -> flo
     return steps
 
 
+def steps_from_origin(lo: float, hi: float, cell: float, what: str) -> float:
+    """``(hi - lo) / cell`` where only a finite count is asked for: the cells from a grid's origin
+    to the data, which may be many more than the grid has (UTM northings at millimetre cells)."""
+    steps = (hi - lo) / cell
+    if not math.isfinite(steps):
+        raise DataError(f"{what} {lo:g} .. {hi:g} at {cell:g} m cells is not a finite number of cells")
+    return steps
+
+
 def from_bounds(minx: float, miny: float, maxx: float, maxy: float, cell: float) -> GridSpec:
     """Nodes on the bounds themselves (the first and last row and column lie on them)."""
     if not cell > 0:
@@ -141,9 +150,14 @@ def from_data(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     if not cell > 0:
         raise UsageError(f"cell size must be positive, got {cell:g}")
     ox, oy = origin
-    lo_x = ox + math.floor(steps_between(ox, float(np.min(x)), cell, "x")) * cell
-    lo_y = oy + math.floor(steps_between(oy, float(np.min(y)), cell, "y")) * cell
-    nx = math.ceil(steps_between(lo_x, float(np.max(x)), cell, "x") - _WHOLE) + 1
-    ny = math.ceil(steps_between(lo_y, float(np.max(y)), cell, "y") - _WHOLE) + 1
+    x_min, x_max, y_min, y_max = float(np.min(x)), float(np.max(x)), float(np.min(y)), float(np.max(y))
+    # The data's own extent decides whether a grid can hold it (and names it in the refusal);
+    # the whole cells from the origin to it may be many more (UTM northings at millimetre cells).
+    steps_between(x_min, x_max, cell, "x")
+    steps_between(y_min, y_max, cell, "y")
+    lo_x = ox + math.floor(steps_from_origin(ox, x_min, cell, "x")) * cell
+    lo_y = oy + math.floor(steps_from_origin(oy, y_min, cell, "y")) * cell
+    nx = math.ceil(steps_between(lo_x, x_max, cell, "x") - _WHOLE) + 1
+    ny = math.ceil(steps_between(lo_y, y_max, cell, "y") - _WHOLE) + 1
     # Surfer grids need two nodes a side to define a spacing.
     return GridSpec(lo_x, lo_y, cell, cell, max(nx, 2), max(ny, 2))

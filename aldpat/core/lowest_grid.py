@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat.core.grid_extent import steps_between
+from aldpat.core.grid_extent import steps_between, steps_from_origin
 from aldpat.core.resources import check_memory, count_text
 from aldpat.errors import DataError
 
@@ -102,10 +102,12 @@ def grid_spec(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
         return CellGridSpec(ox, oy, float(cell), 0, 0)
     xmin, ymin, xmax, ymax = extent if extent is not None else (
         float(np.min(x)), float(np.min(y)), float(np.max(x)), float(np.max(y)))
-    c0 = math.floor(steps_between(ox, xmin, cell, "x"))
-    c1 = math.floor(steps_between(ox, xmax, cell, "x"))
-    r0 = math.floor(steps_between(oy, ymin, cell, "y"))
-    r1 = math.floor(steps_between(oy, ymax, cell, "y"))
+    steps_between(xmin, xmax, cell, "x")  # the refusal names the data's extent, not the origin's distance
+    steps_between(ymin, ymax, cell, "y")
+    c0 = math.floor(steps_from_origin(ox, xmin, cell, "x"))
+    c1 = math.floor(steps_from_origin(ox, xmax, cell, "x"))
+    r0 = math.floor(steps_from_origin(oy, ymin, cell, "y"))
+    r1 = math.floor(steps_from_origin(oy, ymax, cell, "y"))
     rows, cols = r1 - r0 + 1, c1 - c0 + 1
     if rows * cols > MAX_CELLS:
         raise DataError(

@@ -45,6 +45,9 @@ def load_toml(path: str | Path) -> dict:
         raise UsageError(f"cannot read: {(exc.strerror or str(exc)).lower()}", path=path) from None
     try:
         return tomllib.loads(text)
+    except RecursionError:  # arrays or tables nested thousands deep: the parser recurses once a level
+        raise UsageError("TOML nested too deep to read (arrays or inline tables within each other); "
+                         "is it the right file?", path=path) from None
     except tomllib.TOMLDecodeError as exc:
         # tomllib says "... (at line 3, column 7)": keep the line as ours
         message = str(exc)

@@ -11,7 +11,6 @@ or more.
 
 from __future__ import annotations
 
-import glob
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -37,6 +36,9 @@ _NAMED = 5
 MAX_LIST_DEPTH = 16
 #: the largest ``@list`` file read: ten million paths of a hundred characters
 MAX_LIST_BYTES = 1 << 30
+#: the most files one pattern may match (a project of a million tiles is far beyond any seen)
+MAX_PATTERN_MATCHES = 1_000_000
+_MAGIC = frozenset("*?[")
 
 
 def never_an_input(path: Path) -> bool:
@@ -138,8 +140,11 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
             continue
         path = _rooted(item, base)
         if any(ch in item for ch in "*?[") and not path.is_file():  # a file named "x[1].txt" is that file
-            matches = sorted(Path(p) for p in glob.glob(str(path), recursive=True))
-            matches = [m for m in matches if m.is_file() and not never_an_input(m)]
+            try:
+                matches = sorted(m for m in pattern_files(path) if not never_an_input(m))
+            except InputFormatError as exc:
+                errors.append(exc)
+                continue
             if not matches:
                 errors.append(InputMissingError("no file matches this pattern", path=item))
             out += matches
@@ -157,6 +162,39 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
             out.append(path)
         else:
             errors.append(InputMissingError("no such file", path=path))
+
+
+def pattern_files(pattern: Path) -> list[Path]:
+    """The files a pattern matches, as the shell's ``globstar`` finds them: ``**`` is any number of
+    folders but never enters a linked folder (a link to a parent would make the walk endless),
+    ``*`` and ``?`` skip hidden names unless the pattern's part starts with a dot. More than
+    :data:`MAX_PATTERN_MATCHES` files is refused (:class:`InputFormatError`) as they are found."""
+    parts = pattern.parts
+    fixed = next((i for i, part in enumerate(parts) if _MAGIC & set(part)), len(parts))
+    anchor, rest = Path(*parts[:fixed]) if fixed else Path("."), parts[fixed:]
+    if not rest:
+        return [pattern] if pattern.is_file() else []
+    if not anchor.is_dir():
+        return []
+    if rest[-1] == "**":  # every file below, as glob's recursive "**" (a path's "**" lists folders)
+        rest = (*rest, "*")
+    hidden_asked = any(part.startswith(".") for part in rest)
+    found: list[Path] = []
+    try:
+        for match in anchor.glob("/".join(rest)):
+            relative = match.parts[len(anchor.parts):] if fixed else match.parts
+            if not hidden_asked and any(part.startswith(".") for part in relative):
+                continue
+            if not match.is_file():
+                continue
+            found.append(match)
+            if len(found) > MAX_PATTERN_MATCHES:
+                raise InputFormatError(f"pattern matches more than {MAX_PATTERN_MATCHES:,} files; "
+                                       "name fewer (a folder, or a narrower pattern)", path=pattern)
+    except OSError as exc:
+        raise InputFormatError(f"cannot search for this pattern: {(exc.strerror or str(exc)).lower()}",
+                               path=pattern) from None
+    return found
 
 
 def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:

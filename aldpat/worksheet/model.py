@@ -93,7 +93,7 @@ def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None,
         target, text = item.split("=", 1)
         try:
             value = tomllib.loads(f"v = {text}")["v"]
-        except tomllib.TOMLDecodeError:
+        except (tomllib.TOMLDecodeError, RecursionError):
             value = text
         parts = target.split(".")
         if len(parts) == 3 and parts[0] == "job" and parts[1].isdigit():

@@ -33,6 +33,35 @@ def test_inputs_as_files_globs_folders_and_lists(tmp_path, samp24):
     assert "no file matches this pattern" in str(errors[0])
 
 
+def test_a_pattern_walks_folders_once_and_not_through_links(tmp_path, samp24):
+    """``**`` as the shell's globstar: every folder below, but a linked folder is not entered, so a
+    link back to a parent (common in project trees) cannot make the walk endless."""
+    folder = _tiles(tmp_path, samp24, n=2)
+    deep = folder / "a" / "b"
+    deep.mkdir(parents=True)
+    shutil.copy(folder / "tile_0.txt", deep / "tile_9.txt")
+    (deep / "up").symlink_to(tmp_path)
+    (deep / "up2").symlink_to(folder)
+    (folder / ".hidden").mkdir()
+    shutil.copy(folder / "tile_0.txt", folder / ".hidden" / "tile_8.txt")
+    got, errors = expand_inputs([str(tmp_path / "**" / "tile_*.txt")])
+    assert sorted(p.name for p in got) == ["tile_0.txt", "tile_1.txt", "tile_9.txt"] and errors == []
+    got, _ = expand_inputs([str(folder / "**")])  # "**" last: every file below, as glob's
+    assert sorted(p.name for p in got) == ["tile_0.txt", "tile_1.txt", "tile_9.txt"]
+    got, _ = expand_inputs(["tiles/*.txt"], base=tmp_path)
+    assert [p.name for p in got] == ["tile_0.txt", "tile_1.txt"]
+
+
+def test_a_pattern_matching_too_many_files_is_refused(tmp_path, samp24, monkeypatch):
+    from aldpat.jobs import inputs
+
+    folder = _tiles(tmp_path, samp24, n=4)
+    monkeypatch.setattr(inputs, "MAX_PATTERN_MATCHES", 3)
+    got, errors = expand_inputs([str(folder / "*.txt"), str(folder / "tile_0.txt")])
+    assert [p.name for p in got] == ["tile_0.txt"]
+    assert len(errors) == 1 and "matches more than 3 files" in str(errors[0])
+
+
 def test_a_folder_gives_its_point_files_and_skips_the_rest(tmp_path, samp24):
     """A project folder as aldpat leaves it: its own side files are skipped without a word, a
     file that is not points is named in one line, and neither fails the run."""

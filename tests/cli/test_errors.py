@@ -115,6 +115,14 @@ def test_toml_syntax_error_in_a_params_file(tmp_path, samp24, content, line):
     assert f"p.toml:{line}: TOML syntax error" in proc.stderr
 
 
+def test_a_params_file_nested_too_deep_is_one_message(tmp_path, samp24):
+    p = tmp_path / "p.toml"
+    p.write_text("cell = " + "[" * 50_000 + "]" * 50_000 + "\n")
+    proc = run("convert", samp24, "--params", p)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "p.toml: TOML nested too deep to read" in proc.stderr
+
+
 def test_usage_errors_exit_2(tmp_path, samp24):
     proc = run("convert", samp24, "--delimiter", "semicolon")
     assert proc.returncode == 2 and "delimiter: 'semicolon' is not one of space, comma" in proc.stderr

@@ -83,3 +83,16 @@ def test_nearest_node_cells_are_centred_on_nodes():
     col, _row, inside = spec.nearest_node(np.array([-0.5, -0.51, 0.49, 2.49, 2.5]), np.array([0.0, 0, 1, 2, 2]))
     np.testing.assert_array_equal(col, [0, -1, 0, 2, 3])
     np.testing.assert_array_equal(inside, [True, False, True, True, False])
+
+
+def test_millimetre_cells_on_utm_coordinates_are_a_grid_of_the_data_alone():
+    # 5,420,300 m from the origin is 2.7e9 cells of 2 mm, more than a grid holds a side; the
+    # data span 0.45 x 0.28 m, 226 x 142 nodes, which a grid holds.
+    spec = from_data(np.array([494200.05, 494200.5]), np.array([5420300.02, 5420300.3]), 0.002)
+    assert (spec.nx, spec.ny) == (226, 142)
+    assert spec.xmin <= 494200.05 < spec.xmin + spec.dx
+
+
+def test_a_refused_cell_names_the_datas_extent():
+    with pytest.raises(DataError, match=r"x 494200 \.\. 494800 at 1e-300 m cells"):
+        from_data(np.array([494200.05, 494799.97]), np.array([5420300.0, 5420500.0]), 1e-300)

@@ -167,3 +167,13 @@ def test_fill_nearest_reports_each_cells_distance_from_its_point():
     full = np.empty((2, 2), np.uint8)
     fill_nearest(np.ones((2, 2)), spacing=full)
     assert (full == 0).all()
+
+
+def test_millimetre_cells_far_from_the_origin_grid_the_data_alone():
+    x = np.array([494200.051, 494200.5])
+    y = np.array([5420300.021, 5420300.3])
+    spec = grid_spec(x, y, 0.002)
+    # floor(x / 0.002): 247,100,025 .. 247,100,250; floor(y / 0.002): 2,710,150,010 .. 2,710,150,150
+    assert (spec.rows, spec.cols) == (141, 226)
+    low = lowest_grid(x, y, np.array([1.0, 2.0]), 0.002)
+    assert np.count_nonzero(~low.empty) == 2

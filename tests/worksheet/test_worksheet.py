@@ -58,6 +58,7 @@ CONVERT_THEN_INFO = """
     ('[settings]\ndelimeter = "comma"\n[[job]]\ntask = "info"\ninputs = ["raw/a.txt"]\n',
      "settings: unknown key 'delimeter'; did you mean 'delimiter'?"),
     ('[[job]]\ntask = "info"\ninputs = ["raw/a.txt"\n', "TOML syntax error"),
+    ("depth = " + "[" * 50_000 + "]" * 50_000 + "\n", "TOML nested too deep to read"),
 ])
 def test_validation_names_job_and_key_before_anything_runs(project, body, message):
     p = sheet(project, body)
