@@ -158,8 +158,10 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
             if not files:
                 errors.append(InputMissingError("folder holds no point files", path=path))
             out += files
-        elif path.exists():
+        elif path.is_file():
             out.append(path)
+        elif path.exists():  # a pipe would block the batch until something writes to it
+            errors.append(InputFormatError("is not a regular file (a pipe, a device or a socket)", path=path))
         else:
             errors.append(InputMissingError("no such file", path=path))
 

@@ -52,6 +52,17 @@ def test_a_pattern_walks_folders_once_and_not_through_links(tmp_path, samp24):
     assert [p.name for p in got] == ["tile_0.txt", "tile_1.txt"]
 
 
+def test_a_pipe_or_a_device_is_refused_not_waited_on(tmp_path, samp24):
+    import os
+
+    pipe = tmp_path / "strip.las"
+    os.mkfifo(pipe)
+    got, errors = expand_inputs([str(pipe), "/dev/zero", str(samp24)])
+    assert [p.name for p in got] == ["samp24.txt"]
+    assert [str(e) for e in errors] == [f"{pipe}: is not a regular file (a pipe, a device or a socket)",
+                                        "/dev/zero: is not a regular file (a pipe, a device or a socket)"]
+
+
 def test_a_pattern_matching_too_many_files_is_refused(tmp_path, samp24, monkeypatch):
     from aldpat.jobs import inputs
 
