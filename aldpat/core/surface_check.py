@@ -99,7 +99,8 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
     everywhere = all(ground_rows(a, a + STRIP_ROWS).all() for a in range(0, rows, STRIP_ROWS))
     if min(rows, cols) <= 2 or everywhere:  # the finest level is the coarsest: relax it whole
         value, weight = finest(0, rows)
-        return _relax(value, weight >= 1.0, 4 * SWEEPS)
+        fixed = weight >= 1.0
+        return _relax(_seeded(value, fixed), fixed, 4 * SWEEPS)
     value = np.empty(((rows + 1) // 2, (cols + 1) // 2), np.float32)
     weight = np.empty_like(value)
 
@@ -135,10 +136,25 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
 def _push_up(levels: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     """The pyramid's ``(value, weight)`` levels, finest first, relaxed from the coarsest up to the
     finest of them (:func:`_push`)."""
-    value = _relax(levels[-1][0], levels[-1][1] >= 1.0, 4 * SWEEPS)
+    fixed = levels[-1][1] >= 1.0
+    value = _relax(_seeded(levels[-1][0], fixed), fixed, 4 * SWEEPS)
     for fine_value, fine_weight in reversed(levels[:-1]):
         value = _push(value, fine_value, fine_weight >= 1.0)
     return value
+
+
+def _seeded(value: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """The coarsest level's cells without ground given the value of the nearest cell with ground,
+    the start of its sweeps. The pyramid stops at two cells across, so on a long narrow grid (a
+    corridor, a strip of a tile, points along one line) that level can still hold long runs
+    without ground; sweeps started from 0 there reach a few cells in, and the surface sagged
+    towards 0 m between ground cells tens of metres apart (every point above it not ground)."""
+    if fixed.all() or not fixed.any():
+        return value
+    from scipy.ndimage import distance_transform_edt
+
+    nearest = distance_transform_edt(~fixed, return_distances=False, return_indices=True)
+    return value[tuple(nearest)]
 
 
 def _push(value: np.ndarray, fine_value: np.ndarray, fixed: np.ndarray) -> np.ndarray:
@@ -198,8 +214,6 @@ def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:  # 
     """Jacobi sweeps of Laplace's equation on the cells not ``fixed`` (edges mirror): each cell
     the float32 ``(((up + down) + left) + right) * 0.25`` of its neighbours before the sweep."""
     rows, cols = value.shape
-    if rows < 2 or cols < 2:
-        return value
     now = value.copy()
     after = value.copy()
     quarter = np.float32(0.25)
