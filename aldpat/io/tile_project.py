@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.errors import DataError
+from aldpat.errors import AldpatError, DataError
 from aldpat.io.registry import open_points
 from aldpat.io.tile_parameters import PARAMETER_FILE, TileRow, read_tile_parameters, row_for
 
@@ -159,5 +159,14 @@ def tile_points(job: TileJob, reach: float, *, fmt: str | None = None, keep: Kee
             warn(f"{job.source.name}: no file {job.file_of(row).name} for the neighbouring tile "
                  f"{row.path.name}: its points near the edge are this tile's buffer points")
     parts = [owned_points(job.source, [job.row, *missing], region, fmt=fmt, keep=keep)]
-    parts += [owned_points(path, [row], region, fmt=fmt, keep=keep) for row, path in present if row not in missing]
+    for row, path in present:
+        if row in missing:
+            continue
+        try:
+            parts.append(owned_points(path, [row], region, fmt=fmt, keep=keep))
+        except AldpatError:
+            # without its points the shared edge would differ from the neighbour's once it is
+            # mended, so the tile waits for it (its own job says what is wrong with it, once)
+            raise DataError(f"needs the points of its neighbouring tile {path.name} within {reach:g} m, and that "
+                            "file cannot be read (its own line says why)", path=job.source) from None
     return parts

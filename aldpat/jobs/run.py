@@ -116,7 +116,11 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
             passed: list[JobResult] = []
             _execute(task, first, dataclasses.replace(run, stage="first"), command, scheduler, wanted, passed,
                      progress)
-            results += [r for r in passed if not r.ok]  # the task's jobs say what it means for them
+            failed = [r for r in passed if not r.ok]
+            results += failed  # the task's jobs say what it means for the others
+            # an input whose first pass failed has said why: its own job would only say it again
+            said = {Path(r.inputs[0]).resolve() for r in failed if r.inputs}
+            jobs = [job for job in jobs if Path(job[0]).resolve() not in said]
         _execute(task, jobs, run, command, scheduler, wanted, results, progress)
     if task.finish is not None:
         last = execute_finish(task, results, run, command)

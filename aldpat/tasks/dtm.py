@@ -207,19 +207,38 @@ def points_used(params: DtmParams):
     return used
 
 
-def _buffer_points(ctx: JobContext, region: Bounds, used, occupancy: Occupancy
+def _buffer_points(ctx: JobContext, source: Path, region: Bounds, used, occupancy: Occupancy
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x, y, z of the neighbours' points inside ``region`` that ``used`` selects, read chunk by
-    chunk; every point inside ``region`` marks ``occupancy``."""
+    chunk; every point inside ``region`` marks ``occupancy``.
+
+    A neighbour that cannot be read whole (truncated, a bad line) takes no part, with a warning
+    naming it: its own job reports why, once, and this input's DTM is still made, as every
+    input of a batch runs whatever the others hold. Nothing of it is kept, not even the chunks
+    read before the fault, so the DTM is the one made without that neighbour."""
     xs, ys, zs = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
     for path in ctx.neighbours:
-        for chunk in units.counted(ctx.open_input(path).chunks(), f"read {path.name} (buffer)"):
-            near = region.holds(chunk.x, chunk.y)
-            occupancy.add(chunk.x[near], chunk.y[near])
-            inside = near & used(chunk)
-            xs.append(np.asarray(chunk.x[inside], np.float64))
-            ys.append(np.asarray(chunk.y[inside], np.float64))
-            zs.append(np.asarray(chunk.z[inside], np.float64))
+        near_x: list[np.ndarray] = []
+        near_y: list[np.ndarray] = []
+        taken: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        try:
+            for chunk in units.counted(ctx.open_input(path).chunks(), f"read {path.name} (buffer)"):
+                near = region.holds(chunk.x, chunk.y)
+                near_x.append(np.asarray(chunk.x[near], np.float64))
+                near_y.append(np.asarray(chunk.y[near], np.float64))
+                inside = near & used(chunk)
+                taken.append((np.asarray(chunk.x[inside], np.float64), np.asarray(chunk.y[inside], np.float64),
+                              np.asarray(chunk.z[inside], np.float64)))
+        except AldpatError:
+            ctx.warn(f"{source.name}: the buffer leaves out the neighbouring input {path.name}, which cannot be "
+                     "read (its own line says why); this DTM's edge towards it has only its own points")
+            continue
+        for x, y in zip(near_x, near_y, strict=True):
+            occupancy.add(x, y)
+        for x, y, z in taken:
+            xs.append(x)
+            ys.append(y)
+            zs.append(z)
     return np.concatenate(xs), np.concatenate(ys), np.concatenate(zs)
 
 
@@ -238,8 +257,11 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     if params.classes is None:
         ctx.note(_low_outlier_test(params.ground_params()))
     out = ctx.outputs_for(source)[0].path
-    raster, blank = terrain_raster(x, y, z, spec, params, crs=output_crs(params.crs, reader.crs, out, ctx.warn),
+    crs_lines: list[str] = []  # said once the DTM is made: a run that fails writes no DTM to speak of
+    raster, blank = terrain_raster(x, y, z, spec, params, crs=output_crs(params.crs, reader.crs, out, crs_lines.append),
                                    where=source, occupancy=occupancy, note=ctx.note)
+    for line in crs_lines:
+        ctx.warn(line)
     del x, y, z, occupancy
     units.stage("write")
     raster.write(out, format=params.grid_format, overwrite=ctx.overwrite)
@@ -296,7 +318,7 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
     occupancy.add(table.x, table.y)
     used = points_used(params)
     own = table.take(used(table))
-    bx, by, bz = _buffer_points(ctx, region, used, occupancy)
+    bx, by, bz = _buffer_points(ctx, source, region, used, occupancy)
     x = np.concatenate([np.asarray(own.x, np.float64), bx])
     y = np.concatenate([np.asarray(own.y, np.float64), by])
     z = np.concatenate([np.asarray(own.z, np.float64), bz])
@@ -359,7 +381,8 @@ def terrain_raster(x: np.ndarray, y: np.ndarray, z: np.ndarray, spec: GridSpec, 
     point read, of any class) within ``max_gap`` are blank (:mod:`aldpat.core.data_gaps`)."""
     if len(x) == 0:
         raise DataError(f"no ground point found by {_how(params)}: no terrain to grid", path=where)
-    check_spread(x, y, "linear", where)
+    check_spread(x, y, "linear", where, needs="a DTM's TIN of the ground points",
+                 advice="'aldpat grid --method nearest' grids fewer")
     units.stage("triangulate")
     # float32 nodes: the values the GeoTIFF holds (each rounded once, from the TIN's float64
     # arithmetic), in half the memory of float64 ones
@@ -404,15 +427,13 @@ def first_jobs(sources: list[Path], params: DtmParams, input_params) -> list[lis
     jobs: list[list[str]] = []
     if params.classes is not None:
         return jobs
+    tiles = [(s, tile) for s in sources if (tile := _tile_or_none(s, params)) is not None]
     seen: set[Path] = set()
-    for s in sources:
-        tile = _tile_or_none(s, params)
-        if tile is None:
-            continue
-        for path in [s, *(tile.file_of(row) for row in tile.near(params.buffer))]:
-            if path.resolve() not in seen and path.is_file():
-                seen.add(path.resolve())
-                jobs.append([str(path)])
+    # the inputs first, named as they were given (their lines say so), then the other neighbours
+    for path in [s for s, _ in tiles] + [tile.file_of(row) for _, tile in tiles for row in tile.near(params.buffer)]:
+        if path.resolve() not in seen and path.is_file():
+            seen.add(path.resolve())
+            jobs.append([str(path)])
     return jobs
 
 
@@ -447,11 +468,14 @@ def classify_tile(source: Path, params: DtmParams, ctx: JobContext) -> None:
     _classes_file(ctx.scratch, source, ".txt").write_text("\n".join(ctx.result.notes), encoding="utf-8")
 
 
-def _ground_of(part: OwnedPoints, scratch: Path | None) -> np.ndarray:
+def _ground_of(part: OwnedPoints, scratch: Path | None, tile: TileJob) -> np.ndarray:
+    """The first pass's ground flags of ``part``'s points; ``tile``: the DTM's own tile."""
     path = _classes_file(scratch, part.path)
     if not path.is_file():
-        raise DataError(f"the ground classes of {part.path.name} are missing: the ground filter failed on it",
-                        path=part.path)
+        if Path(part.path).resolve() == Path(tile.source).resolve():
+            raise DataError("its ground classes are missing: the ground filter failed on it", path=tile.source)
+        raise DataError(f"needs the ground classes of its neighbouring tile {part.path.name}, which the ground "
+                        "filter could not make (its line says why)", path=tile.source)
     return np.load(path, mmap_mode="r")[part.index] == 1
 
 
@@ -466,7 +490,7 @@ def dtm_over_tiles(tile: TileJob, params: DtmParams, ctx: JobContext) -> None:
         parts = tile_points(tile, params.buffer, fmt=fmt, warn=ctx.warn)
         for line in _classes_file(ctx.scratch, tile.source, ".txt").read_text(encoding="utf-8").splitlines():
             ctx.note(line)  # what the first pass found (--auto's parameters)
-        ground = np.concatenate([_ground_of(p, ctx.scratch) for p in parts])
+        ground = np.concatenate([_ground_of(p, ctx.scratch, tile) for p in parts])
     x, y, z = (np.concatenate([getattr(p, a) for p in parts])[ground] for a in "xyz")
     own, own_ground = len(parts[0].x), int(ground[:len(parts[0].x)].sum())
     ctx.note(f"{int(ground.sum())} ground points within {params.buffer:g} m of the core of {tile.source.name}, "

@@ -202,8 +202,10 @@ def selected(chunks, keep: Keep):
 SURFACE_METHODS = ("linear", "kriging")
 
 
-def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path | None) -> None:
-    """Refuse, with a message saying why, points a TIN or a variogram cannot be built on."""
+def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path | None, *,
+                 needs: str | None = None, advice: str = "use --method nearest, idw or mean") -> None:
+    """Refuse, with a message saying why, points a TIN or a variogram cannot be built on.
+    ``needs``: what needs them (default ``--method METHOD``); ``advice``: what to do instead."""
     if np.ptp(x) == 0 and np.ptp(y) == 0:
         distinct = x[:1]
     elif len(x) > 4096:
@@ -212,8 +214,8 @@ def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path | None)
         distinct = np.unique(np.c_[x, y], axis=0)
         if len(distinct) >= 3 and np.linalg.matrix_rank(distinct - distinct.mean(axis=0), tol=1e-9) == 2:
             return
-    raise DataError(f"--method {method} needs at least 3 distinct points not all on one line; this file has "
-                    f"{len(distinct)} distinct (use --method nearest, idw or mean)", path=source)
+    raise DataError(f"{needs or f'--method {method}'} needs at least 3 distinct points not all on one line; "
+                    f"this file has {len(distinct)} distinct ({advice})", path=source)
 
 
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:

@@ -60,6 +60,7 @@ COMMANDS: dict[str, tuple[list[str], str, str | None]] = {
     "info": ([], "points", None),
     "convert": (["--out-format", "laz"], "points", ""),
     "grid": (["--cell", "2"], "points", ""),
+    "dtm": (["--cell", "2"], "points", "_dtm"),
     "thin": (["--cell-width", "2", "--cell-height", "2"], "points", "_thin"),
     "polygon-extract": (["--polygon", "{root}/polygon.txt"], "points", "_poly"),
     "strip-boundary": (["--cell-width", "4", "--cell-height", "4"], "points", "_Bound"),
@@ -149,6 +150,7 @@ def test_accepted_tapes_keep_every_shot(corpus, tmp_path):
 
 # Tasks that need more than a point or two: they refuse such files with one line each.
 NEEDS_SEVERAL = {"grid": "needs at least 3 distinct points not all on one line",
+                 "dtm": "a DTM's TIN of the ground points needs at least 3 distinct points",
                  "strip-boundary": "too few occupied cells for a boundary"}
 
 

@@ -115,3 +115,32 @@ def test_the_readme_workflow_runs_as_written(tmp_path):
         assert proc.returncode == 0 and "Traceback" not in proc.stderr, f"{line}\n{proc.stderr}"
     assert (tmp_path / "dtm" / "dtm.vrt").exists() and (tmp_path / "site_gapm.laz").exists()
     assert list((tmp_path / "grids").glob("tile_*_gapm_idw.grd"))
+
+
+def test_a_tile_that_cannot_be_read_fails_with_the_tiles_that_need_it_and_no_other(tmp_path):
+    """One truncated tile among ten: it fails in one line of its own; each tile within the buffer
+    of it fails in one line naming it, and each tile needing the ground classes of one of those
+    in one line naming that one (their shared edges wait for the tile to be mended); the tiles
+    farther away are made. Nothing is said twice."""
+    from tests.cli.fresh import DATA
+
+    aldpat("tile", DATA / "samp24.txt", "--width", "30", "--height", "40", "--out-format", "laz", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    bad = tmp_path / "tiles" / "tile_513720_5403120.laz"
+    data = bad.read_bytes()
+    bad.write_bytes(data[:len(data) * 2 // 3])
+    done = aldpat("dtm", "tiles", "--cell", "1", "--buffer", "10", "--odir", "dtm", cwd=tmp_path)
+    assert done.returncode == 1
+    lines = [ln for ln in done.stderr.splitlines() if ln.startswith("aldpat:") and "without a CRS" not in ln]
+    assert lines[0] == ("aldpat: tiles/tile_513720_5403120.laz: truncated or corrupt LAS/LAZ (IoError: failed to "
+                        "fill whole buffer)")
+    points = re.findall(r"(tile_\d+_\d+)\.laz: needs the points of its neighbouring tile tile_513720_5403120\.laz "
+                        r"within 10 m", done.stderr)
+    assert sorted(points) == ["tile_513720_5403160", "tile_513750_5403120", "tile_513750_5403160"]
+    classes = re.findall(r"(tile_\d+_\d+)\.laz: needs the ground classes of its neighbouring tile "
+                         r"tile_513750_5403120\.laz", done.stderr)
+    assert sorted(classes) == ["tile_513780_5403120", "tile_513780_5403160"]
+    assert lines[-1] == "aldpat: 6 of 10 inputs failed" and len(lines) == 7, done.stderr
+    assert sorted(p.name for p in (tmp_path / "dtm").glob("*.tif")) == [
+        f"tile_{x}_{y}_dtm.tif" for x in (513810, 513840) for y in (5403120, 5403160)]
+    assert leftovers(tmp_path) == []

@@ -146,6 +146,32 @@ def test_neighbours_are_the_inputs_within_the_buffer(tmp_path):
     assert point_bounds(sources[1]) == Bounds(200.0, 0.0, 300.0, 100.0)
 
 
+def test_a_neighbour_that_cannot_be_read_leaves_the_others_dtm_made(tiles, tmp_path):
+    """A truncated neighbour fails alone, in one line of its own; the input beside it is still
+    made, from its own points at that edge (the DTM made without the neighbour), with a warning."""
+    import laspy
+
+    rows = np.loadtxt(tiles / "tile_10.txt")
+    las = laspy.LasData(laspy.LasHeader(point_format=0, version="1.2"))
+    las.header.scales, las.header.offsets = [0.01] * 3, [513000.0, 5403000.0, 0.0]
+    las.x, las.y, las.z = rows[:, 0], rows[:, 1], rows[:, 2]
+    las.write(tmp_path / "whole.laz")
+    bad = tmp_path / "tile_10.laz"  # its header whole (its extent known), its points cut short
+    data = (tmp_path / "whole.laz").read_bytes()
+    bad.write_bytes(data[:len(data) * 2 // 3])
+    good = tmp_path / "tile_00.txt"
+    good.write_text((tiles / "tile_00.txt").read_text())
+    report = get_task("dtm")([good, bad], odir=str(tmp_path / "both"), crs="EPSG:32632")
+    assert report.exit_code == 1
+    failed = [r for r in report.results if r.error is not None]
+    assert len(failed) == 1 and "tile_10.laz: truncated or corrupt LAS/LAZ" in str(failed[0].error)
+    log = (tmp_path / "both" / "tile_00_dtm.log").read_text()
+    assert "the buffer leaves out the neighbouring input tile_10.laz, which cannot be read" in log
+    run_dtm([good], tmp_path / "alone")
+    with rasterio.open(tmp_path / "both" / "tile_00_dtm.tif") as a, rasterio.open(tmp_path / "alone" / "tile_00_dtm.tif") as b:
+        assert np.array_equal(a.read(1), b.read(1))
+
+
 def shared_nodes_differing(folder: Path) -> tuple[int, int]:
     """(nodes held by two DTMs or more, of them those whose values differ in any bit)."""
     seen: dict[tuple[int, int], list[bytes]] = {}
