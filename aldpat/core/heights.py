@@ -30,6 +30,7 @@ A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` n
 from __future__ import annotations
 
 import logging
+import struct
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -123,6 +124,29 @@ def _vgridshift(grids: str) -> pyproj.Transformer:
         "+step +proj=unitconvert +xy_in=rad +xy_out=deg")
 
 
+#: A GTX file's header: south latitude, west longitude, the latitude and longitude steps
+#: (degrees, big-endian float64), the rows and columns (big-endian int32); float32 values follow.
+_GTX_HEADER = struct.Struct(">4d2i")
+
+
+def check_gtx_header(path: Path) -> None:
+    """Refuse a GTX grid whose header does not describe the file (:class:`UsageError`) before
+    PROJ reads it: a header claiming 2^30 x 2^30 values had PROJ take 4 GB and 13 s on a file of
+    100 bytes before saying no point lies in it."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(_GTX_HEADER.size)
+    if len(head) < _GTX_HEADER.size:
+        raise UsageError(f"cannot open geoid grid {str(path)!r}: shorter than a GTX header ({len(head)} bytes)")
+    south, west, dlat, dlon, rows, cols = _GTX_HEADER.unpack(head)
+    if not all(np.isfinite([south, west, dlat, dlon])) or not (dlat > 0 and dlon > 0) or rows < 1 or cols < 1:
+        raise UsageError(f"cannot open geoid grid {str(path)!r}: its GTX header is not a grid (origin {south:g}, "
+                         f"{west:g}, steps {dlat:g}, {dlon:g} degrees, {rows} x {cols} values)")
+    if _GTX_HEADER.size + 4 * rows * cols > size:
+        raise UsageError(f"cannot open geoid grid {str(path)!r}: its header says {rows:,} x {cols:,} values, "
+                         f"the file holds {max(0, size - _GTX_HEADER.size) // 4:,}")
+
+
 def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
     """The undulation transformer of a grid file or of a grid PROJ knows by name.
 
@@ -134,6 +158,8 @@ def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
     text = str(geoid)
     path = Path(text).expanduser()
     if path.is_file():
+        if path.suffix.lower() == ".gtx":
+            check_gtx_header(path)
         try:
             return _vgridshift('"' + str(path.resolve()) + '"'), str(path)
         except pyproj.exceptions.ProjError:

@@ -118,6 +118,19 @@ def test_bad_parameters_are_reported_before_work(tmp_path):
         HeightConverter("EPSG:4326", junk)
 
 
+@pytest.mark.parametrize("header, message", [
+    ((-90.0, 0.0, 0.25, 0.25, 2**30, 2**30), "its header says 1,073,741,824 x 1,073,741,824 values, the file holds 25"),
+    ((-90.0, 0.0, -0.25, 0.25, 10, 10), "its GTX header is not a grid"),
+    ((float("nan"), 0.0, 0.25, 0.25, 10, 10), "its GTX header is not a grid"),
+    ((-90.0, 0.0, 0.25, 0.25, 0, 10), "its GTX header is not a grid"),
+])
+def test_a_gtx_header_not_describing_its_file_is_refused_before_proj_reads_it(tmp_path, header, message):
+    grid = tmp_path / "hostile.gtx"
+    grid.write_bytes(struct.pack(">4d2i", *header) + bytes(100))
+    with pytest.raises(UsageError, match=message):
+        HeightConverter("EPSG:4326", grid)
+
+
 def test_grid_found_by_name_in_proj_data_folders(tmp_path):
     import shutil
 
