@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import copy
 import math
+import struct
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy as np
 
@@ -63,6 +64,60 @@ def generating_software() -> str:
     return f"aldpat {__version__}"[:32]
 
 
+#: LAS header fields (LAS 1.4 R15, Table 3): header size, offset to the point data, number of
+#: variable length records; from LAS 1.4, the start of the first extended one and their number
+_HEADER_SIZES = struct.Struct("<HII")
+_EVLR_PLACE = struct.Struct("<QI")
+#: a variable length record's header (54 bytes) and an extended one's (60): the length of what
+#: follows each sits at byte 20
+_VLR_HEADER, _EVLR_HEADER = 54, 60
+
+
+def check_record_layout(path: Path) -> None:
+    """Refuse (:class:`InputFormatError`) a LAS/LAZ whose header places its variable length
+    records where the file cannot hold them, before laspy reads them: it reads as many records as
+    the header counts, past the end of the file, and a header counting 2^32 - 1 of them took
+    24 GB and ten minutes. The records are walked by their headers alone (no record is read)."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(375)
+        if len(head) < 227 or head[:4] != b"LASF":
+            return  # laspy says what is wrong with it
+        point_format = head[104] & 0x3F  # a LAZ sets the top bit (and some writers the next)
+        if point_format > 10:
+            raise InputFormatError(f"LAS header: point format {head[104]} is not one of LAS's 0-10", path=path)
+        header_size, point_offset, vlr_count = _HEADER_SIZES.unpack_from(head, 94)
+        if not header_size <= point_offset <= size:
+            raise InputFormatError(f"LAS header: the points start at byte {point_offset:,}, outside the header's "
+                                   f"{header_size} bytes and the file's {size:,}", path=path)
+        if vlr_count * _VLR_HEADER > point_offset - header_size:
+            raise InputFormatError(f"LAS header: {vlr_count:,} variable length records cannot fit in the "
+                                   f"{point_offset - header_size:,} bytes before the points", path=path)
+        _walk_records(fh, path, header_size, vlr_count, point_offset, _VLR_HEADER, "<H")
+        if head[24:26] >= bytes((1, 4)) and len(head) >= 247:
+            evlr_start, evlr_count = _EVLR_PLACE.unpack_from(head, 235)
+            if evlr_count and (evlr_start > size or evlr_count * _EVLR_HEADER > size - evlr_start):
+                raise InputFormatError(f"LAS header: {evlr_count:,} extended variable length records from byte "
+                                       f"{evlr_start:,} cannot fit in the file's {size:,} bytes", path=path)
+            _walk_records(fh, path, evlr_start, evlr_count, size, _EVLR_HEADER, "<Q")
+
+
+def _walk_records(fh: BinaryIO, path: Path, start: int, count: int, end: int, header: int, length_format: str) -> None:
+    """Each of ``count`` records from ``start`` must end by ``end``: its header, then as many bytes
+    as the length at byte 20 of it says."""
+    at = start
+    for k in range(count):
+        fh.seek(at + 20)
+        raw = fh.read(struct.calcsize(length_format))
+        if len(raw) < struct.calcsize(length_format):
+            raise InputFormatError(f"LAS header: variable length record {k + 1} starts past the end of the file",
+                                   path=path)
+        at += header + struct.unpack(length_format, raw)[0]
+        if at > end:
+            raise InputFormatError(f"LAS header: variable length record {k + 1} runs to byte {at:,}, past byte "
+                                   f"{end:,} where it must end", path=path)
+
+
 def _corrupt(path: Path, exc: Exception) -> InputFormatError:
     text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
     return InputFormatError(f"truncated or corrupt LAS/LAZ ({text[:120]})", path=path)
@@ -77,6 +132,7 @@ class LasReader:
         self.path = Path(path)
         if not self.path.exists():
             raise InputMissingError("no such file", path=self.path)
+        check_record_layout(self.path)
         try:
             with laspy.open(self.path) as fh:
                 self.header = fh.header

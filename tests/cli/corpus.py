@@ -696,6 +696,14 @@ def las_header_cases(root: Path) -> list[Hostile]:
         ("four billion points in 20 kB", "count.las", 107, "<I", 2**32 - 1, r"truncated: header says 4294967295 points"),
         ("points outside the header's bounds", "tight.las", 179, "<d", 500010.0,
          r"point \d+ has x = .* outside the header's bounds"),
+        # the header size at 94, the offset to the points at 96, the number of records at 100,
+        # the point format at 104 (laspy read 2^32 - 1 records past the end: 24 GB)
+        ("four billion variable length records", "vlrs.las", 100, "<I", 2**32 - 1,
+         r"4,294,967,295 variable length records cannot fit in the \d+ bytes before the points"),
+        ("the points past the end of the file", "offset.las", 96, "<I", 2**32 - 256,
+         r"the points start at byte 4,294,967,040, outside"),
+        ("a header of 65535 bytes", "hsize.las", 94, "<H", 65535, r"outside the header's 65535 bytes"),
+        ("point format 99", "pf99.las", 104, "<B", 99, r"point format 99 is not one of LAS's 0-10"),
     ]
     cases = []
     for name, file, offset, fmt, value, message in broken:

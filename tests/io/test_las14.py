@@ -114,3 +114,30 @@ def test_outlier_noise_classes_in_text(tmp_path):
     assert set(np.flatnonzero(np.isin(cls, (7, 18)))) == {high, low}
     # the outlier filter finds noise, not ground: every other point is unclassified, none class 2
     assert set(np.unique(cls)) == {1, 7, 18}
+
+
+@pytest.mark.parametrize("where, value, message", [
+    ("count", 2**32 - 1, r"4,294,967,295 extended variable length records from byte [\d,]+ cannot fit"),
+    ("length", 2**60, r"variable length record 1 runs to byte [\d,]+, past byte [\d,]+ where it must end"),
+])
+def test_extended_records_the_file_cannot_hold_are_refused_before_laspy_reads_them(tmp_path, where, value, message):
+    import struct
+
+    from laspy.vlrs.vlrlist import VLRList
+
+    from aldpat.errors import InputFormatError
+    from aldpat.io.las import LasReader
+
+    data = las14(tmp_path / "whole.las", 6)
+    data.evlrs = VLRList([laspy.VLR("aldpat_test", 1, "a record after the points", b"x" * 100)])
+    data.write(tmp_path / "with_evlr.las")
+    raw = bytearray((tmp_path / "with_evlr.las").read_bytes())
+    start, count = struct.unpack_from("<QI", raw, 235)
+    assert count == 1 and LasReader(tmp_path / "with_evlr.las").count == len(data.x)
+    if where == "count":
+        struct.pack_into("<I", raw, 243, value)
+    else:
+        struct.pack_into("<Q", raw, start + 20, value)  # the length after the record's 60-byte header
+    (tmp_path / "hostile.las").write_bytes(bytes(raw))
+    with pytest.raises(InputFormatError, match=message):
+        LasReader(tmp_path / "hostile.las")
