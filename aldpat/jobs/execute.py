@@ -4,6 +4,7 @@ of that job (the other jobs go on), write the job's log."""
 from __future__ import annotations
 
 import logging
+import os
 import time
 import traceback
 from collections.abc import Callable
@@ -15,7 +16,7 @@ from aldpat.errors import AldpatError, OutputExistsError, UsageError
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.joblog import write_job_log
 from aldpat.jobs.resolve import ResolvedRun
-from aldpat.jobs.task import Task
+from aldpat.jobs.task import Planned, Task
 
 log = logging.getLogger(__name__)
 
@@ -24,8 +25,10 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
     """Run one job (in this process or a worker) and write its log; never raises. ``task``
     reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
     def body(ctx: JobContext) -> None:
-        ctx.planned([Path(s) for s in sources])  # what the job may write (JobContext.wrote holds to it)
+        planned = ctx.planned([Path(s) for s in sources])  # what the job may write (JobContext.wrote holds to it)
         run_one = task.first_pass if run.stage == "first" else task.run_one
+        if task.writes_outputs and not ctx.overwrite:  # a tile's job also reads its neighbours: their outputs are theirs
+            refuse_existing([p for p in planned if run_one is None or p.source == Path(sources[0])])
         if run_one is not None:
             ctx.neighbours = [Path(s) for s in sources[1:]]  # a planned job's other inputs
             run_one(Path(sources[0]), run.params.values, ctx)
@@ -34,6 +37,18 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
             task.run_all([Path(s) for s in sources], run.params.values, ctx)
 
     return _guarded(task, sources, run, command, body)
+
+
+def refuse_existing(planned: list[Planned]) -> None:
+    """Refuse a job whose named outputs exist before it reads anything: without ``--overwrite``
+    the writer would refuse them anyway, but only after the work (a ``dtm`` of a big file, a
+    filter's passes) and after the job's warnings about an output it will not write. Families
+    (split-tape's strips, tile's tiles) and outputs of every input (a mosaic, written once the
+    jobs are done, and tile's parameter file, which ``--append`` extends) are checked by their
+    own writers."""
+    for p in planned:
+        if (p.source is not None or p.named_by == "output") and not p.family and os.path.lexists(p.path):
+            raise OutputExistsError("output exists (use --overwrite to replace it)", path=p.path)
 
 
 def execute_finish(task: Task, results: list[JobResult], run: ResolvedRun, command: str) -> JobResult:

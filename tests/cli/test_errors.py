@@ -80,6 +80,31 @@ def test_existing_output_without_overwrite(tmp_path, samp24):
     assert run("convert", samp24, "--out-format", "laz", "--odir", tmp_path, "--overwrite").returncode == 0
 
 
+@pytest.mark.parametrize("command, made", [
+    (["dtm", "{samp24}", "--cell", "2"], "samp24_dtm.tif"),
+    (["shapefile", "{bounds}", "-o", "{out}/b.shp"], "b.shp"),
+    (["separate-returns", "{tape}"], "tape_2.txt"),
+])
+def test_an_existing_output_is_refused_before_the_work_and_its_warnings(tmp_path, samp24, command, made):
+    """Without --overwrite a job whose output exists is refused before it reads its input: no
+    minutes of filtering to end in the refusal, no warning about the CRS of a file it will not
+    write, and the other outputs of the input are not made either."""
+    out = tmp_path / "out"
+    out.mkdir()
+    bounds = tmp_path / "bounds.txt"
+    bounds.write_text("0 0 1 1 a.txt\n10 0 1 1 a.txt\n10 10 1 1 a.txt\n-1111 -1111 -1111 -1111 -1111\n")
+    tape = tmp_path / "tape.txt"
+    tape.write_text("".join(f"{t} {x} 0 1 {x} 0 1 5 5\n" for t, x in enumerate(range(100, 110))))
+    (out / made).write_text("the user's\n")
+    args = [a.format(samp24=samp24, bounds=bounds, tape=tape, out=out) for a in command]
+    proc = run(*args, "--odir", out) if "-o" not in args else run(*args)
+    assert proc.returncode == 1, proc.stderr
+    assert f"{made}: output exists (use --overwrite to replace it" in proc.stderr
+    assert "CRS" not in proc.stderr, proc.stderr
+    assert (out / made).read_text() == "the user's\n"
+    assert sorted(p.name for p in out.iterdir()) == [made]
+
+
 def test_a_second_choice_of_method_is_refused_with_the_way_to_keep_both(tmp_path, samp24):
     """thin's (and dtm's, preview's) outputs are named by the task, not the method: a second
     method is refused, and the refusal says how to write it beside the first."""
