@@ -413,7 +413,7 @@ def mosaic_outputs(params, ctx: JobContext) -> list[Planned]:
     if params.mosaic is None:
         return []
     # like every path, from where the command runs (a worksheet's folder), not from --odir
-    return [Planned(Path(params.mosaic), named_by="mosaic")]
+    return [Planned(Path(params.mosaic), named_by="mosaic", rename="give --mosaic another name")]
 
 
 def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -> None:

@@ -72,7 +72,7 @@ def _exact_at(header, template) -> bool:
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
     """``-o FILE``: like every path, from where the command runs (a worksheet's folder)."""
     assert params.output is not None  # required
-    return [Planned(Path(params.output), named_by="output")]
+    return [Planned(Path(params.output), named_by="output", rename="give -o another name")]
 
 
 def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:

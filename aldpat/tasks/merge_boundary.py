@@ -40,7 +40,7 @@ def merge_boundary_outputs(sources: list[Path], params: MergeBoundaryParams, ctx
     out = Path(params.output)
     if ctx.output is not None and ctx.output.odir and not out.is_absolute():
         out = Path(ctx.output.odir) / out
-    return [Planned(out, named_by="output")]
+    return [Planned(out, named_by="output", rename="give -o another name")]
 
 
 def merge_boundary_all(sources: list[Path], params: MergeBoundaryParams, ctx: JobContext) -> None:

@@ -47,8 +47,9 @@ def shapefile_outputs(sources: list[Path], params: ShapefileParams, ctx: JobCont
     else:
         raise UsageError("several merged files go into one shapefile: name it with -o FILE.shp")
     out = out if out.suffix.lower() == ".shp" else out.with_suffix(".shp")
-    named_by = "output" if params.output else None
-    return [Planned(out.with_suffix(ext), named_by=named_by) for ext in SHAPEFILE_PARTS + ((".prj",) if params.crs else ())]
+    named_by, rename = ("output", "give -o another name") if params.output else (None, "give --odir or -o")
+    return [Planned(out.with_suffix(ext), named_by=named_by, rename=rename)
+            for ext in SHAPEFILE_PARTS + ((".prj",) if params.crs else ())]
 
 
 def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext) -> None:
