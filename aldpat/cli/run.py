@@ -22,8 +22,10 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
     for v in values:
         for part in v.split(","):
             part = part.strip()
-            if not part.isdigit():
+            if not (part.isascii() and part.isdigit()):
                 raise UsageError(f"--only {v!r}: expected job numbers such as 2 or 2,3")
+            if int(part) == 0:
+                raise UsageError(f"--only {v!r}: jobs are numbered from 1")
             out.add(int(part))
     return out
 

@@ -34,7 +34,7 @@ def parse_crs(text: Any, key: str = "crs") -> Any:
     value = str(text).strip()
     match = _UTM.match(value)
     try:
-        if value.isdigit() and len(value) > 2:
+        if value.isascii() and value.isdigit() and len(value) > 2:
             return pyproj.CRS.from_epsg(int(value))
         if match:
             zone = int(match.group(1))

@@ -58,7 +58,7 @@ def parse_classes(text: str) -> tuple[int, ...] | None:
         raise ValueError("expected 'all' or a list of LAS classes such as 2 or 2,9")
     out = []
     for item in items:
-        if not item.isdigit() or not 0 <= int(item) <= 255:
+        if not (item.isascii() and item.isdigit()) or not 0 <= int(item) <= 255:
             raise ValueError(f"{item!r} is not a LAS class (0 to 255); expected 'all' or a list such as 2,9")
         out.append(int(item))
     return tuple(sorted(set(out)))

@@ -84,6 +84,12 @@ class Worksheet:
         return value
 
 
+def _is_number(text: str) -> bool:
+    """Whether ``text`` is a job number as typed: ASCII digits (``str.isdigit`` also takes
+    superscripts, which ``int`` refuses)."""
+    return text.isascii() and text.isdigit()
+
+
 def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None, str, Any]]:
     """``--set job.2.cell=2.0`` / ``--set settings.jobs=2`` -> (scope, job, key, value)."""
     out: list[tuple[str, int | None, str, Any]] = []
@@ -96,7 +102,7 @@ def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None,
         except (tomllib.TOMLDecodeError, RecursionError):
             value = text
         parts = target.split(".")
-        if len(parts) == 3 and parts[0] == "job" and parts[1].isdigit():
+        if len(parts) == 3 and parts[0] == "job" and _is_number(parts[1]):
             out.append(("job", int(parts[1]), parts[2], value))
         elif len(parts) == 2 and parts[0] == "settings":
             out.append(("settings", None, parts[1], value))

@@ -43,6 +43,7 @@ BAD = [
     ("convert", {"crs": "EPSG:999999"}, "crs: unknown CRS"),
     ("grd2bin", {"crs": "not a crs"}, "crs: unknown CRS"),
     ("shapefile", {"crs": "EPSG:999999"}, "crs: unknown CRS"),
+    ("thin", {"crs": "\u00b2\u00b2\u00b2"}, "crs: unknown CRS"),  # digits to str.isdigit, not to int
     ("separate-returns", {"utm_zone": "99"}, "utm_zone: expected auto, none or a zone number"),
 ]
 

@@ -108,6 +108,19 @@ def test_only_set_and_dry_run(project):
         load_worksheet(p, overrides=["job1.odir=x"])
 
 
+@pytest.mark.parametrize("args, message", [
+    (["--only", "0"], "--only '0': jobs are numbered from 1"),
+    (["--only", "\u00b2"], "expected job numbers such as 2 or 2,3"),  # a digit to str.isdigit, not to int
+    (["--set", "job.\u00b2.cell=2"], "expected job.N.key=value"),
+    (["--set", "job.0.cell=2"], "--set job.0: the worksheet has 2 jobs"),
+])
+def test_job_numbers_that_name_no_job_are_refused_in_one_line(project, args, message):
+    p = sheet(project, CONVERT_THEN_INFO)
+    proc = subprocess.run(ALDPAT + ["run", str(p), *args], check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and not (project / "laz").exists()
+
+
 def test_resume_skips_unchanged_jobs_and_reruns_changed_ones(project):
     p = sheet(project, CONVERT_THEN_INFO)
     run_worksheet(load_worksheet(p))
