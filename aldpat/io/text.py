@@ -116,8 +116,7 @@ class TextReader:
         if not head.strip():
             raise InputFormatError("file is empty", path=self.path)
         if b"\x00" in head:
-            raise InputFormatError("not a text file (binary bytes); use --format las if it is LAS",
-                                   path=self.path)
+            raise InputFormatError(_binary_kind(head), path=self.path)
         text = head.decode("latin-1")
         lines = text.splitlines()
         if len(head) == _SNIFF_BYTES:
@@ -142,9 +141,10 @@ class TextReader:
                 raise InputFormatError(f"not a number: {shown(bad)}", path=self.path, line=number)
             header += 1
             if header > 100:
-                raise InputFormatError("no numeric point lines in the first 100 lines", path=self.path)
+                raise InputFormatError("no numeric point lines in the first 100 lines" + _semicolons(lines),
+                                       path=self.path)
         else:
-            raise InputFormatError("no numeric point lines found", path=self.path)
+            raise InputFormatError("no numeric point lines found" + _semicolons(lines), path=self.path)
         self.header_lines = header
         self.delimiter = delimiter
         sample = [ln for ln in lines[header: header + 200] if ln.strip()]
@@ -308,3 +308,20 @@ class TextWriter:
 
     def close(self) -> None:
         self._fh.close()
+
+
+def _binary_kind(head: bytes) -> str:
+    """Why a file with NUL bytes is not a text point file, in the words that help: a LAS file
+    under a text name, or UTF-16 text (what Windows PowerShell's ``>`` writes)."""
+    if head.startswith(b"LASF"):
+        return "a LAS/LAZ file with a text file's name: name it .las or .laz, or give --format las"
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")) or head[1:200:2].count(0) > 80 or head[0:200:2].count(0) > 80:
+        return "UTF-16 text (as Windows PowerShell's > writes): save it as ASCII or UTF-8"
+    return "not a text file (binary bytes); use --format las if it is LAS"
+
+
+def _semicolons(lines: list[str]) -> str:
+    """The hint for values separated by semicolons (a spreadsheet's CSV in some locales)."""
+    if any(";" in line for line in lines[:100]):
+        return " (fields separated by ';': aldpat reads spaces, tabs or commas)"
+    return ""

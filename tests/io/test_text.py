@@ -74,6 +74,24 @@ def test_empty_files(tmp_path, content, message):
         open_points(p).read()
 
 
+ROWS = "".join(f"{k}.5 {2 * k}.25 {k % 7}.1\n" for k in range(50))
+
+
+@pytest.mark.parametrize("content, message", [
+    (ROWS.encode("utf-16"), "UTF-16 text (as Windows PowerShell's > writes): save it as ASCII or UTF-8"),
+    (ROWS.encode("utf-16-be"), "UTF-16 text"),
+    (b"LASF" + bytes(300), "a LAS/LAZ file with a text file's name: name it .las or .laz, or give --format las"),
+    (ROWS.replace(" ", ";").encode(), "no numeric point lines found (fields separated by ';': aldpat reads spaces"),
+    (b"1 2 3\n\x00\x01\x02", "not a text file (binary bytes)"),
+])
+def test_files_that_are_not_text_points_say_what_they_are(tmp_path, content, message):
+    p = tmp_path / "points.txt"
+    p.write_bytes(content)
+    with pytest.raises(InputFormatError) as err:
+        open_points(p).read()
+    assert message in str(err.value)
+
+
 @pytest.mark.parametrize("order, names", [("last-first", ALTM_LAST_FIRST), ("first-last", ALTM_FIRST_LAST)])
 def test_altm_nine_columns_in_both_orders(tmp_path, order, names):
     row = np.array([[100.5, 1.0, 2.0, 3.0, 4, 5.0, 6.0, 7.0, 8]])
