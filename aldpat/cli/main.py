@@ -23,7 +23,7 @@ from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
-from aldpat.errors import AldpatError, UsageError, one_line
+from aldpat.errors import AldpatError, UsageError, one_line, shown
 from aldpat.io.toml import load_toml
 from aldpat.jobs.run import PlannedRun, plan_run, run_task
 from aldpat.jobs.task import Task
@@ -86,6 +86,10 @@ def make_command(task: Task) -> click.Command:
             fail_usage(str(exc))
         except AldpatError as exc:
             click.echo(f"aldpat: error: {exc}", err=True)
+            sys.exit(1)
+        except OSError as exc:  # the system refused a file the plan looked at (each job catches its own)
+            where = f"{shown(str(exc.filename), quoted=False)}: " if exc.filename is not None else ""
+            click.echo(f"aldpat: error: {where}{(exc.strerror or str(exc)).lower()}", err=True)
             sys.exit(1)
         show(report, bool(getattr(report.params, "json", False)))
         if not quiet:

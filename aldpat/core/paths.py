@@ -5,6 +5,7 @@ what it names may not reach the network or read through archives and raw-file dr
 
 from __future__ import annotations
 
+import os
 import re
 
 #: ``http://``, ``s3://``, ``file://``...: a scheme
@@ -13,9 +14,21 @@ _URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*://")
 _VSI = re.compile(r"^[/\\]vsi[a-z0-9_]*([/\\]|$)", re.IGNORECASE)
 
 
+#: the longest name of one file or folder the usual file systems take (bytes), and of a whole path
+LONGEST_NAME = 255
+LONGEST_PATH = 4096
+
+
 def not_local(text: str) -> str | None:
-    """Why ``text`` is not a local file path (``None`` when it is one)."""
+    """Why ``text`` is not a local file path (``None`` when it is one): also an empty one (an
+    unset shell variable: ``--odir "$OUT"``) and one no file system takes, which the system would
+    refuse only when it is opened, in the middle of a run."""
     text = str(text).strip()
+    if not text:
+        return "empty, not a file name (an unset variable?)"
+    encoded = os.fsencode(text)
+    if len(encoded) > LONGEST_PATH or any(len(part) > LONGEST_NAME for part in encoded.split(b"/")):
+        return f"longer than a file name can be ({LONGEST_NAME} bytes a name, {LONGEST_PATH} a path)"
     if _VSI.match(text):
         return "a GDAL virtual file system path (/vsi...), not a local file"
     if _URL.match(text):

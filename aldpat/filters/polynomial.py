@@ -82,6 +82,9 @@ class IpfParams(PointFilterParams):
     def check(self) -> None:
         super().check()
         series = self.windows()
+        if not series:
+            raise ParamError("window_series: expected at least one window length (or none given, for the halving "
+                             "series)")
         if any(b > a for a, b in itertools.pairwise(series)):
             raise ParamError(f"window_series: must not grow, got {list(series)}")
 

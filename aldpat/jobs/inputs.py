@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from aldpat.core.paths import not_local
-from aldpat.errors import AldpatError, InputFormatError, InputMissingError
+from aldpat.errors import SHOWN, AldpatError, InputFormatError, InputMissingError, shown
 from aldpat.io.atomic import TMP_MARK
 from aldpat.io.registry import EXTENSIONS
 from aldpat.io.tile_parameters import PARAMETER_FILE
@@ -112,7 +112,10 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
         item = str(raw)
         why = not_local(item.removeprefix("@"))
         if why is not None:
-            errors.append(InputMissingError(f"is {why}", path=item))
+            if len(item) > SHOWN or not item.strip():  # an empty or endless name is quoted, shortly
+                errors.append(InputMissingError(f"input {shown(item)} is {why}"))
+            else:
+                errors.append(InputMissingError(f"is {why}", path=item))
             continue
         if item.startswith("@"):
             listfile = _rooted(item[1:], base)

@@ -83,30 +83,26 @@ def _base_args(key: str, data: dict[str, Path], out: Path) -> list:
     return args
 
 
-def _cases(data: dict[str, Path], root: Path) -> list[dict]:
+def _cases(data: dict[str, Path], root: Path, values: tuple[str, ...], wanted) -> list[dict]:
+    """Each task with its defaults, then each of its options that ``wanted`` picks at each of
+    ``values``."""
     cases = []
     for key in sorted(TASKS):
         out = root / "out" / key.replace(" ", "-")
         cases.append({"args": _base_args(key, data, out), "cwd": root, "limit": FIRST_RUN_LIMIT,
                       "name": f"{key} (its defaults, compiling its kernels)"})
         for spec in TASKS[key].all_specs():
-            if spec.kind not in NUMERIC:
+            if not wanted(spec):
                 continue
-            for value in VALUES:
-                given = [value] * (spec.length or 1)
-                option = [spec.option, *given] if spec.length else [spec.option, value]
+            for value in values:
+                option = [spec.option, *[value] * (spec.length or 1)]
                 cases.append({"args": _base_args(key, data, out) + option, "cwd": root, "limit": LIMIT,
-                              "name": f"{key} {spec.option} {value}"})
+                              "name": f"{key} {spec.option} {value[:12]!r}"})
     return cases
 
 
-def test_every_numeric_option_at_extreme_values(tmp_path):
-    data = _data(tmp_path)
-    cases = _cases(data, tmp_path)
-    assert len(cases) > 1000  # the registry's every task and option: none left out
-    start = time.perf_counter()
-    results = aldpat_batch(cases, total=900)
-    seconds = time.perf_counter() - start
+def _faults(cases: list[dict], results: list[dict]) -> list[str]:
+    """The runs that did not end as a user can read it: exit 0, 1 with a word, or 2 in one line."""
     bad = []
     for case, got in zip(cases, results, strict=False):
         stderr = got["stderr"]
@@ -119,8 +115,29 @@ def test_every_numeric_option_at_extreme_values(tmp_path):
             bad.append(f"{case['name']}: a usage error in {len(lines)} lines: {stderr[-300:]!r}")
         elif got["status"] == 1 and not lines:
             bad.append(f"{case['name']}: exit 1 without a word")
+    return bad
+
+
+def test_every_numeric_option_at_extreme_values(tmp_path):
+    cases = _cases(_data(tmp_path), tmp_path, VALUES, lambda spec: spec.kind in NUMERIC)
+    assert len(cases) > 1000  # the registry's every task and option: none left out
+    start = time.perf_counter()
+    results = aldpat_batch(cases, total=900)
+    seconds = time.perf_counter() - start
     statuses = [r["status"] for r in results]
     print(f"{len(cases)} runs in {seconds:.1f} s: {statuses.count(0)} exit 0, {statuses.count(1)} exit 1, "
           f"{statuses.count(2)} exit 2")
+    bad = _faults(cases, results)
     assert not bad, f"{len(bad)} of {len(cases)} runs:\n" + "\n".join(bad)
 
+
+#: what a careless script passes as text: an empty value (an unset shell variable), a name no file
+#: system takes, a superscript digit (a digit to ``str.isdigit``, not to ``int``)
+TEXTS = ("", "9" * 400, "\u00b2")
+
+
+def test_every_path_and_list_option_at_careless_texts(tmp_path):
+    cases = _cases(_data(tmp_path), tmp_path, TEXTS, lambda spec: spec.path or spec.kind in ("floats", "ints"))
+    assert len(cases) > 150
+    bad = _faults(cases, aldpat_batch(cases, total=900))
+    assert not bad, f"{len(bad)} of {len(cases)} runs:\n" + "\n".join(bad)
