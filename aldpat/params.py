@@ -30,7 +30,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from aldpat.core.paths import not_local
+from aldpat.core.paths import names_folder, not_local
 from aldpat.errors import ParamError, shown
 
 log = logging.getLogger(__name__)
@@ -367,6 +367,8 @@ def check_value(spec: Spec, v: Any, where: str = "") -> None:
         return
     if isinstance(v, str) and spec.path and (why := not_local(v)) is not None:
         raise ParamError(f"{where}{spec.name}: {shown(v)} is {why}")
+    if isinstance(v, str) and spec.path and spec.metavar != "DIR" and names_folder(v):
+        raise ParamError(f"{where}{spec.name}: {v!r} is a folder; name a file")  # not_local bounds it
     _check_bounds(spec, v, where)
 
 

@@ -34,3 +34,10 @@ def not_local(text: str) -> str | None:
     if _URL.match(text):
         return "a URL, not a local file"
     return None
+
+
+def names_folder(text: str) -> bool:
+    """Whether ``text``, given where a file is wanted (``--mosaic``, ``-o``, ``--polygon``), names
+    a folder: one that exists, or a name ending in a separator, ``.`` or ``..``."""
+    text = str(text).strip()
+    return text.endswith(("/", "\\")) or os.path.basename(text) in (".", "..") or os.path.isdir(text)

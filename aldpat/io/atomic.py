@@ -47,9 +47,31 @@ _serial = itertools.count(1)
 _NEARLY_FULL = 1 << 20
 
 
+def not_replaceable(path: Path) -> str | None:
+    """What takes the name ``path`` when it is not a file or a link -- a folder, a device
+    (``/dev/null``), a pipe or a socket -- else None. Renaming a finished output onto one would
+    remove it (as root, ``/dev/null`` itself), so no output replaces one, ``--overwrite`` or not."""
+    try:
+        mode = os.lstat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISLNK(mode):
+        return None
+    return "a folder" if stat.S_ISDIR(mode) else "a device, a pipe or a socket"
+
+
+def refuse_unreplaceable(path: Path) -> None:
+    """:class:`OutputError` when :func:`not_replaceable` names what ``path`` is."""
+    kind = not_replaceable(path)
+    if kind is not None:
+        raise OutputError(f"is {kind}, not a file: no output replaces one", path=path)
+
+
 def check_writable(path: Path, *, overwrite: bool) -> None:
-    """Refuse an existing output without ``overwrite``; make sure its folder can be written."""
+    """Refuse an existing output without ``overwrite``, and one whose name a folder, a device,
+    a pipe or a socket takes; make sure its folder can be written."""
     path = Path(path)
+    refuse_unreplaceable(path)
     if path.exists() and not overwrite:
         raise OutputExistsError("output exists (use --overwrite to replace it)", path=path)
     parent = path.parent
@@ -152,7 +174,9 @@ def glob_escape(text: str) -> str:
 
 
 def publish(tmp: Path, path: Path, *, overwrite: bool) -> None:
-    """Put the finished ``tmp`` in place as ``path``; without ``overwrite`` never replace a file."""
+    """Put the finished ``tmp`` in place as ``path``; without ``overwrite`` never replace a file,
+    and never what is not a file (:func:`not_replaceable`)."""
+    refuse_unreplaceable(path)
     if overwrite:
         os.replace(tmp, path)
         return

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from aldpat.errors import UsageError
+from aldpat.io.atomic import not_replaceable
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Planned, Task
@@ -166,6 +167,9 @@ def check_planned(planned: list[Planned], reads: Reads, *, where: str = "") -> N
             raise UsageError(f"{where}output {out.path}{made} would replace the input {victim}; {out.rename}")
         if out.family:
             continue
+        kind = not_replaceable(out.path)
+        if kind is not None:
+            raise UsageError(f"{where}output {out.path} is {kind}, not a file: no output replaces one")
         key = real(out.path)
         other = mine.get(key)
         if other is not None and not (other.source is None and out.source is None):

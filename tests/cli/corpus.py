@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -467,6 +468,25 @@ def data_loss_cases(root: Path) -> list[Hostile]:
     cases.append(Hostile("data loss", "tile into the folder of the tiles it reads", ["tile", tile, "--width", "100",
                          "--height", "100", "--odir", tiles, "--overwrite"], root, 2, r"would replace the input",
                          _unchanged(tile)))
+    # an output named after a device (``-o /dev/null --overwrite``) once renamed the finished file
+    # onto it, and as root removed /dev/null; a pipe here stands for every name that is not a file
+    specials = root / "specials"
+    specials.mkdir()
+    pipe, thin_pipe = specials / "pipe.txt", specials / "a_x.txt"  # the second: thin's output name
+    for made in (pipe, thin_pipe):
+        os.mkfifo(made)
+
+    def still_a_pipe(path: Path) -> Callable[[], str | None]:
+        return lambda: None if stat.S_ISFIFO(os.lstat(path).st_mode) else f"{path.name} was replaced"
+    for name, command, named in [("merge -o", ["merge", a, "-o", pipe], pipe),
+                                 ("grid --mosaic", ["grid", a, "--mosaic", pipe], pipe),
+                                 ("thin's output", ["thin", a, "--odir", specials, "--suffix", "_x"], thin_pipe)]:
+        cases.append(Hostile("data loss", f"{name} naming a pipe, --overwrite", [*command, "--overwrite"], root, 2,
+                             r"is a device, a pipe or a socket, not a file: no output replaces one",
+                             still_a_pipe(named)))
+    (specials / "folder.vrt").mkdir()
+    cases.append(Hostile("data loss", "--mosaic naming a folder", ["grid", a, "--mosaic", specials / "folder.vrt",
+                         "--overwrite"], root, 2, r"mosaic: .*folder\.vrt' is a folder; name a file"))
     cases.append(Hostile("data loss", "a polygon file that is also the output", ["polygon-extract", a, "--polygon",
                          root / "poly" / "a_poly.txt", "--odir", root / "poly", "--overwrite"], root, 2,
                          r"would replace the input .*a_poly\.txt"))
