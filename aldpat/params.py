@@ -30,7 +30,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from aldpat.core.paths import names_folder, not_local
+from aldpat.core.paths import LONGEST_PATH, names_folder, not_local
 from aldpat.errors import ParamError, shown
 
 log = logging.getLogger(__name__)
@@ -366,7 +366,8 @@ def check_value(spec: Spec, v: Any, where: str = "") -> None:
             _check_bounds(spec, item, where)
         return
     if isinstance(v, str) and spec.path and (why := not_local(v)) is not None:
-        raise ParamError(f"{where}{spec.name}: {shown(v)} is {why}")
+        named = repr(v) if len(v) <= LONGEST_PATH else shown(v)  # a path is shown whole, unless endless
+        raise ParamError(f"{where}{spec.name}: {named} is {why}")
     if isinstance(v, str) and spec.path and spec.metavar != "DIR" and names_folder(v):
         raise ParamError(f"{where}{spec.name}: {v!r} is a folder; name a file")  # not_local bounds it
     _check_bounds(spec, v, where)

@@ -141,7 +141,9 @@ def gap_nodes(occupied: np.ndarray, gap: float, cell: float) -> np.ndarray:
     feature indices (33 bytes a node): for each row offset ``dr`` within the gap the widest
     column offset still inside it (:func:`_disc_widths`), then, row by row, every node's column
     distance to the nearest occupied node of each row around it (:func:`_far_rows`) -- a few
-    rows of integers held, whatever the DTM's size."""
+    rows of integers held, whatever the DTM's size. A gap wider than the grid's diagonal is the
+    grid's diagonal: no node lies farther from another (and the disc stays as large as the grid)."""
+    gap = min(gap, math.hypot(*occupied.shape) * cell + cell)
     widths = _disc_widths(gap, cell)
     far = np.empty(occupied.shape, bool)
     if occupied.size:

@@ -26,6 +26,8 @@ def not_local(text: str) -> str | None:
     text = str(text).strip()
     if not text:
         return "empty, not a file name (an unset variable?)"
+    if "\x00" in text:
+        return "a name holding a NUL character, which no file name holds"
     encoded = os.fsencode(text)
     if len(encoded) > LONGEST_PATH or any(len(part) > LONGEST_NAME for part in encoded.split(b"/")):
         return f"longer than a file name can be ({LONGEST_NAME} bytes a name, {LONGEST_PATH} a path)"

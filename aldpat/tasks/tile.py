@@ -22,7 +22,9 @@ tile is an error unless ``--overwrite`` (replace) or ``--append`` (ALDPAT's beha
 
 Streaming: each chunk of each input is routed to the tiles it touches and appended to their
 temporary files; memory does not depend on the input size or the number of tiles (text tiles
-are reopened per chunk; LAS/LAZ tiles keep one open writer per tile). Text records are copied
+are reopened per chunk; LAS/LAZ tiles keep one open writer per tile, at most
+:data:`OPEN_LAS_TILES` at a time: more tiles than that are written that many at a time, the
+inputs read once for each group, after a pass finding which tiles hold points). Text records are copied
 byte for byte when the tiles keep the input's columns and delimiter. All tiles are renamed into
 place when every input has been read. Without ``--bounds`` text inputs are read twice (first
 for their extent; LAS/LAZ headers hold it).
@@ -181,6 +183,13 @@ class TileSink:
         entry["count"] += len(rows)
         entry["core"] += len(rows) if core else 0
 
+    def close_writers(self) -> None:
+        """Finish the LAS/LAZ tiles written so far (a group of :func:`tile_groups`)."""
+        for entry in self.tiles.values():
+            if entry["writer"] is not None:
+                entry["writer"].close()
+                entry["writer"] = None
+
     def commit(self) -> list[tuple[tuple[int, int], Path, int]]:
         """Rename the tiles into place; a tile whose core holds no point (only buffer points) is
         dropped, unless it existed already (``--append``)."""
@@ -209,15 +218,52 @@ class TileSink:
                 pass
 
 
-def route(sink: TileSink, layout: TileLayout, chunk, lines=None) -> int:
+#: LAS/LAZ tiles written at once: each open writer holds a file and its compressor's buffers
+#: (about 60 kB), so 20,000 one-metre tiles of one strip took 1.2 GB and ended at the system's
+#: limit on open files after minutes
+OPEN_LAS_TILES = 500
+
+
+def occupied_tiles(readers, layout: TileLayout) -> list[tuple[int, int]]:
+    """The tiles (column, row) whose core or buffer holds a point of ``readers``, in order."""
+    found: set[tuple[int, int]] = set()
+    for reader in readers:
+        for chunk in reader.chunks():
+            marks = buffer_marks(chunk)
+            if marks is not None and marks.any():
+                chunk = chunk.take(~marks)
+            for ti, tj, _, _ in layout.memberships(chunk.x, chunk.y):
+                pairs = np.unique(np.stack([ti, tj], axis=1), axis=0)
+                found.update((int(i), int(j)) for i, j in pairs)
+    return sorted(found)
+
+
+def tile_groups(readers, layout: TileLayout, sink: TileSink) -> list[set[tuple[int, int]] | None]:
+    """The tiles each pass over the inputs writes: every tile in one pass (``[None]``), unless
+    LAS/LAZ tiles holding points outnumber :data:`OPEN_LAS_TILES`."""
+    if not sink.is_las or layout.nx * layout.ny <= OPEN_LAS_TILES:
+        return [None]
+    keys = occupied_tiles(readers, layout)
+    if len(keys) <= OPEN_LAS_TILES:
+        return [None]
+    groups: list[set[tuple[int, int]] | None] = [set(keys[a:a + OPEN_LAS_TILES])
+                                                 for a in range(0, len(keys), OPEN_LAS_TILES)]
+    log.info("%d LAS/LAZ tiles hold points: written %d at a time, the inputs read %d more times", len(keys),
+             OPEN_LAS_TILES, len(groups))
+    return groups
+
+
+def route(sink: TileSink, layout: TileLayout, chunk, lines=None, only: set[tuple[int, int]] | None = None) -> int:
     """Send a chunk's points to their tiles (as parsed rows, or as the raw ``lines`` of the input
-    when given); return how many lie in no tile's core."""
+    when given), to the tiles ``only`` names when given; return how many lie in no tile's core."""
     for ti, tj, rows, core in layout.memberships(chunk.x, chunk.y):
         order = np.lexsort((rows, tj, ti))  # by tile, input order within a tile
         rows, ti, tj = rows[order], ti[order], tj[order]
         starts = np.flatnonzero(np.r_[True, (ti[1:] != ti[:-1]) | (tj[1:] != tj[:-1])])
         for a, b in zip(starts, np.r_[starts[1:], len(rows)], strict=False):
             key = (int(ti[a]), int(tj[a]))
+            if only is not None and key not in only:
+                continue
             if lines is not None:
                 sink.write_raw(layout, key, lines, rows[a:b], core)
             else:
@@ -268,27 +314,31 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
                     crs=output_crs(params.crs, first.crs, folder / f"tile_*{ext}", ctx.warn))
     total = outside = copies = 0
     try:
-        for reader in readers:
-            raw = None
-            if not sink.is_las and passthrough_ok(reader, names, ctx.delimiter, ext):
-                raw = RawLines(reader.path, reader.header_lines)
-            try:
-                for chunk in reader.chunks():
-                    lines = None
+        for group, only in enumerate(tile_groups(readers, layout, sink)):
+            for reader in readers:
+                raw = None
+                if not sink.is_las and passthrough_ok(reader, names, ctx.delimiter, ext):
+                    raw = RawLines(reader.path, reader.header_lines)
+                try:
+                    for chunk in reader.chunks():
+                        lines = None
+                        if raw is not None:
+                            lines = raw.take(len(chunk))
+                            if not lines.in_step_with(chunk.x):
+                                raise RuntimeError(f"{reader.path}: raw line copy out of step with the parser")
+                        marks = buffer_marks(chunk)  # LAS tiles only: text is copied line by line
+                        if marks is not None and marks.any():  # a tile's buffer: its own tile has these points
+                            copies += int(marks.sum()) if group == 0 else 0
+                            chunk = chunk.take(~marks)
+                        chunk = chunk if sink.is_las else chunk.select(names)
+                        away = route(sink, layout, chunk, lines, only)
+                        if group == 0:
+                            outside += away
+                            total += len(chunk)
+                finally:
                     if raw is not None:
-                        lines = raw.take(len(chunk))
-                        if not lines.in_step_with(chunk.x):
-                            raise RuntimeError(f"{reader.path}: raw line copy out of step with the parser")
-                    marks = buffer_marks(chunk)  # LAS tiles only: text is copied line by line
-                    if marks is not None and marks.any():  # a tile's buffer: its own tile has these points
-                        copies += int(marks.sum())
-                        chunk = chunk.take(~marks)
-                    chunk = chunk if sink.is_las else chunk.select(names)
-                    outside += route(sink, layout, chunk, lines)
-                    total += len(chunk)
-            finally:
-                if raw is not None:
-                    raw.close()
+                        raw.close()
+            sink.close_writers()
         done = sink.commit()
     except BaseException:
         sink.discard()

@@ -175,7 +175,8 @@ def test_max_gap_is_checked_when_given():
 
 
 @pytest.mark.parametrize("cell", [1.0, 1.5, 0.3])
-@pytest.mark.parametrize("gaps", [(0.5, 4.0, 30.0), (2.0, 3.0, 5.0), (2 ** 0.5, 5 ** 0.5, 13 ** 0.5)])
+@pytest.mark.parametrize("gaps", [(0.5, 4.0, 30.0), (2.0, 3.0, 5.0), (2 ** 0.5, 5 ** 0.5, 13 ** 0.5),
+                                  (2.0 ** 63, 1e30, 250.0)])  # wider than the grids: a disc no larger
 def test_gaps_are_those_of_a_distance_transform(cell, gaps):
     """A node is far exactly where a Euclidean distance transform of the grid puts it farther
     than the gap -- the gaps in cells, and the diagonals sqrt(2), sqrt(5), sqrt(13) cells, lie on

@@ -141,6 +141,31 @@ def test_las_tiles_keep_attributes_and_mark_their_buffer_points(tmp_path):
         get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path))
 
 
+def test_more_las_tiles_than_may_be_open_are_written_in_groups_alike(tmp_path, monkeypatch):
+    """LAS/LAZ tiles keep a writer open each: past OPEN_LAS_TILES they are written that many at a
+    time, the input read once a group; the tiles are those of one pass, point for point."""
+    import laspy
+
+    from aldpat.tasks import tile
+
+    src = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
+    args = {"width": 60, "height": 60, "buffer": 5, "origin": (494200, 5420300)}
+    assert get_task("tile")([src], odir=str(tmp_path / "one"), **args).exit_code == 0
+    monkeypatch.setattr(tile, "OPEN_LAS_TILES", 7)
+    opened = []
+    real_open = tile.TileSink._open
+    monkeypatch.setattr(tile.TileSink, "_open", lambda self, *a: opened.append(
+        sum(e["writer"] is not None for e in self.tiles.values())) or real_open(self, *a))
+    assert get_task("tile")([src], odir=str(tmp_path / "groups"), **args).exit_code == 0
+    assert max(opened) < 7 and len(opened) > 20  # never more than 7 writers open, and many tiles
+    one, groups = sorted((tmp_path / "one").glob("tile_*.laz")), sorted((tmp_path / "groups").glob("tile_*.laz"))
+    assert [p.name for p in one] == [p.name for p in groups]
+    for a, b in zip(one, groups, strict=True):
+        assert laspy.read(a).points.array.tobytes() == laspy.read(b).points.array.tobytes()
+    assert (tmp_path / "one" / "tile_parameter.txt").read_text().replace("one", "groups") == \
+        (tmp_path / "groups" / "tile_parameter.txt").read_text()
+
+
 def test_the_layout_of_given_bounds_is_checked_with_the_parameters():
     """Over ``--bounds`` the layout depends on the options alone: refused when they are made
     (``--dry-run`` sees it), not when the inputs have been read."""

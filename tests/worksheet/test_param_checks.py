@@ -44,6 +44,7 @@ BAD = [
     ("grd2bin", {"crs": "not a crs"}, "crs: unknown CRS"),
     ("shapefile", {"crs": "EPSG:999999"}, "crs: unknown CRS"),
     ("thin", {"crs": "\u00b2\u00b2\u00b2"}, "crs: unknown CRS"),  # digits to str.isdigit, not to int
+    ("grid", {"tile_params": "tp\\u0000.txt"}, "tp\\x00.txt' is a name holding a NUL character"),
     ("separate-returns", {"utm_zone": "99"}, "utm_zone: expected auto, none or a zone number"),
 ]
 
