@@ -44,7 +44,6 @@ BAD = [
     ("grd2bin", {"crs": "not a crs"}, "crs: unknown CRS"),
     ("shapefile", {"crs": "EPSG:999999"}, "crs: unknown CRS"),
     ("thin", {"crs": "\u00b2\u00b2\u00b2"}, "crs: unknown CRS"),  # digits to str.isdigit, not to int
-    ("grid", {"tile_params": "tp\\u0000.txt"}, "tp\\x00.txt' is a name holding a NUL character"),
     ("separate-returns", {"utm_zone": "99"}, "utm_zone: expected auto, none or a zone number"),
 ]
 
@@ -77,6 +76,16 @@ def test_dry_run_names_job_and_key(tmp_path, samp24, task, keys, message):
                           text=True, cwd=tmp_path)
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert f"job 2: {message}" in proc.stderr, proc.stderr
+
+
+def test_a_path_holding_a_nul_is_refused_naming_job_and_key(tmp_path, samp24):
+    """TOML can hold a NUL ("\\u0000"); no file name can (it was an internal error)."""
+    shutil.copy(samp24, tmp_path / "a.txt")
+    (tmp_path / "job.toml").write_text(worksheet(tmp_path, "grid", {"tile_params": "tp\\u0000.txt"}))
+    proc = subprocess.run(ALDPAT + ["run", str(tmp_path / "job.toml")], check=False, capture_output=True, text=True,
+                          cwd=tmp_path)
+    assert proc.returncode == 2 and "job 2: tile_params: '" in proc.stderr, proc.stderr
+    assert "tp\\x00.txt' is a name holding a NUL character" in proc.stderr, proc.stderr
 
 
 def _geoid() -> Path:
