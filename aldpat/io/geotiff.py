@@ -204,17 +204,38 @@ def geotiff_header(path: str | Path) -> tuple[GridSpec, float | None, str | None
         return _spec_of(ds), ds.nodata, (ds.crs.to_wkt() if ds.crs else None)
 
 
-def read_geotiff(path: str | Path) -> tuple[np.ndarray, GridSpec]:
+def read_geotiff(path: str | Path, longest: int | None = None) -> tuple[np.ndarray, GridSpec]:
     """A GeoTIFF grid (or a VRT mosaic of grids) as written here: values with rows from the south,
     NaN for blank nodes. Blank nodes are those holding the nodata value (not a mask GDAL would
-    look for in side-car files)."""
+    look for in side-car files). With ``longest``, a grid longer than that on a side is read at
+    every k-th node (k odd), the fewest that keep it within ``longest`` (GDAL's nearest-node reading,
+    from the file's overviews when it has them): a county's mosaic, not its 12 bytes a node."""
     with open_raster(path) as ds:
-        spec = _spec_of(ds)
-        band = ds.read(1)
+        step = -(-max(ds.width, ds.height) // longest) if longest else 1
+        step += 1 - step % 2 if step > 1 else 0  # odd: the node GDAL picks is the pixel's centre
+        if step > 1:  # whole steps from the north-west corner: the last few nodes east and south left out
+            from rasterio.windows import Window
+
+            shape = (max(1, ds.height // step), max(1, ds.width // step))
+            window = Window(0, 0, min(shape[1] * step, ds.width), min(shape[0] * step, ds.height))
+            band = ds.read(1, window=window, out_shape=shape)
+            spec = _spec_of(_Decimated(ds.transform @ ds.transform.scale(step, step), shape[1], shape[0]))
+        else:
+            spec = _spec_of(ds)
+            band = ds.read(1)
         values = band.astype(np.float64)
         if ds.nodata is not None:  # compared as the band stores it (a float32 band's 1.70141e38)
             values[(band == np.asarray(ds.nodata, dtype=band.dtype)) | np.isnan(values)] = np.nan
         return values[::-1], spec
+
+
+@dataclass(frozen=True)
+class _Decimated:
+    """The placement of a raster read at a coarser size (what :func:`_spec_of` reads of one)."""
+
+    transform: Any
+    width: int
+    height: int
 
 
 def _spec_of(ds: Any) -> GridSpec:

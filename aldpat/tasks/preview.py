@@ -3,8 +3,8 @@ anything in a GIS -- what ALDPAT's GUI views gave.
 
 * a grid (Surfer ``.grd``, ArcGIS ``.flt`` / ``.asc``, GeoTIFF ``.tif``, the ``.vrt`` mosaic of
   ``aldpat grid --mosaic``) -> ``<stem>_hillshade.png``:
-  its hillshade (:mod:`aldpat.core.hillshade`), one pixel per node, north up, blank nodes
-  transparent, with its world file ``<stem>_hillshade.pgw`` (:mod:`aldpat.io.worldfile`);
+  its hillshade (:mod:`aldpat.core.hillshade`), one pixel per node (a GeoTIFF or a mosaic
+  longer than :data:`GRID_LONGEST` nodes: every k-th node), north up, blank nodes transparent, with its world file ``<stem>_hillshade.pgw`` (:mod:`aldpat.io.worldfile`);
 * a point file -> ``<stem>_plan.png``: a plan view, north up, at most ``size`` pixels on its
   longer side and pixels no finer than twice the mean point spacing, each pixel coloured by the highest point in it (``--color-by elevation``, low blue to high
   brown) or by its class (``--color-by class``: green where a ground point falls -- LAS class 2,
@@ -40,6 +40,9 @@ from aldpat.jobs.task import Planned, Task
 from aldpat.params import param
 
 GRID_EXTENSIONS = (".grd", ".flt", ".asc", ".tif", ".tiff", ".vrt")
+#: the longer side of a GeoTIFF's or a mosaic's hillshade at most (pixels): one pixel per node up
+#: to it, every k-th node beyond (a county's 1 m mosaic is tens of thousands of nodes a side)
+GRID_LONGEST = 4000
 #: elevation colours, low to high (blue, green, yellow, brown, white)
 RAMP = np.array([[40, 80, 200], [60, 160, 80], [230, 220, 110], [150, 100, 60], [250, 250, 250]], float)
 GROUND_RGB = (60, 160, 60)
@@ -76,7 +79,7 @@ def read_grid(path: Path) -> tuple[np.ndarray, GridSpec]:
         return read_float_grid(path)
     if ext == ".asc":
         return read_ascii_grid(path)
-    return read_geotiff(path)
+    return read_geotiff(path, longest=GRID_LONGEST)
 
 
 def save_png(rgba: np.ndarray, out: Path, overwrite: bool, place: NorthUp | None = None) -> list[Path]:

@@ -60,6 +60,24 @@ def test_every_grid_format_gives_the_same_picture_and_blanks_are_transparent(tmp
     assert np.array_equal(alpha == 0, np.isnan(z)[::-1])  # north up: row 0 is the northern row
 
 
+def test_a_grid_longer_than_the_picture_is_read_at_every_kth_node(tmp_path, monkeypatch):
+    """A county's mosaic is tens of thousands of nodes a side: past GRID_LONGEST its hillshade
+    is made of every k-th node, placed where those nodes lie, blanks kept blank."""
+    from aldpat.tasks import preview
+
+    monkeypatch.setattr(preview, "GRID_LONGEST", 14)  # SPEC is 40 x 30 nodes: every 3rd node
+    z = plane()
+    z[:, 10] = np.nan  # column 10 is a node column the picture samples
+    write_geotiff(tmp_path / "g.tif", z, SPEC)
+    assert get_task("preview")([tmp_path / "g.tif"]).exit_code == 0
+    img = np.asarray(Image.open(tmp_path / "g_hillshade.png"))
+    assert img.shape == (10, 13, 4)  # the 40th column is left out: whole steps only
+    assert (img[:, 3, 3] == 0).all() and (img[:, [0, 1, 2, 4, 5], 3] == 255).all()  # node column 1 + 3 k
+    world = [float(v) for v in (tmp_path / "g_hillshade.pgw").read_text().split()]
+    # pixel (0, 0) is the node of column 1 and the northern row 28 (rows 1 + 3 k from the north)
+    assert world == [3 * SPEC.dx, 0.0, 0.0, -3 * SPEC.dy, SPEC.xmin + 1 * SPEC.dx, SPEC.ymin + 28 * SPEC.dy]
+
+
 def test_demo_grid_preview_in_a_fresh_process_shows_the_terrain(tmp_path, samp24):
     aldpat("grid", samp24, "--cell", "1", "--odir", tmp_path).ok()
     aldpat("preview", tmp_path / "samp24_linear.grd").ok()
