@@ -24,7 +24,7 @@ import shapefile
 
 from aldpat.core.crs import prj_wkt
 from aldpat.core.polygon import clean_ring, oriented, signed_area
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import InputFormatError, InputMissingError, UsageError, one_line
 from aldpat.io.atomic import atomic_outputs
 
 log = logging.getLogger(__name__)
@@ -105,7 +105,14 @@ def read_polygons(path: str | Path) -> list[list[np.ndarray]]:
         if reader.shapeType not in (shapefile.POLYGON, shapefile.POLYGONZ, shapefile.POLYGONM, shapefile.NULL):
             raise InputFormatError(f"not a polygon shapefile (shape type {reader.shapeTypeName})", path=path)
         polygons: list[list[np.ndarray]] = []
-        for shape in reader.iterShapes():
+        shapes = reader.iterShapes()
+        while True:
+            try:
+                shape = next(shapes, None)
+            except Exception as exc:  # noqa: BLE001  (a record claiming more points or parts than it holds)
+                raise InputFormatError(f"shape {len(polygons) + 1} is damaged: {one_line(exc)}", path=path) from None
+            if shape is None:
+                break
             if shape.shapeType == shapefile.NULL or not shape.points:
                 continue
             pts = np.asarray(shape.points, dtype=np.float64)[:, :2]

@@ -50,6 +50,23 @@ def test_shapefile_with_several_polygons_and_a_hole(tmp_path):
     assert np.loadtxt(tmp_path / "p_poly.txt")[:, 2].tolist() == [1, 3, 4]
 
 
+@pytest.mark.parametrize("field, value", [("parts", 2**31 - 1), ("points", 2**31 - 1)])
+def test_a_shapefile_record_claiming_more_than_it_holds_is_named(tmp_path, points, field, value):
+    """A polygon record's count of parts or points past its bytes: one line naming the file and
+    the shape (pyshp's own error escaped as an internal error)."""
+    import struct
+
+    ring = np.array([[0, 0], [6, 0], [6, 6], [0, 6]], float)
+    write_polygons(tmp_path / "a.shp", [Polygon([ring], (1,))], [("id", "N", 5, 0)])
+    data = bytearray((tmp_path / "a.shp").read_bytes())
+    # the first record: its 8-byte header at 100, shape type, 32 bytes of box, then parts and points
+    struct.pack_into("<i", data, 100 + 8 + 4 + 32 + (4 if field == "points" else 0), value)
+    (tmp_path / "a.shp").write_bytes(bytes(data))
+    report = get_task("polygon-extract")([points], polygon=str(tmp_path / "a.shp"))
+    assert report.exit_code == 1
+    assert "a.shp: shape 1 is damaged: " in report.results[0].error, report.results[0].error
+
+
 def test_bad_polygon_files(tmp_path, points):
     bad = tmp_path / "bad.txt"
     bad.write_text("0,0\n1,0\nfoo,bar\n")
