@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fnmatch
 import hashlib
 import itertools
 import os
@@ -152,11 +153,28 @@ def scratch_dir(prefix: str, folder: str | Path) -> Path:
     return Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-h{HOST_TAG}-", dir=folder))
 
 
+#: the temporaries found in each folder at a job's first look (:func:`remove_stale_temporaries`)
+_temporaries: dict[str, list[Path]] = {}
+
+
+def forget_temporaries() -> None:
+    """Look at the folders afresh: each job starts here, so that a writer killed before it is seen."""
+    _temporaries.clear()
+
+
 def remove_stale_temporaries(path: Path) -> None:
-    """Remove temporaries of ``path`` whose writing process no longer exists (it was killed)."""
+    """Remove temporaries of ``path`` whose writing process no longer exists (it was killed).
+
+    A folder is listed once a job (:func:`forget_temporaries`), not once an output: the 30,000
+    strips of a split tape, or a tile run's 20,000 tiles, listed their growing folder each."""
     path = Path(path)
     with contextlib.suppress(OSError):
-        _remove_if_gone(list(path.parent.glob(f"{glob_escape(path.stem)}{TMP_MARK}*{glob_escape(path.suffix)}")))
+        folder = os.path.abspath(path.parent)
+        if folder not in _temporaries:
+            _temporaries[folder] = list(path.parent.glob(f"*{TMP_MARK}*"))
+        pattern = f"{glob_escape(path.stem)}{TMP_MARK}*{glob_escape(path.suffix)}"
+        mine = [p for p in _temporaries[folder] if fnmatch.fnmatchcase(p.name, pattern)]
+        _remove_if_gone(mine)
 
 
 def remove_stale_temporaries_in(folder: Path) -> None:

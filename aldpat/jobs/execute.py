@@ -13,6 +13,7 @@ from typing import Protocol
 
 from aldpat import interrupt
 from aldpat.errors import AldpatError, OutputExistsError, UsageError
+from aldpat.io.atomic import forget_temporaries
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.joblog import write_job_log
 from aldpat.jobs.resolve import ResolvedRun
@@ -25,6 +26,7 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
     """Run one job (in this process or a worker) and write its log; never raises. ``task``
     reaches a worker by its registry key (:meth:`Task.__reduce__`)."""
     def body(ctx: JobContext) -> None:
+        forget_temporaries()
         planned = ctx.planned([Path(s) for s in sources])  # what the job may write (JobContext.wrote holds to it)
         run_one = task.first_pass if run.stage == "first" else task.run_one
         if task.writes_outputs and not ctx.overwrite:  # a tile's job also reads its neighbours: their outputs are theirs

@@ -10,7 +10,7 @@ Records are copied byte for byte (:mod:`aldpat.io.rawtext`) unless ``--delimiter
 another delimiter than the tape's, in which case they are written again with the tape's decimals.
 Streamed chunk by chunk (memory does not grow with the tape); strips are consecutive in time,
 so each chunk splits at the positions where t jumps by more than Interval, the last time of a
-chunk carrying over to the next. Every strip file is renamed into place only when the whole tape
+chunk carrying over to the next, and one strip file is open at a time. Every strip file is renamed into place only when the whole tape
 has been read, so a bad line leaves no partial set of strips.
 """
 
@@ -69,6 +69,9 @@ class _RawStrip:
         lines.write(self.fh, rows)
         self.count += rows.stop - rows.start
 
+    def close(self) -> None:
+        self.fh.close()
+
 
 def _strip_suffix(ctx: JobContext) -> str:
     return ctx.output.suffix if ctx.output is not None and ctx.output.suffix is not None else "_strip"
@@ -99,6 +102,8 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
         lines_of = stack.enter_context(RawLines(source, reader.header_lines)) if raw else None
 
         def open_strip():
+            if written:  # strips follow one another in time: the last one is done (renamed at the end)
+                written[-1][1].close()
             number = len(written) + 1
             out = ctx.output_path(source, f"{suffix}{number:02d}", reader=reader, use_suffix_option=False)
             if raw:

@@ -81,3 +81,27 @@ def test_las_output_is_refused_for_tapes(tmp_path):
     with pytest.raises(UsageError, match=r"cannot take the extension \.las of .*tape\.las; give --out-format text"):
         get_task("split-tape")([named], format="text")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["tape.las", "tape.txt"]  # nothing written
+
+
+def test_strips_are_written_one_open_file_at_a_time(tmp_path):
+    """A tape splitting into more strips than a process may open files (a careless --interval)
+    is split whole: strips follow one another, and each is closed when the next begins."""
+    import resource
+    import subprocess
+
+    from tests.cli.fresh import aldpat_command
+
+    n = 300  # strips, each of two pulses; the process below may open 64 files
+    t = 318000.0 + np.repeat(np.arange(n) * 10.0, 2) + np.tile([0.0, 0.01], n)
+    x = 500000.0 + np.arange(2 * n)
+    rows = np.column_stack([t, x, x * 0 + 4e6, x * 0 + 100, x * 0 + 10, x, x * 0 + 4e6, x * 0 + 100.5, x * 0 + 12])
+    np.savetxt(tmp_path / "tape.txt", rows, fmt=["%.2f"] + ["%.2f", "%.2f", "%.2f", "%d"] * 2)
+
+    def few_files() -> None:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (64, 64))
+
+    proc = subprocess.run([*aldpat_command(), "split-tape", str(tmp_path / "tape.txt"), "--interval", "1", "--odir",
+                           str(tmp_path / "strips")], capture_output=True, text=True, preexec_fn=few_files, check=False)
+    assert proc.returncode == 0, proc.stderr
+    strips = sorted((tmp_path / "strips").glob("tape_strip*.txt"))
+    assert len(strips) == n and all(len(p.read_text().splitlines()) == 2 for p in strips)
