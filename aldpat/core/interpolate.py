@@ -8,7 +8,8 @@ NaN where a node is blank, so that no terrain is invented far from data:
 
 * ``max_distance`` blanks a node whose nearest point is farther than that (``nearest``,
   ``idw``, ``kriging``) or that falls in a TIN triangle with an edge longer than that
-  (``linear``); nodes outside the data's convex hull are always blank for ``linear``;
+  (``linear``); nodes outside the data's convex hull are always blank for ``linear``, and so
+  are those of a hole in the data wider than the TIN's block buffer (:func:`linear`);
 * binning (``min``, ``max``, ``mean``) leaves nodes without a point in their cell blank.
 
 Large tiles are processed in blocks of nodes (and, for the TIN, of points with a buffer around
@@ -310,7 +311,9 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
     of 8 mean point spacings around it, far enough for the triangles over the block to be
     those of the whole tile (they coincide wherever the data are not sparser than the buffer;
     across wider gaps, which ``max_distance`` blanks anyway, a block may choose another valid
-    triangulation). Planes are reproduced exactly. Points sharing an x, y are one vertex at
+    triangulation, or, where its buffer holds no point beyond the gap, leave the nodes blank: a
+    hole wider than the buffer is blank in block-shaped parts, not bridged as one TIN of every
+    point would bridge it). Planes are reproduced exactly. Points sharing an x, y are one vertex at
     their mean height (:func:`merge_duplicates`). ``dtype`` float32 gives the nodes rounded as
     a float32 raster stores them, in half the memory.
     """
