@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.accuracy import coordinate_keys, match_accuracy, reference_calls
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
 from aldpat.io.classified import class_column_of
 from aldpat.io.registry import open_points
 from aldpat.io.worldfile import world_path
@@ -128,6 +128,9 @@ def evaluate_one(source: Path, params: EvaluateParams, ctx: JobContext) -> None:
     res_ground = _result_ground(reader, table, params)
     res_keys = coordinate_keys(table.x, table.y, table.z, tol)
     acc, unmatched = match_accuracy(ref_keys, ref_ground, res_keys, res_ground)
+    if unmatched and unmatched == len(table):  # scores of nothing matched would read as a filter's
+        raise DataError(f"none of its {unmatched:,} points matches a point of {ref_path.name} (within "
+                        f"{tol:g} m): another sample's reference, or shifted coordinates?", path=source)
     if unmatched:
         ctx.warn(f"{source}: {unmatched} result points match no reference point (not counted)")
     record = AccuracyRecord({"path": str(source), "reference": str(ref_path)})

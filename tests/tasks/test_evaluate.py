@@ -53,6 +53,19 @@ def test_evaluate_a_terrain_file_against_isprs_labels(tmp_path, samp24):
     assert rec["total"] == pytest.approx(100 * (drop.sum() + accept.sum()) / len(data), abs=1e-4)
 
 
+def test_a_result_matching_no_reference_point_is_refused_not_scored(tmp_path, samp24):
+    """Another sample's reference (or shifted coordinates) matches nothing: its Type I of 100 %
+    would read as the filter's; a result matching some points is scored with a warning."""
+    data = np.loadtxt(samp24)
+    shifted = write_xyz(tmp_path / "shifted.txt", data[:, :3] + [1000.0, 0.0, 0.0])
+    report = get_task("evaluate")([shifted], reference=str(samp24))
+    assert report.exit_code == 1
+    assert f"none of its {len(data):,} points matches a point of samp24.txt" in report.results[0].error
+    some = write_xyz(tmp_path / "some.txt", np.vstack([data[:10, :3], data[10:20, :3] + [1000.0, 0.0, 0.0]]))
+    report = get_task("evaluate")([some], reference=str(samp24))
+    assert report.exit_code == 0 and report.results[0].records[0]["unmatched"] == 10
+
+
 def test_evaluate_a_classified_las_and_json_output(tmp_path, samp24, runner, cli):
     laz = tmp_path / "samp24.laz"
     assert runner.invoke(cli, ["convert", str(samp24), "--out-format", "laz", "--odir", str(tmp_path)]).exit_code == 0
