@@ -123,7 +123,8 @@ def steps_between(lo: float, hi: float, cell: float, what: str = "range") -> flo
     steps = (hi - lo) / cell
     if not abs(steps) < MOST_A_SIDE:  # NaN and infinity too
         raise DataError(f"{what} {lo:g} .. {hi:g} at {cell:g} m cells would take {abs(steps):.3g} nodes a side, "
-                        f"more than a grid holds ({MOST_A_SIDE}); use a larger cell")
+                        f"more than a grid holds ({MOST_A_SIDE}); use a larger cell, or look for stray points far "
+                        "from the others (a wrong coordinate in the file)")
     return steps
 
 
