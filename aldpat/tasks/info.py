@@ -3,7 +3,8 @@
 A technician's first look: count, bounds, density, fields and CRS; for a LAS its version, point
 format, generating software, class and return histograms and withheld points; and a warning when
 z values lie far outside the bulk of the file (:func:`far_heights`) -- noise a grid or a filter
-would otherwise take for terrain."""
+would otherwise take for terrain -- and when x or y do (:func:`far_places`): a stray point that
+stretches every grid of the file."""
 
 from __future__ import annotations
 
@@ -61,10 +62,40 @@ def histogram_text(counts: dict[str, int]) -> str:
     return ", ".join(f"{k}: {v:,}" for k, v in counts.items()) or "-"
 
 
-#: Heights sampled per chunk to find the bulk of a file's z values (bounded memory on any file).
-Z_SAMPLE = 50_000
+#: Points sampled to find the bulk of a file's x, y and z values: a uniform sample of the whole
+#: file (:class:`Sample`), so memory is bounded whatever its size.
+SAMPLE = 200_000
 #: The bulk of the heights: between these percentiles.
 BULK = (0.1, 99.9)
+
+
+class Sample:
+    """A uniform random sample of at most :data:`SAMPLE` rows of a stream of chunks: each row
+    gets a random key and the rows of the smallest keys are kept (bottom-k sampling)."""
+
+    def __init__(self, seed: int = 0) -> None:
+        self._rng = np.random.default_rng(seed)
+        self._keys = np.zeros(0)
+        self._rows = np.zeros((0, 3))
+        self._bound = 1.0  # keys at or above this can no longer be kept
+
+    def add(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> None:
+        if len(x) > SAMPLE // 4:  # a chunk's share, drawn at once (the chunks of a file are alike in size)
+            pick = self._rng.integers(0, len(x), SAMPLE // 4)
+            x, y, z = x[pick], y[pick], z[pick]
+        keys = self._rng.random(len(x))
+        take = np.flatnonzero(keys < self._bound)
+        self._keys = np.concatenate([self._keys, keys[take]])
+        self._rows = np.concatenate([self._rows, np.column_stack([x[take], y[take], z[take]])])
+        if len(self._keys) > 2 * SAMPLE:
+            keep = np.argpartition(self._keys, SAMPLE)[:SAMPLE]
+            self._keys, self._rows = self._keys[keep], self._rows[keep]
+            self._bound = float(self._keys.max())
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The sampled (x, y, z) rows."""
+        return self._rows
 
 
 def far_heights(sample: np.ndarray, zmin: float, zmax: float) -> str | None:
@@ -86,6 +117,21 @@ def far_heights(sample: np.ndarray, zmin: float, zmax: float) -> str | None:
             f"{lo:.2f} .. {hi:.2f}, yet z goes {' and '.join(far)}")
 
 
+def far_places(sample: np.ndarray, name: str, vmin: float, vmax: float) -> str | None:
+    """A warning when the extent of x (or y) comes from points far outside the bulk of the file
+    (the ``BULK`` percentiles of ``sample``): beyond it by more than its width, and 1 km at least
+    -- a wrong coordinate that makes every grid of the file span the gap."""
+    if len(sample) < 100:
+        return None
+    lo, hi = (float(v) for v in np.percentile(sample, BULK))
+    margin = max(hi - lo, 1000.0)
+    if vmax <= hi + margin and vmin >= lo - margin:
+        return None
+    return (f"{name} values lie far outside the bulk of the file: {BULK[1] - BULK[0]:g} % of the points lie "
+            f"within {lo:.2f} .. {hi:.2f}, yet {name} spans {vmin:.6g} .. {vmax:.6g} (a stray point? a grid "
+            "of the file spans it all)")
+
+
 def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     count = 0
@@ -94,8 +140,7 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
     classes = np.zeros(256, np.int64)
     returns = np.zeros(256, np.int64)
     withheld = 0
-    samples = []
-    rng = np.random.default_rng(0)
+    sample = Sample()
     for chunk in reader.chunks():
         if len(chunk) == 0:
             continue
@@ -104,8 +149,7 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
             col = chunk[name]
             lo[k] = min(lo[k], float(col.min()))
             hi[k] = max(hi[k], float(col.max()))
-        z = np.asarray(chunk.z)
-        samples.append(z if len(z) <= Z_SAMPLE else rng.choice(z, Z_SAMPLE, replace=False))
+        sample.add(np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z))
         if reader.format == "las":
             classes += np.bincount(np.asarray(chunk["classification"]).astype(np.int64), minlength=256)[:256]
             if "return_number" in chunk:
@@ -113,8 +157,13 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
             if chunk.record is not None and "withheld" in chunk.record.point_format.dimension_names:
                 withheld += int(np.count_nonzero(chunk.record["withheld"]))
     area = float((hi[0] - lo[0]) * (hi[1] - lo[1]))
-    if count and (far := far_heights(np.concatenate(samples), float(lo[2]), float(hi[2]))) is not None:
-        ctx.warn(f"{source.name}: {far}")
+    if count:
+        rows = sample.rows
+        for k, name in enumerate("xy"):
+            if (far := far_places(rows[:, k], name, float(lo[k]), float(hi[k]))) is not None:
+                ctx.warn(f"{source.name}: {far}")
+        if (far := far_heights(rows[:, 2], float(lo[2]), float(hi[2]))) is not None:
+            ctx.warn(f"{source.name}: {far}")
     las = {}
     if reader.format == "las":
         header = reader.header

@@ -219,3 +219,33 @@ def test_info_is_a_technicians_first_look(vendor):
     assert done.stderr.count("far outside the bulk of the file") == 1 and "high noise?" in done.stderr
     plain = aldpat("info", SLICE).ok()
     assert "far outside" not in plain.stderr and "classes  0: 12,379" in plain.stdout
+
+
+def test_info_names_a_stray_point_that_stretches_the_extent(tmp_path):
+    """One wrong x of 1e12 among a strip's points makes every grid of the file span the gap:
+    info says so in one line (and nothing for the strip alone)."""
+    rng = np.random.default_rng(3)
+    x, y = 500000 + rng.uniform(0, 300, 2000), 4000000 + rng.uniform(0, 100, 2000)
+    rows = np.column_stack([x, y, 100 + rng.normal(0, 0.2, 2000)])
+    np.savetxt(tmp_path / "strip.txt", rows, fmt="%.2f")
+    assert "far outside" not in aldpat("info", tmp_path / "strip.txt").ok().stderr
+    rows[700, 0] = 1e12
+    np.savetxt(tmp_path / "stray.txt", rows, fmt="%.2f")
+    done = aldpat("info", tmp_path / "stray.txt").ok()
+    lines = [ln for ln in done.stderr.splitlines() if "far outside" in ln]
+    assert len(lines) == 1 and "x values lie far outside the bulk" in lines[0] and "1e+12" in lines[0], done.stderr
+
+
+def test_the_info_sample_is_uniform_and_bounded():
+    """Bottom-k sampling over chunks: at most SAMPLE rows whatever the file's size, drawn alike
+    from every part of it."""
+    from aldpat.tasks.info import SAMPLE, Sample
+
+    sample = Sample()
+    for start in range(0, 3_000_000, 100_000):  # thirty chunks
+        z = np.arange(start, start + 100_000, dtype=float)
+        sample.add(z, z, z)
+    rows = sample.rows
+    assert len(rows) <= 2 * SAMPLE
+    counts = np.histogram(rows[:, 2], bins=3, range=(0, 3_000_000))[0]
+    assert counts.min() > 0.9 * counts.mean()  # each third of the file alike
