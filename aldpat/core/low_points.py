@@ -40,12 +40,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat._lazy import lazy_import
+from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.lowest_grid import CellGridSpec, rows_per_block
 from aldpat.core.threads import on_threads
-
-ndimage = lazy_import("scipy.ndimage")
 
 #: Share of the terrain's cells (%) below its floor.
 FLOOR_RANK = 10
@@ -219,24 +217,86 @@ def _pits(codes: np.ndarray, decode: Decode, real: np.ndarray, d: int, threshold
 
 def band_minimum(z: np.ndarray, d: int, top: float) -> np.ndarray:
     """The lowest value at distance ``d`` to ``2 d`` (Chebyshev) from each cell, ``top`` where
-    there is none (beyond the grid's edge there is nothing: ``top``)."""
-    rows, cols = z.shape
+    there is none (beyond the grid's edge there is nothing: ``top``).
+
+    The band is four rectangles, each the minimum of a running minimum: north and south of a
+    cell, rows ``d`` to ``2 d`` away over the columns within ``2 d``; east and west, columns
+    ``d`` to ``2 d`` away over the rows within ``d - 1``. A minimum only picks values, so the
+    result is exact in any order. Memory: three grids of ``z``'s size."""
+    z = np.ascontiguousarray(z)
+    beyond: np.generic = z.dtype.type(top)
     e = 2 * d
-    out = np.full((rows, cols), top, z.dtype)
-    # north and south: rows d..2d away, columns within 2d; a forward window over d+1 rows of
-    # the rows' minima, read d rows further on (the grid padded with nothing beyond its edges)
-    wide = np.full((rows + 2 * e, cols), top, z.dtype)
-    ndimage.minimum_filter1d(z, 2 * e + 1, axis=1, mode="constant", cval=top, output=wide[e:e + rows])
-    ahead = ndimage.minimum_filter1d(wide, d + 1, axis=0, mode="constant", cval=top, origin=-((d + 1) // 2))
-    np.minimum(ahead[:rows], ahead[e + d:e + d + rows], out=out)  # rows r-2d..r-d, r+d..r+2d
-    del wide, ahead
-    # east and west: columns d..2d away, rows within d - 1
-    tall = np.full((rows, cols + 2 * e), top, z.dtype)
-    ndimage.minimum_filter1d(z, 2 * d - 1, axis=0, mode="constant", cval=top, output=tall[:, e:e + cols])
-    ahead = ndimage.minimum_filter1d(tall, d + 1, axis=1, mode="constant", cval=top, origin=-((d + 1) // 2))
-    np.minimum(out, ahead[:, :cols], out=out)  # columns c-2d..c-d
-    np.minimum(out, ahead[:, e + d:e + d + cols], out=out)  # columns c+d..c+2d
+    out = np.empty_like(z)
+    near = np.empty_like(z)
+    _running_min_rows(z, -e, e, beyond, near, False)  # the columns within 2d
+    _running_min_columns(near, -e, -d, beyond, out, False)  # north: rows r-2d..r-d
+    _running_min_columns(near, d, e, beyond, out, True)  # south: rows r+d..r+2d
+    _running_min_columns(z, 1 - d, d - 1, beyond, near, False)  # the rows within d - 1
+    _running_min_rows(near, -e, -d, beyond, out, True)  # west: columns c-2d..c-d
+    _running_min_rows(near, d, e, beyond, out, True)  # east: columns c+d..c+2d
     return out
+
+
+@compiled(nogil=True)
+def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out: np.ndarray,
+                      lower: bool) -> None:  # pragma: no cover - compiled
+    """``out[i, j]``: the minimum of ``z[i, j + first:j + last + 1]`` (``first <= last``), ``top``
+    beyond the grid's edge; with ``lower``, ``out`` keeps its own value where that is lower. Van
+    Herk / Gil-Werman over each row continued with ``top``: the prefix and suffix minima of
+    blocks of the window's width."""
+    rows, cols = z.shape
+    w = last - first + 1
+    size = cols + w  # the row's positions first .. cols - 1 + last, in blocks of w
+    g = np.empty(size, z.dtype)
+    h = np.empty(size, z.dtype)
+    for i in range(rows):
+        for start in range(0, size, w):
+            stop = min(start + w, size)
+            for k in range(start, stop):
+                at = k + first
+                v = z[i, at] if 0 <= at < cols else top
+                g[k] = v if k == start else min(g[k - 1], v)
+            for k in range(stop - 1, start - 1, -1):
+                at = k + first
+                v = z[i, at] if 0 <= at < cols else top
+                h[k] = v if k == stop - 1 else min(h[k + 1], v)
+        for j in range(cols):
+            v = min(h[j], g[j + w - 1])
+            out[i, j] = min(out[i, j], v) if lower else v
+
+
+#: Columns taken side by side by :func:`_running_min_columns` (its scratch: two runs of them).
+COLUMN_GROUP = 64
+
+
+@compiled(nogil=True)
+def _running_min_columns(z: np.ndarray, first: int, last: int, top: np.generic, out: np.ndarray,
+                         lower: bool) -> None:  # pragma: no cover - compiled
+    """:func:`_running_min_rows` along each column, ``COLUMN_GROUP`` columns side by side (read
+    where they lie)."""
+    rows, cols = z.shape
+    w = last - first + 1
+    size = rows + w
+    g = np.empty((size, COLUMN_GROUP), z.dtype)
+    h = np.empty((size, COLUMN_GROUP), z.dtype)
+    for c0 in range(0, cols, COLUMN_GROUP):
+        width = min(COLUMN_GROUP, cols - c0)
+        for start in range(0, size, w):
+            stop = min(start + w, size)
+            for k in range(start, stop):
+                at = k + first
+                for j in range(width):
+                    v = z[at, c0 + j] if 0 <= at < rows else top
+                    g[k, j] = v if k == start else min(g[k - 1, j], v)
+            for k in range(stop - 1, start - 1, -1):
+                at = k + first
+                for j in range(width):
+                    v = z[at, c0 + j] if 0 <= at < rows else top
+                    h[k, j] = v if k == stop - 1 else min(h[k + 1, j], v)
+        for i in range(rows):
+            for j in range(width):
+                v = min(h[i, j], g[i + w - 1, j])
+                out[i, c0 + j] = min(out[i, c0 + j], v) if lower else v
 
 
 def _floor_and_relief(codes: np.ndarray, decode: Decode, real: np.ndarray, cells: np.ndarray, k: int

@@ -24,7 +24,7 @@ import numpy as np
 
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode, FloatHeights, Heights
-from aldpat.core.lowest_grid import CellGridSpec
+from aldpat.core.lowest_grid import CellGridSpec, fill_nearest
 from aldpat.core.memory import release_free_memory
 from aldpat.core.rise import scale_and_offset
 from aldpat.core.threads import on_threads, thread_budget
@@ -151,10 +151,8 @@ def _seeded(value: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     towards 0 m between ground cells tens of metres apart (every point above it not ground)."""
     if fixed.all() or not fixed.any():
         return value
-    from scipy.ndimage import distance_transform_edt
-
-    nearest = distance_transform_edt(~fixed, return_distances=False, return_indices=True)
-    return value[tuple(nearest)]
+    # the exact Euclidean feature transform, ties broken as scipy's distance transform breaks them
+    return fill_nearest(value, ~fixed)
 
 
 def _push(value: np.ndarray, fine_value: np.ndarray, fixed: np.ndarray) -> np.ndarray:

@@ -31,8 +31,8 @@ def _brute_band(z: np.ndarray, d: int) -> np.ndarray:
     return out
 
 
-@pytest.mark.parametrize("shape", [(13, 17), (3, 4), (1, 9)])
-@pytest.mark.parametrize("d", [1, 2, 4])
+@pytest.mark.parametrize("shape", [(13, 17), (3, 4), (1, 9), (31, 26)])
+@pytest.mark.parametrize("d", [1, 2, 4, 7])
 def test_band_minimum_is_the_lowest_cell_d_to_2d_away(shape, d):
     z = np.random.default_rng(d).random(shape)
     assert np.array_equal(band_minimum(z, d, np.inf), _brute_band(z, d))
