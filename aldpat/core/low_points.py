@@ -245,6 +245,7 @@ def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out
     Herk / Gil-Werman over each row continued with ``top``: the prefix and suffix minima of
     blocks of the window's width."""
     rows, cols = z.shape
+    first, last = _within(first, cols), _within(last, cols)
     w = last - first + 1
     size = cols + w  # the row's positions first .. cols - 1 + last, in blocks of w
     g = np.empty(size, z.dtype)
@@ -265,6 +266,14 @@ def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out
             out[i, j] = min(out[i, j], v) if lower else v
 
 
+@compiled(nogil=True)
+def _within(offset: int, n: int) -> int:  # pragma: no cover - compiled
+    """A window's offset along a line of ``n`` cells clamped to ``-n .. n``: every cell further
+    off lies beyond the line from each of its cells, as the clamped offset does, so the window
+    reads the same and its scratch follows the grid, not the window."""
+    return min(max(offset, -n), n)
+
+
 #: Columns taken side by side by :func:`_running_min_columns` (its scratch: two runs of them).
 COLUMN_GROUP = 64
 
@@ -275,6 +284,7 @@ def _running_min_columns(z: np.ndarray, first: int, last: int, top: np.generic, 
     """:func:`_running_min_rows` along each column, ``COLUMN_GROUP`` columns side by side (read
     where they lie)."""
     rows, cols = z.shape
+    first, last = _within(first, rows), _within(last, rows)
     w = last - first + 1
     size = rows + w
     g = np.empty((size, COLUMN_GROUP), z.dtype)

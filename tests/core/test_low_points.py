@@ -42,6 +42,14 @@ def test_band_minimum_is_the_lowest_cell_d_to_2d_away(shape, d):
                                                                  _brute_band(codes, d)))
 
 
+def test_a_band_wider_than_the_grid_holds_nothing_and_costs_the_grid_only():
+    """A band ``d`` cells away, with ``d`` far beyond a small grid, finds no cell; its scratch is
+    the grid's, not the band's (a band of 10**7 cells would need gigabytes)."""
+    z = np.random.default_rng(5).random((6, 9))
+    assert np.array_equal(band_minimum(z, 10**7, np.inf), np.full(z.shape, np.inf))
+    assert np.array_equal(band_minimum(z, 5, np.inf), _brute_band(z, 5))
+
+
 def test_block_lowest_takes_the_lowest_point_of_each_block():
     rng = np.random.default_rng(3)
     codes = rng.integers(0, 1000, (7, 11)).astype(np.int32)
