@@ -6,7 +6,8 @@ grown by ``buffer`` on every side. The pass reads the input once, chunk of rows 
 and appends every point to the spill file of each chunk whose buffered extent holds it (its own
 chunk, and its neighbours' when it lies in their buffer), as records of its row number in the
 input and x, y, z. The spill files of one chunk therefore hold its points in input order. Peak
-memory is one read chunk; the spill files take 32 bytes a point (times the buffer's share) in a
+memory is one read chunk and at most :data:`SPILL_COPIES` copies being placed, however wide the
+buffers are against the chunks; the spill files take 32 bytes a point (times the buffer's share) in a
 temporary folder, removed by the caller's ``with``.
 
 :func:`map_chunks` then runs the work of each chunk here, in worker processes, or on the Dask
@@ -54,6 +55,12 @@ class ChunkLattice:
         """How many chunks hold each point, its own and those whose buffers reach it (on average)."""
         return ((self.size + 2 * self.buffer) / self.size) ** 2
 
+    @property
+    def most_copies_of_a_point(self) -> int:
+        """How many chunks hold a point at the most: a chunk with its buffer spans the whole
+        chunks of ``(size + 2 buffer) / size`` in x and in y, a point in one more where it falls."""
+        return math.ceil((self.size + 2 * self.buffer) / self.size) ** 2
+
     def check_copies(self) -> None:
         """Refuse (:class:`ParamError`: the options ask for it) chunks whose buffers copy each
         point more than :data:`MOST_COPIES` times: a rule of the options alone, checked with them."""
@@ -69,6 +76,11 @@ class ChunkLattice:
 #: its input to disk (``--chunk 1`` with a 40 m buffer: 6,561 copies of every point) to gain
 #: nothing a larger chunk would not give.
 MOST_COPIES = 100
+#: The most point copies one step of the spill gathers before writing them (32 bytes each: 128 MiB).
+#: A read chunk is placed in slices of rows this bounds: with buffers far wider than the chunks
+#: (``--chunk 60`` with a 245 m buffer: 84 copies of every point) the copies of a million-row read
+#: chunk took 2.7 GB at once.
+SPILL_COPIES = 4_000_000
 #: The most chunks one input is cut into (a spill file each, a task each): a million chunks of
 #: 100 m cover 10,000 km2; more are the sign of a chunk far too small for the data.
 MOST_CHUNKS = 1_000_000
@@ -175,7 +187,10 @@ def spill_chunks(tables: Iterable[PointTable], lattice: ChunkLattice, *, tmpdir:
             owned.update(zip(own[:, 0].tolist(), own[:, 1].tolist(), strict=True))
             if len(owned) > MOST_CHUNKS:
                 raise too_many_chunks(lattice, len(owned))
-            spilled += _append_by_chunk(folder, records, col, row, own, lattice)
+            rows = max(1, SPILL_COPIES // lattice.most_copies_of_a_point)
+            for first in range(0, n, rows):
+                part = slice(first, first + rows)
+                spilled += _append_by_chunk(folder, records[part], col[part], row[part], own, lattice)
             start += n
         # a chunk that holds only buffer points has nothing of its own to classify
         chunks = sorted(owned, key=lambda cr: (cr[1], cr[0]))
@@ -203,8 +218,8 @@ def _distinct_chunks(col: np.ndarray, row: np.ndarray) -> np.ndarray:
 
 def _append_by_chunk(folder: Path, records: np.ndarray, col: np.ndarray, row: np.ndarray, own: np.ndarray,
                      lattice: ChunkLattice) -> int:
-    """Append each point of ``records`` (of chunk ``col``, ``row``; ``own`` the distinct chunks,
-    sorted) to the spill file of every chunk whose buffered extent holds it, in input order;
+    """Append each point of ``records`` (of chunk ``col``, ``row``; ``own`` the distinct chunks of
+    these points or more, sorted) to the spill file of every chunk whose buffered extent holds it, in input order;
     the number of copies written."""
     reach = math.ceil(lattice.buffer / lattice.size) if lattice.buffer > 0 else 0
     around = np.arange(-reach, reach + 1)

@@ -111,8 +111,10 @@ def test_killed_at_random_instants_and_resumed_ends_identical(tmp_path):
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_signal_mid_chunk_removes_the_chunks_files(two_big, tmp_path, jobs):
     out = tmp_path / "out"
-    proc = subprocess.Popen(aldpat_command() + ["filter", "pm", str(two_big[0]), "--chunk", "60", "-j", str(jobs),
-                                                "--odir", str(out)],
+    # 81 chunks with 20 m buffers (pm's own, 245 m, would copy each point into 84 chunks: a run
+    # of half a minute to test the same thing)
+    proc = subprocess.Popen(aldpat_command() + ["filter", "pm", str(two_big[0]), "--chunk", "60", "--chunk-buffer", "20",
+                                                "-j", str(jobs), "--odir", str(out)],
                             stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None and not list(out.glob(".aldpat-scratch-*/*/chunk_*")):

@@ -58,6 +58,35 @@ def test_every_chunk_holds_what_the_rule_puts_in_it_in_input_order(size, buffer,
             assert got.dtype == RECORD
 
 
+def test_buffers_far_wider_than_the_chunks_are_placed_a_bounded_slice_at_a_time(tmp_path, monkeypatch):
+    """The copies one step gathers stay under SPILL_COPIES however many chunks hold each point
+    (a 7.5 m chunk with 16 m buffers: 27.7 copies of every point on average, up to 36), and the
+    chunks hold what the rule puts in them, in input order, as when placed in one step."""
+    from aldpat.io import chunks
+
+    rng = np.random.default_rng(11)
+    n = 3000
+    x, y, z = rng.uniform(0, 120, n), rng.uniform(0, 90, n), rng.uniform(0, 10, n)
+    lattice = ChunkLattice(7.5, 16.0)
+    assert lattice.copies > 27 and lattice.most_copies_of_a_point == 36
+    steps: list[int] = []
+    place = chunks._append_by_chunk
+
+    def counted(*args, **kwargs):
+        copies = place(*args, **kwargs)
+        steps.append(copies)
+        return copies
+
+    monkeypatch.setattr(chunks, "SPILL_COPIES", 1000)
+    monkeypatch.setattr(chunks, "_append_by_chunk", counted)
+    expected = spill_by_the_rule(x, y, lattice)
+    with spill_chunks([PointTable({"x": x, "y": y, "z": z})], lattice, tmpdir=tmp_path) as spilled:
+        assert len(steps) == -(-n // (1000 // 36)) and max(steps) <= 1000
+        assert spilled.spilled == sum(steps) == sum(len(rows) for rows in expected.values())
+        for (c, r), rows in expected.items():
+            assert spilled.read(c, r)["row"].tolist() == rows
+
+
 def test_each_chunks_result_is_let_go_of_once_handed_on():
     """A chunk's result lives as long as its caller keeps it, not until the last chunk is done
     (the futures kept every result: memory grew with the file)."""
