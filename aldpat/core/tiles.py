@@ -31,8 +31,11 @@ DIRECTIONS = ("xy", "x", "y")
 
 #: tiles along one axis at most: far beyond any survey, and a bound on what a typo can ask for
 MAX_TILES_PER_AXIS = 1_000_000
-#: a buffer may reach this many tiles beyond a tile's core at most
-MAX_BUFFER_TILES = 100
+#: a buffer may reach this many tiles beyond a tile's core at most: each point is then copied into
+#: at most 10 tiles along an axis and 100 over an area, the bound a chunked run keeps to
+#: (``aldpat.io.chunks.MOST_COPIES``). A buffer of 100 tiles copied every point into 40,401 tiles:
+#: ``tile --width 10 --buffer 200`` wrote 1,681 times its input before a tile was done.
+MAX_BUFFER_TILES = 4.5
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,11 @@ class Axis:
         end = origin + math.floor(hi - origin) + 1.0
         return cls(start, end - start, 0, 1)
 
+    def copies(self, buffer: float) -> float:
+        """How many tiles along this axis hold a point, on average: a tile with its buffer spans
+        ``(size + 2 buffer) / size`` tiles, and there are ``n`` tiles to hold it."""
+        return min(float(self.n), (self.size + 2 * buffer) / self.size)
+
     @overload
     def edge(self, k: int) -> float: ...
     @overload
@@ -90,9 +98,13 @@ class Axis:
 
 def check_buffer(buffer: float, size: float) -> None:
     """A :class:`ValueError` when a tile's buffer reaches more than :data:`MAX_BUFFER_TILES`
-    tiles of ``size`` beyond it (each point would be copied into that many tiles squared)."""
+    tiles of ``size`` beyond it (each point would be copied into twice that many tiles and one
+    more, along this axis alone)."""
     if buffer > MAX_BUFFER_TILES * size:
-        raise ValueError(f"a buffer of {buffer:g} reaches more than {MAX_BUFFER_TILES} tiles of {size:g} beyond each tile")
+        copies = math.ceil((size + 2 * buffer) / size)
+        raise ValueError(f"a buffer of {buffer:g} reaches more than {MAX_BUFFER_TILES:g} tiles of {size:g} beyond each "
+                         f"tile (each point copied into up to {copies:,} tiles along this axis); use a buffer of at "
+                         f"most {MAX_BUFFER_TILES * size:g} or larger tiles")
 
 
 @dataclass(frozen=True)
@@ -122,6 +134,11 @@ class TileLayout:
         for axis in (xs, ys):
             check_buffer(buffer, axis.size)
         return cls(xs, ys, float(buffer))
+
+    @property
+    def copies(self) -> float:
+        """How many tiles hold a point, its own and those whose buffers reach it (on average)."""
+        return self.xs.copies(self.buffer) * self.ys.copies(self.buffer)
 
     @property
     def nx(self) -> int:

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.crs import output_crs
+from aldpat.core.resources import check_disk
 from aldpat.core.tiles import DIRECTIONS, TileLayout, check_buffer
 from aldpat.errors import DataError, ParamError, UsageError
 from aldpat.io.atomic import (
@@ -272,6 +273,16 @@ def route(sink: TileSink, layout: TileLayout, chunk, lines=None, only: set[tuple
     return int((ci < 0).sum())
 
 
+def _tiled_bytes(reader, ext: str) -> int:
+    """About what the points of ``reader`` take once in tiles of ``ext``: its records when LAS
+    tiles are written uncompressed, else its file's size (text to text, LAS to LAS, LAZ to LAZ
+    keep about the bytes a point takes)."""
+    size = reader.path.stat().st_size
+    if reader.format == "las" and ext == ".las":
+        return max(size, int(reader.count or 0) * int(reader.header.point_format.size))
+    return size
+
+
 def tile_outputs(sources: list[Path], params: TileParams, ctx: JobContext) -> list[Planned]:
     """``tile_parameter.txt`` and the tiles ``tile_<minx>_<miny>``, as many as the data cover.
     ``--append`` to LAS/LAZ tiles is refused here, before anything runs (``--dry-run`` too)."""
@@ -308,6 +319,9 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     except ValueError as exc:
         raise UsageError(f"--bounds: {exc}" if params.bounds is not None else str(exc)) from None
     log.info("tiling %s into up to %d x %d tiles", ", ".join(map(str, bounds)), layout.nx, layout.ny)
+    check_disk(sum(_tiled_bytes(r, ext) for r in readers) * layout.copies, folder,
+               f"tiling {len(readers)} input(s) with {params.buffer:g} m buffers ({layout.copies:.1f} copies of "
+               "each point)", "give --odir on a disk with room or a smaller --buffer", path=first.path)
     template = first.header if first.format == "las" else None
     sink = TileSink(folder, ext, names + ((BUFFER_DIMENSION,) if ext in (".las", ".laz") else ()),
                     delimiter=ctx.delimiter, overwrite=ctx.overwrite, append=params.append, template=template,

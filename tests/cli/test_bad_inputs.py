@@ -262,6 +262,7 @@ main()
     ("convert", ["--out-format", "laz"], "big.laz"),
     ("filter pm", [], "big_pm.txt"),
     ("grid", ["--cell", "0.25"], "big_linear.grd"),
+    ("tile", ["--width", "20", "--height", "20", "--buffer", "5"], "tile_parameter.txt"),
 ])
 def test_a_full_disk_names_the_output_and_leaves_nothing(tmp_path, command, extra, out_name):
     rng = np.random.default_rng(0)

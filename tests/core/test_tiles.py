@@ -105,3 +105,17 @@ def test_bad_bounds_and_absurd_sizes_are_refused():
         TileLayout.build((0, 0, 1, 1), 1e-300, 1e-300, 0)
     with pytest.raises(ValueError, match="buffer"):
         TileLayout.build((0, 0, 10, 10), 1, 1, 1000)
+
+
+def test_copies_count_the_tiles_a_point_falls_in_on_average():
+    """The disk a tiling needs is its input times these copies: (100 + 2 x 10) / 100 tiles along
+    each tiled axis, one along an axis of one tile, and never more tiles than there are."""
+    rng = np.random.default_rng(2)
+    x, y = rng.uniform(0, 1000, 200_000), rng.uniform(0, 1000, 200_000)
+    layout = TileLayout.build((0, 0, 999.99, 999.99), 100, 100, 10)
+    assert layout.copies == pytest.approx(1.2 * 1.2)
+    held = sum(len(rows) for _, _, rows, _ in layout.memberships(x, y))
+    # an upper bound: the buffers at the data's edges have no neighbour to copy into (1.18 per axis here)
+    assert 0.95 * layout.copies < held / len(x) <= layout.copies
+    assert TileLayout.build((0, 0, 999.99, 999.99), 100, 100, 10, "x").copies == pytest.approx(1.2)
+    assert TileLayout.build((0, 0, 150, 150), 100, 100, 400).copies == 4.0  # two tiles a side hold everything

@@ -174,7 +174,9 @@ def test_the_layout_of_given_bounds_is_checked_with_the_parameters():
 
     with pytest.raises(ParamError, match=r"bounds: 1e\+09 tiles along one axis"):
         TileParams(bounds=(0.0, 0.0, 1e9, 1e9), width=1.0)
-    with pytest.raises(ParamError, match="bounds: a buffer of 500 reaches more than 100 tiles of 1 "):
+    with pytest.raises(ParamError, match="bounds: a buffer of 500 reaches more than 4.5 tiles of 1 .*up to 1,001 tiles"):
         TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=500.0)
-    TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=50.0)
+    with pytest.raises(ParamError, match="use a buffer of at most 4.5 or larger tiles"):
+        TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=4.6)
+    TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=4.5)  # 10 tiles along an axis
     TileParams(width=1.0, buffer=500.0, direction="y")  # x spans the data, whose extent the run reads
