@@ -31,11 +31,27 @@ DIRECTIONS = ("xy", "x", "y")
 
 #: tiles along one axis at most: far beyond any survey, and a bound on what a typo can ask for
 MAX_TILES_PER_AXIS = 1_000_000
+#: The most copies of a point that squares with buffers may make (the area of a square with its
+#: buffer over the square's own, at most 10 x 10: a buffer of 4.5 squares): past that a run writes
+#: or works many times its input to gain nothing larger squares would not give. Chunks, tiles and
+#: atin's rectangles all keep to it.
+MOST_COPIES = 100
 #: a buffer may reach this many tiles beyond a tile's core at most: each point is then copied into
-#: at most 10 tiles along an axis and 100 over an area, the bound a chunked run keeps to
-#: (``aldpat.io.chunks.MOST_COPIES``). A buffer of 100 tiles copied every point into 40,401 tiles:
-#: ``tile --width 10 --buffer 200`` wrote 1,681 times its input before a tile was done.
-MAX_BUFFER_TILES = 4.5
+#: at most 10 tiles along an axis and :data:`MOST_COPIES` over an area. A buffer of 100 tiles copied
+#: every point into 40,401 tiles: ``tile --width 10 --buffer 200`` wrote 1,681 times its input
+#: before a tile was done.
+MAX_BUFFER_TILES = (math.sqrt(MOST_COPIES) - 1) / 2
+
+
+def copies_with_buffer(width: float, height: float, buffer: float) -> float:
+    """How many ``width`` x ``height`` squares grown by ``buffer`` on every side hold a point, on
+    average over a large area: the grown square's area over the square's."""
+    return (width + 2 * buffer) / width * ((height + 2 * buffer) / height)
+
+
+def least_square_for(buffer: float) -> float:
+    """The smallest square side whose ``buffer`` keeps to :data:`MOST_COPIES` copies."""
+    return 2 * buffer / (math.sqrt(MOST_COPIES) - 1)
 
 
 @dataclass(frozen=True)

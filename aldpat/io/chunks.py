@@ -29,6 +29,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.core.compiled import compiled
 from aldpat.core.resources import check_disk, count_text
+from aldpat.core.tiles import MOST_COPIES, copies_with_buffer, least_square_for
 from aldpat.core.workers import WorkerPool
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import scratch_dir
@@ -53,7 +54,7 @@ class ChunkLattice:
     @property
     def copies(self) -> float:
         """How many chunks hold each point, its own and those whose buffers reach it (on average)."""
-        return ((self.size + 2 * self.buffer) / self.size) ** 2
+        return copies_with_buffer(self.size, self.size, self.buffer)
 
     @property
     def most_copies_of_a_point(self) -> int:
@@ -65,17 +66,12 @@ class ChunkLattice:
         """Refuse (:class:`ParamError`: the options ask for it) chunks whose buffers copy each
         point more than :data:`MOST_COPIES` times: a rule of the options alone, checked with them."""
         if not self.copies <= MOST_COPIES:
-            least = 2 * self.buffer / (math.sqrt(MOST_COPIES) - 1)
+            least = least_square_for(self.buffer)
             raise ParamError(f"--chunk {self.size:g} m with a {self.buffer:g} m buffer copies every point "
                              f"into {self.copies:,.0f} chunks (at most {MOST_COPIES}); use a --chunk of at least "
                              f"{least:.4g} m or a smaller --chunk-buffer")
 
 
-#: The most copies of a point a chunked run may spill (the area of a chunk with its buffer over
-#: the chunk's own, at most 10 x 10: a buffer of 4.5 chunks): past that a run writes many times
-#: its input to disk (``--chunk 1`` with a 40 m buffer: 6,561 copies of every point) to gain
-#: nothing a larger chunk would not give.
-MOST_COPIES = 100
 #: The most point copies one step of the spill gathers before writing them (32 bytes each: 128 MiB).
 #: A read chunk is placed in slices of rows this bounds: with buffers far wider than the chunks
 #: (``--chunk 60`` with a 245 m buffer: 84 copies of every point) the copies of a million-row read

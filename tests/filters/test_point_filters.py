@@ -188,6 +188,17 @@ def test_atin_classes_do_not_depend_on_the_rectangle_size(plane):
     assert np.array_equal(whole, small)
 
 
+def test_atin_rectangles_far_smaller_than_their_buffer_are_refused_with_the_size_that_works():
+    """Each rectangle triangulates its buffer's candidates again: 1 m rectangles with the default
+    100 m buffer took 27 s on 7,492 points. The bound is the chunks' and tiles' (100 copies)."""
+    from aldpat.errors import ParamError
+
+    with pytest.raises(ParamError, match=r"triangulate each point 121 times \(at most 100\).* at least 22\.22 m"):
+        AtinParams(tile_x_width=20.0, tile_y_height=20.0)
+    AtinParams(tile_x_width=22.3, tile_y_height=22.3)
+    AtinParams(tile_x_width=1.0, tile_y_height=1.0, tile_buffer=0.0)  # no buffer: each point once
+
+
 def test_atin_angle_threshold_rejects_points_steep_from_their_vertices():
     x, y, z, truth = plane_with_objects(spacing=1.5)
     # the raised-segment test off: it would take the boxes out before either test sees them
