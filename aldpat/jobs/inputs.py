@@ -38,6 +38,8 @@ MAX_LIST_DEPTH = 16
 MAX_LIST_BYTES = 1 << 30
 #: the most files one pattern may match (a project of a million tiles is far beyond any seen)
 MAX_PATTERN_MATCHES = 1_000_000
+#: walks of a pattern before giving up when folders vanish under it
+PATTERN_ATTEMPTS = 3
 _MAGIC = frozenset("*?[")
 
 
@@ -184,22 +186,30 @@ def pattern_files(pattern: Path) -> list[Path]:
     if rest[-1] == "**":  # every file below, as glob's recursive "**" (a path's "**" lists folders)
         rest = (*rest, "*")
     hidden_asked = any(part.startswith(".") for part in rest)
-    found: list[Path] = []
-    try:
-        for match in anchor.glob("/".join(rest)):
-            relative = match.parts[len(anchor.parts):] if fixed else match.parts
-            if not hidden_asked and any(part.startswith(".") for part in relative):
-                continue
-            if not match.is_file():
-                continue
-            found.append(match)
-            if len(found) > MAX_PATTERN_MATCHES:
-                raise InputFormatError(f"pattern matches more than {MAX_PATTERN_MATCHES:,} files; "
-                                       "name fewer (a folder, or a narrower pattern)", path=pattern)
-    except OSError as exc:
-        raise InputFormatError(f"cannot search for this pattern: {(exc.strerror or str(exc)).lower()}",
-                               path=pattern) from None
-    return found
+    for attempt in range(PATTERN_ATTEMPTS):
+        found: list[Path] = []
+        try:
+            for match in anchor.glob("/".join(rest)):
+                relative = match.parts[len(anchor.parts):] if fixed else match.parts
+                if not hidden_asked and any(part.startswith(".") for part in relative):
+                    continue
+                if not match.is_file():
+                    continue
+                found.append(match)
+                if len(found) > MAX_PATTERN_MATCHES:
+                    raise InputFormatError(f"pattern matches more than {MAX_PATTERN_MATCHES:,} files; "
+                                           "name fewer (a folder, or a narrower pattern)", path=pattern)
+            return found
+        except FileNotFoundError:
+            # a folder removed while the walk went through it (another run's scratch folder
+            # beside its outputs): the walk (pathlib's) stops there; walk again
+            if attempt + 1 == PATTERN_ATTEMPTS:
+                raise InputFormatError("cannot search for this pattern: its folders kept changing while "
+                                       f"searched ({PATTERN_ATTEMPTS} tries)", path=pattern) from None
+        except OSError as exc:
+            raise InputFormatError(f"cannot search for this pattern: {(exc.strerror or str(exc)).lower()}",
+                                   path=pattern) from None
+    return []  # not reached: the last attempt returns or raises
 
 
 def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:

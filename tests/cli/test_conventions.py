@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import laspy
 import numpy as np
@@ -71,6 +72,32 @@ def test_a_pattern_matching_too_many_files_is_refused(tmp_path, samp24, monkeypa
     got, errors = expand_inputs([str(folder / "*.txt"), str(folder / "tile_0.txt")])
     assert [p.name for p in got] == ["tile_0.txt"]
     assert len(errors) == 1 and "matches more than 3 files" in str(errors[0])
+
+
+def test_a_folder_removed_during_a_patterns_walk_does_not_fail_the_pattern(tmp_path, samp24, monkeypatch):
+    """pathlib's walk stops at a folder removed under it (another run's scratch folder among the
+    tiles): the pattern is walked again, and given up on in one line only if that keeps happening."""
+    from aldpat.jobs import inputs
+
+    folder = _tiles(tmp_path, samp24, n=3)
+    walk = Path.glob
+    vanishing = {"left": 1}
+
+    def glob(self, pattern):
+        for k, match in enumerate(walk(self, pattern)):
+            if k == 1 and vanishing["left"]:
+                vanishing["left"] -= 1
+                raise FileNotFoundError(2, "No such file or directory", str(folder / ".aldpat-scratch-1"))
+            yield match
+
+    monkeypatch.setattr(Path, "glob", glob)
+    got, errors = expand_inputs([str(tmp_path / "**" / "*.txt")])
+    assert errors == [] and sorted(p.name for p in got) == ["tile_0.txt", "tile_1.txt", "tile_2.txt"]
+    vanishing["left"] = inputs.PATTERN_ATTEMPTS
+    got, errors = expand_inputs([str(tmp_path / "**" / "*.txt")])
+    expected = (f"{tmp_path / '**' / '*.txt'}: cannot search for this pattern: its folders kept changing while "
+                "searched (3 tries)")
+    assert got == [] and [str(e) for e in errors] == [expected]
 
 
 def test_a_folder_gives_its_point_files_and_skips_the_rest(tmp_path, samp24):
