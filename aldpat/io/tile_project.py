@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.tiles import MAX_BUFFER_TILES
 from aldpat.errors import AldpatError, DataError
 from aldpat.io.registry import open_points
 from aldpat.io.tile_parameters import PARAMETER_FILE, TileRow, read_tile_parameters, row_for
@@ -150,6 +151,13 @@ def tile_points(job: TileJob, reach: float, *, fmt: str | None = None, keep: Kee
     """The points within ``reach`` of the job's core, each from the file of the tile owning it:
     the job's own file first, then each neighbour's."""
     x0, x1, y0, y1 = job.core
+    side = min(x1 - x0, y1 - y0)
+    if reach > MAX_BUFFER_TILES * side:
+        # as ``tile`` refuses such buffers: every tile's job would read its neighbours' points
+        # out to many tiles away, the project's points again and again
+        raise DataError(f"a buffer of {reach:g} m reaches more than {MAX_BUFFER_TILES:g} tiles of {side:g} m beyond "
+                        f"the tile ({len(job.near(reach))} neighbouring tiles); use a --buffer of at most "
+                        f"{MAX_BUFFER_TILES * side:g}", path=job.source)
     region = (x0 - reach, x1 + reach, y0 - reach, y1 + reach)
     near = job.near(reach)
     present = [(row, job.file_of(row)) for row in near]
