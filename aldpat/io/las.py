@@ -25,7 +25,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.resources import check_memory, count_text
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
 from aldpat.io.prefetch import read_ahead
 from aldpat.io.table import PointTable
 from aldpat.io.text import MAX_COORDINATE
@@ -443,6 +443,27 @@ def _names_crs(header: laspy.LasHeader, crs: Any) -> bool:
     return known is not None and known.equals(crs, ignore_axis_order=True)
 
 
+#: the integers a LAS file stores a coordinate as (``X * scale + offset``): 32 bits, signed
+_LAS_CODES = (-(2 ** 31), 2 ** 31 - 1)
+
+
+def _check_storable(values: np.ndarray, axis: str, scale: float, offset: float) -> None:
+    """Refuse (:class:`DataError`, one line) coordinates a LAS file cannot store at its scale and
+    offset: its integers reach about 2,147 km either side of the offset at millimetres. One stray
+    point far from the others, or a file of another coordinate system appended, made laspy's
+    OverflowError an internal error."""
+    if not len(values):
+        return
+    lo, hi = (float(v) for v in (np.min(values), np.max(values)))
+    first, last = (offset + scale * c for c in _LAS_CODES)
+    if first <= lo and hi <= last:
+        return
+    bad = lo if lo < first else hi
+    raise DataError(f"{axis} = {bad:.10g} cannot be stored in this LAS file: at its scale {scale:g} and offset "
+                    f"{offset:.10g} its 32-bit integers hold {axis} from {first:.10g} to {last:.10g} (a stray "
+                    "point far from the others? write text, or split the points)")
+
+
 class LasWriter:
     """Writes chunks to a LAS/LAZ file opened for writing (the caller renames it into place).
 
@@ -532,8 +553,10 @@ class LasWriter:
             for dim in RETURN_DIMENSIONS:
                 if dim not in table.columns:
                     points[dim] = np.ones(n, np.uint8)
-        for name in ("x", "y", "z"):
+        for k, name in enumerate("xyz"):
             if name not in same:
+                _check_storable(table.columns[name], name, float(self._header.scales[k]),
+                                float(self._header.offsets[k]))
                 setattr(points, name, table.columns[name])
         for name, values in table.columns.items():
             dim = LAS_DIMENSIONS.get(name)

@@ -84,6 +84,32 @@ def test_text_to_laz_derives_scale_from_decimals(tmp_path, samp24):
     np.testing.assert_allclose(back.z, t.z, atol=1e-9)
 
 
+def test_a_coordinate_the_files_integers_cannot_hold_is_refused_in_one_line(tmp_path):
+    """A LAS file stores x as a 32-bit integer at its scale from its offset: about 2,147 km either
+    side at millimetres. A text file with one stray point 10,700 km from the others (the header
+    is made from the first points) was laspy's OverflowError, an internal error."""
+    from aldpat.errors import DataError
+
+    src = tmp_path / "stray.txt"
+    src.write_text("-10000000.123 5403000.456 300.789\n512000.123 5403000.456 300.789\n")
+    reader = open_points(src)
+    out = tmp_path / "stray.las"
+    with pytest.raises(DataError, match=r"^x = 512000\.123 cannot be stored in this LAS file: at its scale 0\.001 "
+                                        r"and offset -10001000 its 32-bit integers hold x from -12148483\.65 to "
+                                        r"-7853516\.353 \(a stray point"):
+        with write_points(out, ("x", "y", "z"), like=reader) as w:
+            for c in reader.chunks():
+                w.write(c)
+    # at the edge of the integers' range: stored exactly
+    edge = tmp_path / "edge.txt"
+    edge.write_text("1000.000 0 0\n2148483.647 0 0\n")
+    reader = open_points(edge)
+    with write_points(tmp_path / "edge.las", ("x", "y", "z"), like=reader) as w:
+        for c in reader.chunks():
+            w.write(c)
+    assert laspy.read(tmp_path / "edge.las").X.max() == 2 ** 31 - 1
+
+
 @pytest.mark.parametrize("ext", [".las", ".laz"])
 def test_truncated_files_are_reported_not_crashed(tmp_path, ext):
     src = tmp_path / f"in{ext}"
