@@ -464,6 +464,31 @@ def _check_storable(values: np.ndarray, axis: str, scale: float, offset: float) 
                     "point far from the others? write text, or split the points)")
 
 
+#: (dimension, point format 6-10) -> the whole numbers it holds (LAS 1.4 R15, tables 7-8 and 13-14)
+_WHOLE_RANGES = {("intensity", False): (0, 65535), ("intensity", True): (0, 65535),
+                 ("classification", False): (0, 31), ("classification", True): (0, 255),
+                 ("return_number", False): (0, 7), ("return_number", True): (0, 15),
+                 ("number_of_returns", False): (0, 7), ("number_of_returns", True): (0, 15)}
+
+
+def _check_whole(values: np.ndarray, name: str, whole: tuple[int, int] | None) -> None:
+    """Refuse (:class:`DataError`, one line) values a LAS attribute of ``whole`` numbers cannot
+    hold: a text column's intensity of 70,000 was stored as 4,464 and one of -5 as 65,531, and
+    reflectances of 0 to 1 became 0 -- silently."""
+    if whole is None or not len(values):
+        return
+    lo, hi = whole
+    if values.dtype.kind == "u" and np.iinfo(values.dtype).max <= hi:  # a LAS file's own, or as narrow
+        return
+    outside = (values < lo) | (values > hi)
+    if values.dtype.kind == "f":
+        outside |= values != np.round(values)
+    if outside.any():
+        bad = values[np.argmax(outside)]
+        raise DataError(f"{name} = {bad:g} cannot be stored in this LAS file, whose {name} holds whole numbers "
+                        f"from {lo} to {hi:,} (write text, or scale the column)")
+
+
 class LasWriter:
     """Writes chunks to a LAS/LAZ file opened for writing (the caller renames it into place).
 
@@ -561,6 +586,7 @@ class LasWriter:
         for name, values in table.columns.items():
             dim = LAS_DIMENSIONS.get(name)
             if dim and dim not in "xyz" and name not in same and dim in points.point_format.dimension_names:
+                _check_whole(values, name, _WHOLE_RANGES.get((dim, points.point_format.id >= 6)))
                 points[dim] = values
         for name in (*self._extra, *(n for n in self._given_extra if n not in same)):
             points[name] = table.columns[name]

@@ -94,12 +94,11 @@ def test_a_coordinate_the_files_integers_cannot_hold_is_refused_in_one_line(tmp_
     src.write_text("-10000000.123 5403000.456 300.789\n512000.123 5403000.456 300.789\n")
     reader = open_points(src)
     out = tmp_path / "stray.las"
-    with pytest.raises(DataError, match=r"^x = 512000\.123 cannot be stored in this LAS file: at its scale 0\.001 "
-                                        r"and offset -10001000 its 32-bit integers hold x from -12148483\.65 to "
-                                        r"-7853516\.353 \(a stray point"):
-        with write_points(out, ("x", "y", "z"), like=reader) as w:
-            for c in reader.chunks():
-                w.write(c)
+    refused = (r"^x = 512000\.123 cannot be stored in this LAS file: at its scale 0\.001 and offset -10001000 its "
+               r"32-bit integers hold x from -12148483\.65 to -7853516\.353 \(a stray point")
+    with pytest.raises(DataError, match=refused), write_points(out, ("x", "y", "z"), like=reader) as w:
+        for c in reader.chunks():
+            w.write(c)
     # at the edge of the integers' range: stored exactly
     edge = tmp_path / "edge.txt"
     edge.write_text("1000.000 0 0\n2148483.647 0 0\n")
@@ -108,6 +107,35 @@ def test_a_coordinate_the_files_integers_cannot_hold_is_refused_in_one_line(tmp_
         for c in reader.chunks():
             w.write(c)
     assert laspy.read(tmp_path / "edge.las").X.max() == 2 ** 31 - 1
+
+
+@pytest.mark.parametrize("column, values, refused", [
+    ("intensity", "70000 12", ("intensity = 70000 cannot be stored in this LAS file, whose intensity holds whole "
+                              "numbers from 0 to 65,535")),
+    ("intensity", "-5 12", "intensity = -5 cannot"),
+    ("intensity", "0.35 0.5", "intensity = 0.35 cannot"),  # reflectances: all would have been 0
+    ("intensity", "35 65535", None),
+    ("intensity", "35.0 500.0", None),
+])
+def test_a_text_column_las_cannot_hold_is_refused_not_wrapped(tmp_path, column, values, refused):
+    """LAS intensity is a whole number from 0 to 65,535: 70,000 was stored as 4,464, -5 as 65,531
+    and 0.35 as 0, without a word."""
+    from aldpat.errors import DataError
+
+    first, second = values.split()
+    src = tmp_path / "a.txt"
+    src.write_text(f"x y z {column}\n1 2 3 {first}\n2 3 4 {second}\n")
+    reader = open_points(src)
+    out = tmp_path / "a.laz"
+    if refused:
+        with pytest.raises(DataError, match=refused), write_points(out, ("x", "y", "z", column), like=reader) as w:
+            for c in reader.chunks():
+                w.write(c)
+    else:
+        with write_points(out, ("x", "y", "z", column), like=reader) as w:
+            for c in reader.chunks():
+                w.write(c)
+        assert laspy.read(out)[column].tolist() == [round(float(first)), round(float(second))]
 
 
 @pytest.mark.parametrize("ext", [".las", ".laz"])
