@@ -415,9 +415,20 @@ def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
     return header
 
 
+#: the finest scale a header made for text points takes: 1e-8 (a millimetre of latitude is about
+#: 1e-8 degrees), as the text's own decimals ask, and coarser where the points need it
+MOST_DECIMALS = 8
+#: the stored integers the first points of a file may take from its offset: half the 32-bit range,
+#: the other half left for the points after them (the header is made from the first chunk)
+CODES_ROOM = 2.0 ** 30
+
+
 def new_header(table: PointTable, *, crs: Any = None, decimals: dict | None = None) -> laspy.LasHeader:
     """A header for points that did not come from LAS: LAS 1.2 format 0, or LAS 1.4 format 6
-    when a time exists or the CRS needs WKT (:func:`needs_wkt`)."""
+    when a time exists or the CRS needs WKT (:func:`needs_wkt`). Its scales keep the decimals
+    the text gives, up to :data:`MOST_DECIMALS`, as far as the 32-bit integers hold these points
+    from the offset (:data:`CODES_ROOM`); its offsets are the points' lowest, rounded down to
+    whole kilometres, or to whole units where that leaves too little room (degrees)."""
     import laspy
 
     point_format = new_point_format(table.names)
@@ -425,10 +436,20 @@ def new_header(table: PointTable, *, crs: Any = None, decimals: dict | None = No
         point_format = 6
     header = laspy.LasHeader(point_format=point_format, version="1.4" if point_format >= 6 else "1.2")
     decimals = decimals or table.meta.get("decimals", {})
-    scales = [10.0 ** -min(max(decimals.get(n, 3), 0), 6) for n in "xyz"]
+    scales, offsets = [], []
+    for n in "xyz":
+        places = min(max(decimals.get(n, 3), 0), MOST_DECIMALS)
+        lowest, highest = (float(np.min(table.columns[n])), float(np.max(table.columns[n]))) if len(table) else (0, 0)
+        # whole kilometres, or whole units where that leaves too little room (degrees to 1e-8)
+        offset = math.floor(lowest / 1000.0) * 1000.0
+        if (highest - offset) * 10.0 ** places > CODES_ROOM >= (highest - math.floor(lowest)) * 10.0 ** places:
+            offset = float(math.floor(lowest))
+        while places > 0 and (highest - offset) * 10.0 ** places > CODES_ROOM:
+            places -= 1  # digits the integers cannot hold over these points: UTM metres to 1e-6 over 10 km
+        scales.append(10.0 ** -places)
+        offsets.append(offset)
     header.scales = np.array(scales)
-    header.offsets = np.array([np.floor(np.min(table.columns[n]) / 1000.0) * 1000.0 if len(table) else 0.0
-                               for n in "xyz"])
+    header.offsets = np.array(offsets)
     if crs is not None:
         set_crs(header, crs)
     return header

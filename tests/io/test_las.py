@@ -86,8 +86,9 @@ def test_text_to_laz_derives_scale_from_decimals(tmp_path, samp24):
 
 def test_a_coordinate_the_files_integers_cannot_hold_is_refused_in_one_line(tmp_path):
     """A LAS file stores x as a 32-bit integer at its scale from its offset: about 2,147 km either
-    side at millimetres. A text file with one stray point 10,700 km from the others (the header
-    is made from the first points) was laspy's OverflowError, an internal error."""
+    side at millimetres. A text file with one stray point 10,700 km from the others, after the
+    points the header is made from (its first chunk: here a point), was laspy's OverflowError, an
+    internal error."""
     from aldpat.errors import DataError
 
     src = tmp_path / "stray.txt"
@@ -97,16 +98,43 @@ def test_a_coordinate_the_files_integers_cannot_hold_is_refused_in_one_line(tmp_
     refused = (r"^x = 512000\.123 cannot be stored in this LAS file: at its scale 0\.001 and offset -10001000 its "
                r"32-bit integers hold x from -12148483\.65 to -7853516\.353 \(a stray point")
     with pytest.raises(DataError, match=refused), write_points(out, ("x", "y", "z"), like=reader) as w:
-        for c in reader.chunks():
+        for c in reader.chunks(1):
             w.write(c)
     # at the edge of the integers' range: stored exactly
     edge = tmp_path / "edge.txt"
     edge.write_text("1000.000 0 0\n2148483.647 0 0\n")
     reader = open_points(edge)
     with write_points(tmp_path / "edge.las", ("x", "y", "z"), like=reader) as w:
-        for c in reader.chunks():
+        for c in reader.chunks(1):
             w.write(c)
     assert laspy.read(tmp_path / "edge.las").X.max() == 2 ** 31 - 1
+
+
+@pytest.mark.parametrize("fmt, lows, highs, scales, offsets", [
+    # UTM metres printed to 1e-6 over 10 km: 1e10 steps of 1e-6; 1e-5 holds them
+    ("%.6f", (500000, 5400000, 0), (510000, 5410000, 100), (1e-5, 1e-5, 1e-6), (500000, 5400000, 0)),
+    # degrees to 1e-8 (a millimetre): whole degrees as offsets leave the room kilometres would not
+    ("%.8f", (-80.3, 26.0, 0), (-80.1, 26.2, 100), (1e-8, 1e-8, 1e-7), (-81, 26, 0)),
+    ("%.2f", (500000, 5400000, 0), (510000, 5410000, 100), (0.01, 0.01, 0.01), (500000, 5400000, 0)),
+])
+def test_text_to_las_keeps_the_decimals_the_integers_can_hold(tmp_path, fmt, lows, highs, scales, offsets):
+    """A header made for text points takes the text's decimals (up to 8) as far as the 32-bit
+    integers hold the points from the offset: 6 decimals of UTM metres over 10 km made laspy's
+    OverflowError, and degrees lost every decimal past the sixth (0.1 m of latitude)."""
+    rng = np.random.default_rng(4)
+    points = np.stack([rng.uniform(lo, hi, 500) for lo, hi in zip(lows, highs, strict=True)], axis=1)
+    src = tmp_path / "p.txt"
+    np.savetxt(src, points, fmt=fmt)
+    reader = open_points(src)
+    with write_points(tmp_path / "p.las", ("x", "y", "z"), like=reader) as w:
+        for c in reader.chunks():
+            w.write(c)
+    back = laspy.read(tmp_path / "p.las")
+    np.testing.assert_allclose(back.header.scales, scales)
+    np.testing.assert_allclose(back.header.offsets, offsets)
+    text = np.loadtxt(src)
+    for k, axis in enumerate("xyz"):
+        assert np.abs(np.asarray(back[axis]) - text[:, k]).max() <= scales[k] / 2 + 1e-9 * abs(highs[k])
 
 
 @pytest.mark.parametrize("column, values, refused", [
