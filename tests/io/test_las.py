@@ -196,3 +196,26 @@ def test_writing_a_reclassified_table_leaves_the_source_table_untouched(tmp_path
     assert (back.classification == 2).all()
     np.testing.assert_allclose(back.z, table.z + 1.0, atol=0.0006)
     np.testing.assert_array_equal(back.X, before["X"])
+
+
+@pytest.mark.parametrize("scales, offsets, decimals", [
+    ((0.025, 0.025, 0.0025), (0.0, 0.0, 0.0), (3, 3, 4)),  # 0.075 was written 0.08
+    ((0.01, 0.01, 0.01), (512000.123, 0.0, 0.0), (3, 2, 2)),  # an offset's own decimals count
+    ((1e-7, 1e-7, 0.001), (-81.0, 26.0, 0.0), (7, 7, 3)),
+])
+def test_las_to_text_writes_every_stored_digit(tmp_path, scales, offsets, decimals):
+    """A LAS coordinate is ``X * scale + offset``: the text written from it takes the decimals both
+    need, not the scale's power of ten rounded."""
+    header = laspy.LasHeader(point_format=0, version="1.2")
+    header.scales, header.offsets = np.array(scales), np.array(offsets)
+    las = laspy.LasData(header)
+    las.X = las.Y = las.Z = np.array([1, 2, 3, 40001])
+    las.write(tmp_path / "s.las")
+    reader = open_points(tmp_path / "s.las")
+    assert [reader.decimals[n] for n in "xyz"] == list(decimals)
+    with write_points(tmp_path / "s.txt", ("x", "y", "z"), like=reader) as w:
+        for c in reader.chunks():
+            w.write(c)
+    back = np.loadtxt(tmp_path / "s.txt", usecols=(0, 1, 2))
+    for k, axis in enumerate("xyz"):
+        assert np.allclose(back[:, k], np.asarray(las[axis]), rtol=0, atol=scales[k] / 100), axis
