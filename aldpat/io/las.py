@@ -511,10 +511,12 @@ _WHOLE_RANGES = {("intensity", False): (0, 65535), ("intensity", True): (0, 6553
                  ("number_of_returns", False): (0, 7), ("number_of_returns", True): (0, 15)}
 
 
-def _check_whole(values: np.ndarray, name: str, whole: tuple[int, int] | None) -> None:
-    """Refuse (:class:`DataError`, one line) values a LAS attribute of ``whole`` numbers cannot
-    hold: a text column's intensity of 70,000 was stored as 4,464 and one of -5 as 65,531, and
-    reflectances of 0 to 1 became 0 -- silently."""
+def _check_whole(values: np.ndarray, name: str, dim: str, las14: bool) -> None:
+    """Refuse (:class:`DataError`, one line) values LAS attribute ``dim`` of a point format 6-10
+    (``las14``) or 0-5 file cannot hold: a text column's intensity of 70,000 was stored as 4,464
+    and one of -5 as 65,531, reflectances of 0 to 1 became 0, and LAS 1.4 classes merged into a
+    LAS 1.2 file lost their upper bits -- silently."""
+    whole = _WHOLE_RANGES.get((dim, las14))
     if whole is None or not len(values):
         return
     lo, hi = whole
@@ -525,8 +527,11 @@ def _check_whole(values: np.ndarray, name: str, whole: tuple[int, int] | None) -
         outside |= values != np.round(values)
     if outside.any():
         bad = values[np.argmax(outside)]
+        wider = _WHOLE_RANGES[(dim, True)][1]
+        change = (f"point formats 6-10 of LAS 1.4 hold up to {wider}" if not las14 and wider > hi and bad <= wider
+                  and bad == round(bad) and bad >= lo else "write text, or scale the column")
         raise DataError(f"{name} = {bad:g} cannot be stored in this LAS file, whose {name} holds whole numbers "
-                        f"from {lo} to {hi:,} (write text, or scale the column)")
+                        f"from {lo} to {hi:,} ({change})")
 
 
 class LasWriter:
@@ -626,7 +631,7 @@ class LasWriter:
         for name, values in table.columns.items():
             dim = LAS_DIMENSIONS.get(name)
             if dim and dim not in "xyz" and name not in same and dim in points.point_format.dimension_names:
-                _check_whole(values, name, _WHOLE_RANGES.get((dim, points.point_format.id >= 6)))
+                _check_whole(values, name, dim, points.point_format.id >= 6)
                 points[dim] = values
         for name in (*self._extra, *(n for n in self._given_extra if n not in same)):
             points[name] = table.columns[name]

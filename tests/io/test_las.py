@@ -219,3 +219,16 @@ def test_las_to_text_writes_every_stored_digit(tmp_path, scales, offsets, decima
     back = np.loadtxt(tmp_path / "s.txt", usecols=(0, 1, 2))
     for k, axis in enumerate("xyz"):
         assert np.allclose(back[:, k], np.asarray(las[axis]), rtol=0, atol=scales[k] / 100), axis
+
+
+def test_a_class_a_las_12_file_cannot_hold_names_the_point_formats_that_can():
+    from aldpat.errors import DataError
+    from aldpat.io.las import _check_whole
+
+    with pytest.raises(DataError, match=r"^class = 40 cannot be stored .* from 0 to 31 \(point formats 6-10 of LAS "
+                                        r"1\.4 hold up to 255\)$"):
+        _check_whole(np.array([2, 40], np.uint8), "class", "classification", las14=False)
+    with pytest.raises(DataError, match=r"from 0 to 255 \(write text, or scale the column\)$"):
+        _check_whole(np.array([2.0, 256.0]), "class", "classification", las14=True)
+    _check_whole(np.array([2, 40], np.uint8), "class", "classification", las14=True)
+    _check_whole(np.array([0, 65535], np.uint16), "intensity", "intensity", las14=False)
