@@ -29,6 +29,7 @@ from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageE
 from aldpat.io.prefetch import read_ahead
 from aldpat.io.table import PointTable
 from aldpat.io.text import MAX_COORDINATE
+from aldpat.io.textfmt import decimal_places
 
 if TYPE_CHECKING:
     import laspy
@@ -327,26 +328,8 @@ def _columns(header: laspy.LasHeader) -> tuple[tuple[str, ...], dict[str, int]]:
     its scales give x, y, z."""
     dims = set(header.point_format.dimension_names)
     names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
-    return names, {n: max(_places(float(s)), _places(float(o)))
+    return names, {n: max(decimal_places(float(s)), decimal_places(float(o)))
                    for n, s, o in zip("xyz", header.scales, header.offsets, strict=False)}
-
-
-#: the most decimals a LAS coordinate is written to text with
-MOST_TEXT_DECIMALS = 10
-
-
-def _places(value: float) -> int:
-    """The fewest decimals that write ``value`` exactly (a scale of 0.025 needs 3: its points'
-    0.075 was written 0.08 when the decimals came from the scale's power of ten alone), at most
-    :data:`MOST_TEXT_DECIMALS`."""
-    if value == 0 or not math.isfinite(value):
-        return 0
-    for places in range(MOST_TEXT_DECIMALS):
-        shifted = abs(value) * 10.0 ** places
-        nearest = round(shifted)
-        if nearest >= 1 and abs(shifted - nearest) <= 1e-9 * shifted:  # whole but for the binary fraction's error
-            return places
-    return MOST_TEXT_DECIMALS
 
 
 def buffer_marks(table: PointTable) -> np.ndarray | None:

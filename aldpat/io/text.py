@@ -21,7 +21,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.errors import InputFormatError, shown
 from aldpat.io.table import PointTable
-from aldpat.io.textfmt import BLOCK_ROWS, column_formats, format_block
+from aldpat.io.textfmt import BLOCK_ROWS, column_formats, decimal_places, format_block
 
 #: The ALTM tape / strip layout in the manual's default order (last return first).
 ALTM_LAST_FIRST = ("t", "x2", "y2", "z2", "i2", "x1", "y1", "z1", "i1")
@@ -35,6 +35,8 @@ DEFAULT_CHUNK = 2_000_000
 MAX_COORDINATE = 1e12
 COORDINATE_COLUMNS = frozenset({"x", "y", "z", "x1", "y1", "z1", "x2", "y2", "z2"})
 _SNIFF_BYTES = 1 << 16
+#: the most decimals a value in exponent form is written again with (1e-8 of a degree: a millimetre)
+MOST_EXPONENT_DECIMALS = 8
 #: The longest line read (bytes): a point line is tens of characters, a header line hundreds; a
 #: longer one (a file of one 4 MB line) is not a point file, and reading it whole as a line
 #: would hold it all in memory, and as a point all its numbers as columns.
@@ -67,8 +69,16 @@ def _is_data(line: str, delimiter: str) -> bool:
 
 
 def _decimals(token: str) -> int:
+    """The decimals a value's text has (kept when points are written again); for a number in
+    exponent form, those its value needs: numpy's savetxt writes 300.789 as
+    3.007889999999999873e+02, which counted as no decimals wrote every point to whole metres."""
     token = token.lower()
-    if "e" in token or "." not in token:
+    if "e" in token:
+        try:
+            return decimal_places(float(token), MOST_EXPONENT_DECIMALS)
+        except ValueError:
+            return 0
+    if "." not in token:
         return 0
     return len(token.split(".", 1)[1])
 

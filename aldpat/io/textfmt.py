@@ -62,13 +62,35 @@ def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarra
     return out
 
 
+#: the most decimals a number is written with: 1e-10, far below any coordinate's precision
+MOST_DECIMALS = 10
+
+
+def decimal_places(value: float, most: int = MOST_DECIMALS) -> int:
+    """The fewest decimals that write ``value`` exactly, at most ``most``: 3 for a LAS scale of
+    0.025 (its points' 0.075 was written 0.08 when the decimals came from the scale's power of
+    ten alone), 3 for 5.120001230000000214e+05 (numpy's savetxt), whose decimals as written say
+    nothing of the number's."""
+    if value == 0 or not np.isfinite(value):
+        return 0
+    for places in range(most):
+        shifted = abs(value) * 10.0 ** places
+        nearest = round(shifted)
+        # whole but for the binary fraction's error: a few units in the last place of the product
+        if nearest >= 1 and abs(shifted - nearest) <= 16 * np.spacing(shifted):
+            return places
+    return most
+
+
 def column_formats(table: PointTable, names: tuple[str, ...], decimals: dict | None = None) -> list[str]:
     """printf formats per column: integers for integer columns, the input's decimals otherwise."""
     decimals = decimals if decimals is not None else table.meta.get("decimals", {})
     fmts = []
     for n in names:
         col = table.columns[n]
-        if n in INTEGER_COLUMNS or np.issubdtype(col.dtype, np.integer) or col.dtype == bool:
+        # whole numbers as such; but an intensity of 0.35 (a reflectance) keeps its decimals: as "%d" it was 0
+        if np.issubdtype(col.dtype, np.integer) or col.dtype == bool or (
+                n in INTEGER_COLUMNS and (not decimals.get(n) or bool(np.all(col == np.round(col))))):
             fmts.append("%d")
         else:
             d = decimals.get(n)

@@ -147,3 +147,32 @@ def test_a_binary_file_named_txt(tmp_path):
     path.write_bytes(bytes(range(256)) * 4)
     with pytest.raises(InputFormatError, match="not a text file"):
         TextReader(path).read()
+
+
+def _written_again(src, tmp_path) -> str:
+    reader = open_points(src)
+    out = tmp_path / "again.txt"
+    with write_points(out, reader.names, like=reader) as w:
+        for chunk in reader.chunks():
+            w.write(chunk)
+    return out.read_text()
+
+
+def test_numbers_in_exponent_form_are_written_again_with_the_decimals_their_values_need(tmp_path):
+    """numpy's savetxt writes 300.789 as 3.007889999999999873e+02: counted as no decimals, every
+    point was written again to whole metres (300.789 -> 301)."""
+    src = tmp_path / "sci.txt"
+    np.savetxt(src, np.array([[512000.123, 5403000.456, 300.789], [512001.5, 5403001.25, 301.125]]))
+    assert _written_again(src, tmp_path) == ("512000.123 5403000.456 300.789\n"
+                                             "512001.500 5403001.250 301.125\n")
+
+
+def test_an_intensity_with_decimals_keeps_them(tmp_path):
+    """A reflectance of 0.35 in the intensity column was written again as 0 ("%d")."""
+    src = tmp_path / "refl.txt"
+    src.write_text("1 2 3 0.35\n2 3 4 12.5\n")
+    assert _written_again(src, tmp_path) == "1 2 3 0.35\n2 3 4 12.50\n"
+    whole = tmp_path / "whole" / "whole.txt"
+    whole.parent.mkdir()
+    whole.write_text("1 2 3 35.00\n2 3 4 500\n")
+    assert _written_again(whole, whole.parent) == "1 2 3 35\n2 3 4 500\n"  # whole numbers stay whole

@@ -31,3 +31,14 @@ def test_powers_of_ten_and_integers():
     t = PointTable({"x": v, "intensity": v})
     assert format_block(t, ("x", "intensity"), " ", {"x": 2}).tobytes().decode() == \
         format_rows(t, ("x", "intensity"), " ", {"x": 2})
+
+
+@pytest.mark.parametrize("value, places", [
+    (0.01, 2), (0.025, 3), (0.0025, 4), (1e-7, 7), (0.5, 1), (500000.0, 0), (512000.123, 3),
+    (5403000.456, 3), (0.1 + 0.2, 1), (-81.0, 0), (300.789, 3), (26.12345678, 8), (0.0, 0),
+])
+def test_decimal_places_are_the_fewest_that_write_a_value_exactly(value, places):
+    from aldpat.io.textfmt import decimal_places
+
+    assert decimal_places(value) == places
+    assert float(f"{value:.{places}f}") == pytest.approx(value, rel=1e-15, abs=1e-15)
