@@ -16,6 +16,7 @@ one chunk (2 million points) are thinned in memory and keep their input order.
 from __future__ import annotations
 
 import logging
+from collections import ChainMap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,9 +66,8 @@ def thin_outputs(source: Path, params: ThinParams, ctx: JobContext) -> list[Plan
 def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     out = ctx.outputs_for(source)[0].path
-    decimals = dict(reader.decimals)
-    if params.xy == "integer":
-        decimals.update(x=0, y=0)
+    # the reader's own decimals, which it widens as it reads (a live view, not a copy)
+    decimals = ChainMap({"x": 0, "y": 0} if params.xy == "integer" else {}, reader.decimals)
     k = bucket_count(estimate_points(reader))
     total = 0
     crs = output_crs(params.crs, reader.crs, out, ctx.warn)

@@ -176,3 +176,20 @@ def test_an_intensity_with_decimals_keeps_them(tmp_path):
     whole.parent.mkdir()
     whole.write_text("1 2 3 35.00\n2 3 4 500\n")
     assert _written_again(whole, whole.parent) == "1 2 3 35\n2 3 4 500\n"  # whole numbers stay whole
+
+
+def test_more_decimals_further_down_than_in_the_first_lines_are_kept(tmp_path):
+    """The decimals are read from the first 200 lines; Python's ``print`` writes 100.5 there and
+    512.125 further down, which was written again as 512.1."""
+    src = tmp_path / "mixed.txt"
+    src.write_text("".join(f"{100 + k * 0.5} {200 + k * 0.5} {10 + k * 0.5}\n" for k in range(250))
+                   + "512.125 300.0625 12.3456\n")
+    reader = open_points(src)
+    assert [reader.decimals[n] for n in "xyz"] == [1, 1, 1]
+    out = tmp_path / "again.txt"
+    with write_points(out, reader.names, like=reader) as w:
+        for chunk in reader.chunks(size=100):
+            w.write(chunk)
+    lines = out.read_text().splitlines()
+    assert lines[0] == "100.0 200.0 10.0" and lines[-1] == "512.125 300.0625 12.3456"
+    assert [reader.decimals[n] for n in "xyz"] == [3, 4, 4]
