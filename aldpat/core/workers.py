@@ -28,6 +28,7 @@ from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 
 from aldpat import interrupt
+from aldpat.core.resources import MEMORY_SHARE, available_memory
 from aldpat.core.threads import set_budget, share_for
 
 #: seconds a worker told to stop is given to clean up before the pool's owner kills it
@@ -50,6 +51,20 @@ def start_method() -> multiprocessing.context.BaseContext:
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(PRELOADED)
     return context
+
+
+#: what a worker process holds before its data: the interpreter, numpy, pandas, numba and its
+#: compiled kernels (about 190 MB measured on an idle worker)
+WORKER_MEMORY = 256 << 20
+
+
+def affordable_workers(wanted: int) -> int:
+    """``wanted`` worker processes, or as many as the memory available holds at
+    :data:`WORKER_MEMORY` each (within :data:`~aldpat.core.resources.MEMORY_SHARE` of it), at
+    least one: ``-j 1024`` from a worksheet over a thousand tiles started a thousand processes,
+    about 190 GB before any data."""
+    room = int(available_memory() * MEMORY_SHARE) // WORKER_MEMORY
+    return max(1, min(wanted, room))
 
 
 class WorkerPool:

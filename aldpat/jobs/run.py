@@ -13,6 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.core import units
+from aldpat.core.resources import size_text
+from aldpat.core.workers import WORKER_MEMORY, affordable_workers
 from aldpat.errors import UsageError
 from aldpat.io.chunks import scratch_folder
 from aldpat.jobs.cluster import scheduler_for
@@ -134,6 +136,11 @@ def _execute(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, 
              wanted: int, results: list[JobResult], progress: Progress | None) -> None:
     """Run ``jobs`` on the cluster, here, or in up to ``wanted`` worker processes."""
     workers = max(1, min(wanted, len(jobs)))
+    affordable = affordable_workers(workers)
+    if affordable < workers and scheduler is None:
+        log.warning(f"-j {wanted}: {affordable} worker processes, as many as the memory available holds "
+                    f"(about {size_text(WORKER_MEMORY)} a process before its data)")
+        workers = affordable
     if scheduler is not None:
         from aldpat.jobs.cluster import run_on_cluster
 
