@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from aldpat.core.crs import parse_crs
+from aldpat.core.workers import MOST_WORKERS
 from aldpat.errors import ParamError, one_line
 from aldpat.params import Checked, SharedOption, param
 
@@ -236,15 +237,11 @@ def check_scheduler(text: str) -> None:
         return
     m = LOCAL_SCHEDULER.match(text)
     if m:
-        if m.group(1) is not None and not 1 <= int(m.group(1)) <= MAX_LOCAL_WORKERS:
-            raise ParamError(f"scheduler: {text!r}: local:N needs N from 1 to {MAX_LOCAL_WORKERS} "
+        if m.group(1) is not None and not 1 <= int(m.group(1)) <= MOST_WORKERS:
+            raise ParamError(f"scheduler: {text!r}: local:N needs N from 1 to {MOST_WORKERS} "
                              f"({os.cpu_count() or 1} cores here)")
         return
     if not SCHEDULER_ADDRESS.match(text):
         raise ParamError(f"scheduler: {text!r}: expected a Dask scheduler address such as tcp://host:8786, "
                          "or local:N for N worker processes on this machine")
 
-
-#: most worker processes ``local:N`` starts: four per core (each a whole Python process; more
-#: only queue for the cores and fill the memory)
-MAX_LOCAL_WORKERS = max(16, 4 * (os.cpu_count() or 1))

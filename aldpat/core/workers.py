@@ -58,13 +58,18 @@ def start_method() -> multiprocessing.context.BaseContext:
 WORKER_MEMORY = 256 << 20
 
 
+#: most worker processes a run starts (``-j``, ``local:N``): four per core, sixteen at least (each
+#: a whole Python process; more only queue for the cores and fill the memory)
+MOST_WORKERS = max(16, 4 * (os.cpu_count() or 1))
+
+
 def affordable_workers(wanted: int) -> int:
-    """``wanted`` worker processes, or as many as the memory available holds at
-    :data:`WORKER_MEMORY` each (within :data:`~aldpat.core.resources.MEMORY_SHARE` of it), at
-    least one: ``-j 1024`` from a worksheet over a thousand tiles started a thousand processes,
-    about 190 GB before any data."""
+    """``wanted`` worker processes, or :data:`MOST_WORKERS`, or as many as the memory available
+    holds at :data:`WORKER_MEMORY` each (within :data:`~aldpat.core.resources.MEMORY_SHARE` of
+    it), whichever is fewest, at least one: ``-j 1024`` from a worksheet over a thousand tiles
+    started a thousand processes, about 190 GB before any data."""
     room = int(available_memory() * MEMORY_SHARE) // WORKER_MEMORY
-    return max(1, min(wanted, room))
+    return max(1, min(wanted, MOST_WORKERS, room))
 
 
 class WorkerPool:

@@ -14,7 +14,7 @@ from typing import Any
 
 from aldpat.core import units
 from aldpat.core.resources import size_text
-from aldpat.core.workers import WORKER_MEMORY, affordable_workers
+from aldpat.core.workers import MOST_WORKERS, WORKER_MEMORY, affordable_workers
 from aldpat.errors import UsageError
 from aldpat.io.chunks import scratch_folder
 from aldpat.jobs.cluster import scheduler_for
@@ -138,8 +138,9 @@ def _execute(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, 
     workers = max(1, min(wanted, len(jobs)))
     affordable = affordable_workers(workers)
     if affordable < workers and scheduler is None:
-        log.warning(f"-j {wanted}: {affordable} worker processes, as many as the memory available holds "
-                    f"(about {size_text(WORKER_MEMORY)} a process before its data)")
+        log.warning(f"-j {wanted}: {affordable} worker processes: at most {MOST_WORKERS} here (four per core, "
+                    f"sixteen at least), and as many as the memory available holds (about "
+                    f"{size_text(WORKER_MEMORY)} a process before its data)")
         workers = affordable
     if scheduler is not None:
         from aldpat.jobs.cluster import run_on_cluster

@@ -13,6 +13,8 @@ def test_workers_are_as_many_as_the_memory_holds(monkeypatch):
     assert workers.affordable_workers(2) == 2
     monkeypatch.setattr(workers, "available_memory", lambda: 100 << 20)
     assert workers.affordable_workers(4) == 1  # one at least: the run still runs
+    monkeypatch.setattr(workers, "available_memory", lambda: 1 << 50)
+    assert workers.affordable_workers(1024) == workers.MOST_WORKERS  # four per core
 
 
 def test_a_run_asking_more_workers_than_memory_holds_says_so_and_runs(tmp_path, monkeypatch, caplog):
@@ -30,4 +32,5 @@ def test_a_run_asking_more_workers_than_memory_holds_says_so_and_runs(tmp_path, 
                                                                  "cell": 1.0})])
     assert all(r.ok for r in report.results) and len(list((tmp_path / "out").glob("*_thin.txt"))) == 3
     said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("-j 1024")]
-    assert said == [said[0]] and "-j 1024: 1 worker processes, as many as the memory available holds" in said[0]
+    assert said == [said[0]] and said[0].startswith("-j 1024: 1 worker processes: at most ")
+    assert "and as many as the memory available holds" in said[0]
