@@ -85,7 +85,7 @@ def make_command(task: Task) -> click.Command:
         except UsageError as exc:
             fail_usage(str(exc))
         except AldpatError as exc:
-            click.echo(f"aldpat: error: {exc}", err=True)
+            click.echo(f"aldpat: error: {one_line(exc)}", err=True)
             sys.exit(1)
         except OSError as exc:  # the system refused a file the plan looked at (each job catches its own)
             where = f"{shown(str(exc.filename), quoted=False)}: " if exc.filename is not None else ""

@@ -70,7 +70,7 @@ def run_command(ctx: click.Context, worksheet: str, resume: bool, dry_run: bool,
         if selected and max(selected) > len(ws.jobs):
             raise UsageError(f"--only {max(selected)}: the worksheet has {len(ws.jobs)} jobs")
     except UsageError as exc:
-        click.echo(f"aldpat: error: {exc}", err=True)
+        click.echo(f"aldpat: error: {one_line(exc)}", err=True)
         sys.exit(2)
     except Exception as exc:  # noqa: BLE001  (e.g. a missing worksheet file: one line, exit 2)
         click.echo(f"aldpat: error: {one_line(exc)}", err=True)

@@ -11,7 +11,7 @@ import itertools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Self
 
-from aldpat.errors import ParamError
+from aldpat.errors import ParamError, shown
 from aldpat.filters.survey import ExistingClassesOption
 from aldpat.options import ChunkOption, CrsOption, OriginOption
 from aldpat.params import Checked, SharedOption, param
@@ -153,4 +153,4 @@ def check_series(windows: tuple[int, ...], values: tuple[float, ...], names: tup
         raise ParamError(f"{names[1]}: expected one value per window of {names[0]} "
                          f"({len(windows)}), got {len(values)}")
     if any(b <= a for a, b in itertools.pairwise(windows)):
-        raise ParamError(f"{names[0]}: half windows must be strictly ascending, got {windows}")
+        raise ParamError(f"{names[0]}: half windows must be strictly ascending, got {shown(windows, quoted=False)}")

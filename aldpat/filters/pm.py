@@ -41,7 +41,7 @@ import numpy as np
 
 from aldpat.core.height_codes import Decode
 from aldpat.core.progressive import progressive_opening
-from aldpat.errors import ParamError
+from aldpat.errors import ParamError, shown
 from aldpat.filters.grid_stage import low_outlier_reach
 from aldpat.filters.options import GroundParams
 from aldpat.filters.registry import register_filter
@@ -138,7 +138,7 @@ def window_series(p: ProgressiveParams) -> tuple[int, ...]:
     if p.window_series is not None:
         ks = tuple(int(k) for k in p.window_series)
         if any(b <= a for a, b in itertools.pairwise(ks)):
-            raise ParamError(f"window_series: half windows must be strictly ascending, got {ks}")
+            raise ParamError(f"window_series: half windows must be strictly ascending, got {shown(ks, quoted=False)}")
     else:
         # the exponent of the last window, in logarithms: 2 ** (3000 * 0.5) is no float
         largest = (p.window_series_length - 1) * p.power_increment * math.log(p.window_base)

@@ -139,3 +139,12 @@ def test_round_object_removed_whatever_its_orientation():
     z = np.where(np.hypot(r - 20, c - 20) <= 3.2, 5.0, 0.0)  # a 7-cell wide round tank
     marks = pm(z, np.zeros(z.shape, bool), PMCircleParams(window_series=(1, 2, 4)))
     assert (marks[z > 0] > 0).all() and (marks[z == 0] == 0).all()
+
+
+def test_a_long_wrong_window_series_is_quoted_by_its_start():
+    """A parameter file's window series of 10,000 ones was quoted whole in the error (30 kB)."""
+    from aldpat.filters.pm import PMParams
+
+    with pytest.raises(ParamError) as refused:
+        PMParams(window_series=(1,) * 10_000)
+    assert str(refused.value).endswith("... (30,000 characters)") and len(str(refused.value)) < 200
