@@ -330,6 +330,11 @@ def _check_bounds(spec: Spec, v: Any, where: str) -> None:
         raise ParamError(f"{where}{spec.name}: {format_value(v)} is out of range (must be >= {-LARGEST:g})")
 
 
+#: the most values a list parameter takes: windows, thresholds, classes and fields are far fewer;
+#: a parameter file's list of a million windows would run a million passes over the grid
+MOST_ITEMS = 1000
+
+
 def convert(spec: Spec, value: Any, where: str = "") -> Any:
     """``value`` as ``spec``'s kind: a native TOML value or a command-line string (sequences as
     ``1,2,3``), an earlier spelling of a choice replaced; a :class:`ParamError` naming the key
@@ -347,6 +352,8 @@ def convert(spec: Spec, value: Any, where: str = "") -> Any:
             items = list(value)
         else:
             items = [value]
+        if len(items) > MOST_ITEMS:
+            raise ParamError(f"{where}{spec.name}: {len(items):,} values (at most {MOST_ITEMS:,})")
         return tuple(_scalar(item_kind, it, spec, where) for it in items)
     v = _scalar(spec.kind, value, spec, where)
     return _renamed_value(spec, v, where) if isinstance(v, str) else v

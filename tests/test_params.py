@@ -135,3 +135,16 @@ def test_a_bad_chunk_buffer_is_refused_when_the_parameters_are_made(given, messa
         ChunkOption(chunk_buffer=given)
     with pytest.raises(ParamError, match="job 2: " + message):
         resolve(ChunkOption, [("worksheet", {"chunk_buffer": given})], where="job 2: ")
+
+
+def test_a_list_parameter_takes_at_most_a_thousand_values():
+    """A parameter file's list of a million windows ran a million passes over the grid."""
+    from aldpat.filters.pm import PMParams
+    from aldpat.params import MOST_ITEMS
+
+    spec = next(s for s in specs(PMParams) if s.name == "window_series")
+    assert convert(spec, list(range(1, MOST_ITEMS + 1))) == tuple(range(1, MOST_ITEMS + 1))
+    with pytest.raises(ParamError, match=r"^window_series: 1,001 values \(at most 1,000\)$"):
+        convert(spec, list(range(1, MOST_ITEMS + 2)))
+    with pytest.raises(ParamError, match="2,000 values"):
+        convert(spec, ",".join(map(str, range(1, 2001))))
