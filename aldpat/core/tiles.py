@@ -43,10 +43,16 @@ MOST_COPIES = 100
 MAX_BUFFER_TILES = (math.sqrt(MOST_COPIES) - 1) / 2
 
 
+def spanned(size: float, buffer: float) -> float:
+    """How many squares of ``size`` one grown by ``buffer`` on every side spans along an axis:
+    the tiles holding a point there on average (a point lies in at most the next whole number)."""
+    return (size + 2 * buffer) / size
+
+
 def copies_with_buffer(width: float, height: float, buffer: float) -> float:
     """How many ``width`` x ``height`` squares grown by ``buffer`` on every side hold a point, on
     average over a large area: the grown square's area over the square's."""
-    return (width + 2 * buffer) / width * ((height + 2 * buffer) / height)
+    return spanned(width, buffer) * spanned(height, buffer)
 
 
 def least_square_for(buffer: float) -> float:
@@ -92,7 +98,7 @@ class Axis:
     def copies(self, buffer: float) -> float:
         """How many tiles along this axis hold a point, on average: a tile with its buffer spans
         ``(size + 2 buffer) / size`` tiles, and there are ``n`` tiles to hold it."""
-        return min(float(self.n), (self.size + 2 * buffer) / self.size)
+        return min(float(self.n), spanned(self.size, buffer))
 
     @overload
     def edge(self, k: int) -> float: ...
@@ -117,7 +123,7 @@ def check_buffer(buffer: float, size: float) -> None:
     tiles of ``size`` beyond it (each point would be copied into twice that many tiles and one
     more, along this axis alone)."""
     if buffer > MAX_BUFFER_TILES * size:
-        copies = math.ceil((size + 2 * buffer) / size)
+        copies = math.ceil(spanned(size, buffer))
         raise ValueError(f"a buffer of {buffer:g} reaches more than {MAX_BUFFER_TILES:g} tiles of {size:g} beyond each "
                          f"tile (each point copied into up to {copies:,} tiles along this axis); use a buffer of at "
                          f"most {MAX_BUFFER_TILES * size:g} or larger tiles")

@@ -29,7 +29,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.core.compiled import compiled
 from aldpat.core.resources import check_disk, count_text
-from aldpat.core.tiles import MOST_COPIES, copies_with_buffer, least_square_for
+from aldpat.core.tiles import MOST_COPIES, copies_with_buffer, least_square_for, spanned
 from aldpat.core.workers import WorkerPool, affordable_workers
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import scratch_dir
@@ -60,7 +60,7 @@ class ChunkLattice:
     def most_copies_of_a_point(self) -> int:
         """How many chunks hold a point at the most: a chunk with its buffer spans the whole
         chunks of ``(size + 2 buffer) / size`` in x and in y, a point in one more where it falls."""
-        return math.ceil((self.size + 2 * self.buffer) / self.size) ** 2
+        return math.ceil(spanned(self.size, self.buffer)) ** 2
 
     def check_copies(self) -> None:
         """Refuse (:class:`ParamError`: the options ask for it) chunks whose buffers copy each

@@ -511,8 +511,8 @@ def _check_whole(values: np.ndarray, name: str, dim: str, las14: bool) -> None:
     if outside.any():
         bad = values[np.argmax(outside)]
         wider = _WHOLE_RANGES[(dim, True)][1]
-        change = (f"point formats 6-10 of LAS 1.4 hold up to {wider}" if not las14 and wider > hi and bad <= wider
-                  and bad == round(bad) and bad >= lo else "write text, or scale the column")
+        change = (f"point formats 6-10 of LAS 1.4 hold up to {wider}" if not las14 and lo <= bad <= wider
+                  and bad == round(bad) else "write text, or scale the column")
         raise DataError(f"{name} = {bad:g} cannot be stored in this LAS file, whose {name} holds whole numbers "
                         f"from {lo} to {hi:,} ({change})")
 

@@ -186,7 +186,7 @@ def pattern_files(pattern: Path) -> list[Path]:
     if rest[-1] == "**":  # every file below, as glob's recursive "**" (a path's "**" lists folders)
         rest = (*rest, "*")
     hidden_asked = any(part.startswith(".") for part in rest)
-    for attempt in range(PATTERN_ATTEMPTS):
+    for _ in range(PATTERN_ATTEMPTS):
         found: list[Path] = []
         try:
             for match in anchor.glob("/".join(rest)):
@@ -203,13 +203,12 @@ def pattern_files(pattern: Path) -> list[Path]:
         except FileNotFoundError:
             # a folder removed while the walk went through it (another run's scratch folder
             # beside its outputs): the walk (pathlib's) stops there; walk again
-            if attempt + 1 == PATTERN_ATTEMPTS:
-                raise InputFormatError("cannot search for this pattern: its folders kept changing while "
-                                       f"searched ({PATTERN_ATTEMPTS} tries)", path=pattern) from None
+            continue
         except OSError as exc:
             raise InputFormatError(f"cannot search for this pattern: {(exc.strerror or str(exc)).lower()}",
                                    path=pattern) from None
-    return []  # not reached: the last attempt returns or raises
+    raise InputFormatError(f"cannot search for this pattern: its folders kept changing while searched "
+                           f"({PATTERN_ATTEMPTS} tries)", path=pattern)
 
 
 def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:
