@@ -209,7 +209,8 @@ class InputParams:
 class RunParams(Checked):
     """How the jobs are run (not recorded as task parameters)."""
 
-    jobs: int = param(1, "worker processes (0 = all cores); results identical to -j 1", ge=0, le=1024)
+    jobs: int = param(1, "worker processes (0 = all cores; at most four per core, and as many as the memory "
+                         "holds); results identical to -j 1", ge=0, le=1024)
     scheduler: str | None = param(None, "run the jobs on a Dask cluster: its scheduler's address (tcp://host:8786, "
                                   "tls://host:8786 with Dask's TLS settings), or local:N for N worker processes "
                                   "here; default: $ALDPAT_SCHEDULER, else none (needs aldpat[dask]; inputs and "
