@@ -194,7 +194,8 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
     the extent is every point's. ``seen(table)`` is shown every chunk of the first pass, every
     point of the file (a DTM's occupancy grid: :mod:`aldpat.core.data_gaps`). ``reads``: the LAS
     dimensions ``used`` and ``seen`` read besides x, y and z, when known: both passes then decode
-    no other (:meth:`aldpat.io.las.LasReader.chunks`' ``only``), and the first reads ahead.
+    no other (:meth:`aldpat.io.las.LasReader.chunks`' ``only``). Both passes read the next chunk
+    while this one is gridded or classified.
     """
     from aldpat.io.las import z_codes
 
@@ -223,7 +224,7 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
     kept: tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]] = ([], [], [])
     lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]
     count = 0
-    for table in units.counted(reader.chunks(chunk, only=reads), "classify", reader.count):
+    for table in units.counted(reader.chunks(chunk, only=reads, ahead=True), "classify", reader.count):
         x, y, z = (np.asarray(a, np.float64) for a in (table.x, table.y, table.z))
         ground = classes.classify(x, y, z, marks=False)[1]
         if used is not None:

@@ -1,17 +1,21 @@
-"""Reading ahead: the next chunk of a file read on a thread while the caller works on this one.
+"""Reading ahead and writing behind: a file's next chunk read, and its last one written, on a
+thread while the caller works on this one.
 
-A task's passes over a LAS/LAZ file alternate reading (decompressing, scaling) and work on what
-was read (gridding, classifying, writing); laspy and lazrs let go of the interpreter's lock while
-they read, so reading the next chunk beside the work on the current one keeps the second core
-busy. One chunk is read ahead at most, so memory holds one chunk more than it would.
+A task's passes over a LAS/LAZ file alternate reading (decompressing, scaling), work on what
+was read (gridding, classifying) and writing (packing records, compressing); laspy, lazrs and
+numpy let go of the interpreter's lock while they read, pack and write, so reading the next chunk
+and writing the last one beside the work on the current one keeps the second core busy. One chunk
+is read ahead and one written behind at most, so memory holds two chunks more than it would.
 """
 
 from __future__ import annotations
 
 import queue
 import threading
-from collections.abc import Iterator
-from typing import TypeVar
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
+from typing import Self, TypeVar
 
 T = TypeVar("T")
 
@@ -75,3 +79,43 @@ def read_ahead(chunks: Iterator[T]) -> Iterator[T]:
     finally:
         left.set()
         thread.join()
+
+
+class WriteBehind:
+    """Writes done on a thread while the caller prepares the next ones: ``submit(fn, *args)``
+    runs ``fn(*args)`` there, in the order submitted, at most one at a time and one waiting; the
+    caller's next ``submit`` waits for the one before it. An error raised by a write is raised by
+    the next ``submit`` or by leaving the ``with`` block, with its own type and message. Leaving the
+    block waits for the write under way, also when an error or an interrupt ends the caller's loop,
+    so the files written to are never closed under it.
+
+    For a pass whose writers take what they write as it is (a chunk's rows, the file's fixed
+    decimals): what a write reads must not change after its ``submit``.
+    """
+
+    def __init__(self) -> None:
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aldpat-write-behind")
+        self._pending: Future[None] | None = None
+
+    def submit(self, fn: Callable[..., None], *args: object) -> None:
+        self.wait()
+        self._pending = self._pool.submit(fn, *args)
+
+    def wait(self) -> None:
+        """Wait for the write under way; its error, if it raised one."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, _tb: object) -> None:
+        try:
+            if kind is None:
+                self.wait()
+            elif self._pending is not None:
+                # the caller's own error is the one raised; the write under way is only finished
+                futures_wait([self._pending])
+        finally:
+            self._pool.shutdown(wait=True)

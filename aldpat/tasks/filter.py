@@ -38,6 +38,7 @@ from aldpat.filters.survey import TAKING_PART_FIELDS, ground_flags, survey_class
 from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, classes_of_table, for_point_format
 from aldpat.io.las import new_point_format
+from aldpat.io.prefetch import WriteBehind, read_ahead
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -361,9 +362,14 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
         writers = [(stack.enter_context(ctx.write_points(path, names, like=reader,
                                                          crs=output_crs(params.crs, reader.crs, path, ctx.warn))), path, which)
                    for path, which in outputs]
+        tables = reader.chunks() if chunk is None else reader.chunks(chunk)
+        # a LAS/LAZ input's next chunk is read, and its last one written, beside the classifying of
+        # this one; a text input's chunks may widen the decimals the writers share, so they are read,
+        # classified and written in turn (the same file whatever the timing)
+        overlap = reader.format == "las"
+        behind = stack.enter_context(WriteBehind()) if overlap else None
         start = 0
-        for table in units.counted(reader.chunks() if chunk is None else reader.chunks(chunk), "classify + write",
-                                   reader.count):
+        for table in units.counted(read_ahead(tables) if overlap else tables, "classify + write", reader.count):
             stop = start + len(table)
             marks, found = classes_of(table, start, stop)
             part = taking_part(table, params)
@@ -375,8 +381,10 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
             n_ground += int(ground.sum())
             n += len(table)
             rows = _with_classes(table, reader, params, marks, cls if params.result == "classified" else None)
-            for writer, _, which in writers:
-                writer.write(_part(rows, which, ground))
+            if behind is None:
+                _write_rows(writers, rows, ground)
+            else:
+                behind.submit(_write_rows, writers, rows, ground)
             start = stop
     for writer, path, _ in writers:
         ctx.wrote(path, writer.count)
@@ -385,6 +393,12 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
     log.info("%s: %d of %d points ground (in chunks)", source, n_ground, n)
+
+
+def _write_rows(writers: list, rows: PointTable, ground: np.ndarray) -> None:
+    """A chunk's rows into each output: every row, or its ground or its object rows."""
+    for writer, _, which in writers:
+        writer.write(_part(rows, which, ground))
 
 
 def plan_catalog(sources: list[Path], params, _input) -> list[list[str]]:
