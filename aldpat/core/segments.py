@@ -48,6 +48,7 @@ labelling of its 4-neighbour graph, the steps and cells between each pair of seg
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,6 +56,7 @@ import numpy as np
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.rise import scale_and_offset
+from aldpat.core.threads import on_threads
 
 #: Grid rows labelled at a time: bounds the labelling's scratch to a strip.
 STRIP_ROWS = 256
@@ -164,11 +166,12 @@ def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: n
 
     1. every cell's steps to its east and north neighbours, and which side is higher;
     2. the segments of each strip of ``strip_rows`` rows (a union-find, numbered in row order
-       of their first cells: an image labelling's numbers), then those joined across the
-       strips' edges (numbered in the order of their first strip segments);
-    3. per strip segment its open edge, size and sum of heights (in row order), summed per
-       segment in the strips' order -- the order of the float sums is kept so that a mean height
-       is the same to the last bit whatever the scans;
+       of their first cells: an image labelling's numbers; the strips on the process's threads),
+       then those joined across the strips' edges (numbered in the order of their first strip
+       segments);
+    3. per strip segment its open edge, size and sum of heights (in row order; the strips on
+       threads), summed per segment in the strips' order -- the order of the float sums is kept
+       so that a mean height is the same to the last bit whatever the scans and the threads;
     4. the pairs of segments with steps between them and their steps, from each higher
        segment's list of lower ones (a cell has at most four neighbours, so no sort of the grid);
     5. per cell the distinct segments above and below it across its steps, adding the cell
@@ -189,15 +192,14 @@ def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: n
     _step_flags(z, sp, spacing is not None, scaled, scale, offset, np.float32(step), np.float32(cell),
                 np.float32(SPACING_SLOPE), np.float32(SPACING_REACH), flags)
     label = np.empty((rows, cols), np.int32)
-    joins = np.empty((2, max(0, (rows - 1) // strip_rows) * cols), np.int64)
-    count, joined = _label_strips(flags, strip_rows, label, joins)
-    segment, first = _join_labels(joins, joined, count)
+    count, joins = _label_strips(flags, strip_rows, label)
+    segment, first = _join_labels(joins, joins.shape[1], count)
     del joins
-    per_label = _label_totals(z, scaled, scale, offset, label, count)
+    per_label = _label_totals(z, scaled, scale, offset, label, count, strip_rows)
     open_total, size_total, height_total = (np.bincount(segment, weights=per_label[k], minlength=len(first))
                                             for k in range(3))
     del per_label
-    _relabel(label, segment)
+    _relabel(label, segment, strip_rows)
     del segment
     high, low, edges, pair_start = _pairs(flags, label, len(first))
     high_cells, low_cells, low_sum = _pair_cells(flags, label, z, scaled, scale, offset, low, pair_start)
@@ -281,46 +283,91 @@ def _union(parent: np.ndarray, x: int, y: int) -> None:  # pragma: no cover - co
 
 
 @compiled(nogil=True)
-def _label_strips(flags: np.ndarray, strip_rows: int, label: np.ndarray,
-                  joins: np.ndarray) -> tuple[int, int]:  # pragma: no cover - compiled
-    """Each strip's segments, numbered on from the strips above in the row order of their first
-    cells, into ``label``; the pairs of labels joined across each strip's upper edge into
-    ``joins``. Returns the number of labels and of joined pairs."""
-    rows, cols = flags.shape
-    parent = np.empty(min(rows, strip_rows) * cols, np.int32)
-    own = np.empty(len(parent), np.int32)  # the label of each segment's first cell
+def _label_strip(flags: np.ndarray, a: int, b: int, label: np.ndarray, parent: np.ndarray,
+                 own: np.ndarray) -> int:  # pragma: no cover - compiled
+    """The segments of the strip of rows ``a:b`` alone, numbered from 0 in the row order of their
+    first cells, into ``label[a:b]`` (``parent``, ``own``: scratch of the strip's cells). Returns
+    their number."""
+    cols = flags.shape[1]
+    for i in range(a, b):
+        for j in range(cols):
+            k = (i - a) * cols + j
+            west = j > 0 and not flags[i, j - 1] & EAST_STEP
+            north = i > a and not flags[i - 1, j] & NORTH_STEP
+            if west:
+                parent[k] = _find(parent, k - 1)
+                if north:
+                    _union(parent, k, k - cols)
+            elif north:
+                parent[k] = _find(parent, k - cols)
+            else:
+                parent[k] = k
     count = 0
+    for i in range(a, b):
+        for j in range(cols):
+            k = (i - a) * cols + j
+            r = _find(parent, k)
+            if r == k:  # a segment's first cell: the next label
+                own[k] = count
+                count += 1
+            label[i, j] = own[r]
+    return count
+
+
+@compiled(nogil=True)
+def _number_on(label: np.ndarray, a: int, b: int, first: int) -> None:  # pragma: no cover - compiled
+    """The labels of rows ``a:b`` numbered on from ``first``."""
+    for i in range(a, b):
+        for j in range(label.shape[1]):
+            label[i, j] += first
+
+
+@compiled(nogil=True)
+def _joins_across(flags: np.ndarray, label: np.ndarray, a: int, joins: np.ndarray) -> int:  # pragma: no cover
+    """The pairs of labels joined across the upper edge of the strip starting at row ``a``, in
+    column order, into ``joins``; returns their number."""
     joined = 0
-    for a in range(0, rows, strip_rows):
-        b = min(rows, a + strip_rows)
-        for i in range(a, b):
-            for j in range(cols):
-                k = (i - a) * cols + j
-                west = j > 0 and not flags[i, j - 1] & EAST_STEP
-                north = i > a and not flags[i - 1, j] & NORTH_STEP
-                if west:
-                    parent[k] = _find(parent, k - 1)
-                    if north:
-                        _union(parent, k, k - cols)
-                elif north:
-                    parent[k] = _find(parent, k - cols)
-                else:
-                    parent[k] = k
-        for i in range(a, b):
-            for j in range(cols):
-                k = (i - a) * cols + j
-                r = _find(parent, k)
-                if r == k:  # a segment's first cell: the next label
-                    own[k] = count
-                    count += 1
-                label[i, j] = own[r]
-        if a > 0:
-            for j in range(cols):
-                if not flags[a - 1, j] & NORTH_STEP:
-                    joins[0, joined] = label[a - 1, j]
-                    joins[1, joined] = label[a, j]
-                    joined += 1
-    return count, joined
+    for j in range(flags.shape[1]):
+        if not flags[a - 1, j] & NORTH_STEP:
+            joins[0, joined] = label[a - 1, j]
+            joins[1, joined] = label[a, j]
+            joined += 1
+    return joined
+
+
+def _label_strips(flags: np.ndarray, strip_rows: int, label: np.ndarray) -> tuple[int, np.ndarray]:
+    """Each strip's segments, numbered on from the strips above in the row order of their first
+    cells, into ``label``; and the pairs of labels joined across each strip's upper edge, strip
+    after strip. Returns the number of labels and the joins (``(2, joined)``).
+
+    The strips are labelled on the process's threads, each from 0, and then numbered on from the
+    strips above: the same numbers as labelling them one after another."""
+    rows, cols = flags.shape
+    starts = list(range(0, rows, strip_rows))
+    held = threading.local()
+
+    def scratch() -> tuple[np.ndarray, np.ndarray]:
+        if not hasattr(held, "arrays"):
+            size = min(rows, strip_rows) * cols
+            held.arrays = (np.empty(size, np.int32), np.empty(size, np.int32))
+        return held.arrays
+
+    def label_one(a: int) -> int:
+        return _label_strip(flags, a, min(rows, a + strip_rows), label, *scratch())
+
+    counts = on_threads(label_one, starts)
+    firsts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64).tolist()
+
+    def number_on(s: int) -> None:
+        _number_on(label, starts[s], min(rows, starts[s] + strip_rows), firsts[s])
+
+    on_threads(number_on, list(range(1, len(starts))))
+    # the joins of each strip's upper edge, once every strip is numbered, in the strips' order
+    joins = np.empty((2, max(0, len(starts) - 1) * cols), np.int64)
+    joined = 0
+    for a in starts[1:]:
+        joined += _joins_across(flags, label, a, joins[:, joined:])
+    return int(firsts[-1]), joins[:, :joined]
 
 
 @compiled(nogil=True)
@@ -345,28 +392,43 @@ def _join_labels(joins: np.ndarray, joined: int, count: int) -> tuple[np.ndarray
 
 
 @compiled(nogil=True)
-def _label_totals(z: np.ndarray, scaled: bool, scale: float, offset: float, label: np.ndarray,
-                  count: int) -> np.ndarray:  # pragma: no cover - compiled
-    """Per label: its cells on the grid's border, its cells, the sum of their heights (in row
-    order, from 0.0: ``np.bincount``'s sums over a strip)."""
+def _strip_totals(z: np.ndarray, scaled: bool, scale: float, offset: float, label: np.ndarray, a: int, b: int,
+                  out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Per label of the strip of rows ``a:b`` (zeros in ``out`` before): its cells on the grid's
+    border, its cells, the sum of their heights (in row order, from 0.0: ``np.bincount``'s sums
+    over a strip)."""
     rows, cols = label.shape
-    out = np.zeros((3, count))
-    for i in range(rows):
+    for i in range(a, b):
         for j in range(cols):
             k = label[i, j]
             if i == 0 or i == rows - 1 or j == 0 or j == cols - 1:
                 out[0, k] += 1.0
             out[1, k] += 1.0
             out[2, k] += _height(z[i, j], scaled, scale, offset)
+
+
+def _label_totals(z: np.ndarray, scaled: bool, scale: float, offset: float, label: np.ndarray, count: int,
+                  strip_rows: int) -> np.ndarray:
+    """:func:`_strip_totals` of every strip of ``label`` (``count`` labels), on the process's
+    threads: a label lies in one strip, so the strips add into disjoint columns."""
+    out = np.zeros((3, count))
+    rows = label.shape[0]
+    on_threads(lambda a: _strip_totals(z, scaled, scale, offset, label, a, min(rows, a + strip_rows), out),
+               list(range(0, rows, strip_rows)))
     return out
 
 
 @compiled(nogil=True)
-def _relabel(label: np.ndarray, segment: np.ndarray) -> None:  # pragma: no cover - compiled
-    rows, cols = label.shape
-    for i in range(rows):
-        for j in range(cols):
+def _relabel_rows(label: np.ndarray, segment: np.ndarray, a: int, b: int) -> None:  # pragma: no cover - compiled
+    for i in range(a, b):
+        for j in range(label.shape[1]):
             label[i, j] = segment[label[i, j]]
+
+
+def _relabel(label: np.ndarray, segment: np.ndarray, strip_rows: int) -> None:
+    """Every cell's label replaced by its segment, strips on the process's threads."""
+    rows = label.shape[0]
+    on_threads(lambda a: _relabel_rows(label, segment, a, min(rows, a + strip_rows)), list(range(0, rows, strip_rows)))
 
 
 @compiled(nogil=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from aldpat.core.segments import raised_segments
 
@@ -201,11 +202,14 @@ def test_a_plateau_larger_than_any_roof_is_terrain_and_a_roof_beside_it_is_not()
     assert not raised_segments(small, step=2.0, down_share=0.5, cell=2.0).any()
 
 
-def test_compiled_graph_equals_the_numpy_form_bit_for_bit():
+@pytest.mark.parametrize("threads", ["1", "3"])
+def test_compiled_graph_equals_the_numpy_form_bit_for_bit(threads, monkeypatch):
     """The segments, their sizes, open edges and mean heights, and per pair of segments the
     steps, cells and the lower cells' height sums: the values of the former numpy form (strips
     labelled as images, pairs found by sorting) to the last bit, for heights and for codes, with
-    and without the spacing of filled cells, strips of 1 row to the whole grid."""
+    and without the spacing of filled cells, strips of 1 row to the whole grid, the strips
+    labelled on one thread or several."""
+    monkeypatch.setenv("ALDPAT_THREADS", threads)
     from aldpat.core.height_codes import ScaledHeights
     from aldpat.core.segments import _segment_graph
     from tests.core.segments_reference import segment_graph
