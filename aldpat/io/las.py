@@ -14,9 +14,11 @@ with a vertical datum (a compound CRS) needs WKT, hence LAS 1.4 and formats 6-10
 from __future__ import annotations
 
 import copy
+import logging
 import math
+import os
 import struct
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -33,6 +35,8 @@ from aldpat.io.textfmt import decimal_places
 
 if TYPE_CHECKING:
     import laspy
+
+log = logging.getLogger(__name__)
 
 DEFAULT_CHUNK = 2_000_000
 #: table column -> LAS dimension for the columns a task may set
@@ -425,7 +429,7 @@ MOST_DECIMALS = 8
 CODES_ROOM = 2.0 ** 30
 
 
-def new_header(table: PointTable, *, crs: Any = None, decimals: dict | None = None) -> laspy.LasHeader:
+def new_header(table: PointTable, *, crs: Any = None, decimals: Mapping[str, int] | None = None) -> laspy.LasHeader:
     """A header for points that did not come from LAS: LAS 1.2 format 0, or LAS 1.4 format 6
     when a time exists or the CRS needs WKT (:func:`needs_wkt`). Its scales keep the decimals
     the text gives, up to :data:`MOST_DECIMALS`, as far as the 32-bit integers hold these points
@@ -439,22 +443,34 @@ def new_header(table: PointTable, *, crs: Any = None, decimals: dict | None = No
     header = laspy.LasHeader(point_format=point_format, version="1.4" if point_format >= 6 else "1.2")
     decimals = decimals or table.meta.get("decimals", {})
     scales, offsets = [], []
-    for n in "xyz":
-        places = min(max(decimals.get(n, 3), 0), MOST_DECIMALS)
+    for n, places in zip("xyz", asked_places(decimals), strict=True):
         lowest, highest = (float(np.min(table.columns[n])), float(np.max(table.columns[n]))) if len(table) else (0, 0)
         # whole kilometres, or whole units where that leaves too little room (degrees to 1e-8)
         offset = math.floor(lowest / 1000.0) * 1000.0
         if (highest - offset) * 10.0 ** places > CODES_ROOM >= (highest - math.floor(lowest)) * 10.0 ** places:
             offset = float(math.floor(lowest))
-        while places > 0 and (highest - offset) * 10.0 ** places > CODES_ROOM:
-            places -= 1  # digits the integers cannot hold over these points: UTM metres to 1e-6 over 10 km
-        scales.append(10.0 ** -places)
+        scales.append(10.0 ** -places_held(places, lowest, highest, offset))
         offsets.append(offset)
     header.scales = np.array(scales)
     header.offsets = np.array(offsets)
     if crs is not None:
         set_crs(header, crs)
     return header
+
+
+def asked_places(decimals: Mapping[str, int]) -> list[int]:
+    """The decimals of x, y and z a header for text points is asked to keep: the text's own (3
+    where it says none), at most :data:`MOST_DECIMALS`."""
+    return [min(max(int(decimals.get(n, 3)), 0), MOST_DECIMALS) for n in "xyz"]
+
+
+def places_held(places: int, lowest: float, highest: float, offset: float) -> int:
+    """Of ``places`` decimals, as many as the integers hold between ``lowest`` and ``highest``
+    from ``offset`` within :data:`CODES_ROOM`: UTM metres to 1e-6 over 10 km keep 5."""
+    reach = max(highest - offset, offset - lowest, 0.0)
+    while places > 0 and reach * 10.0 ** places > CODES_ROOM:
+        places -= 1
+    return places
 
 
 def _names_crs(header: laspy.LasHeader, crs: Any) -> bool:
@@ -525,8 +541,9 @@ class LasWriter:
     """
 
     def __init__(self, path: Path, names: tuple[str, ...], *, template: laspy.LasHeader | None = None,
-                 crs: Any = None, compress: bool | None = None) -> None:
+                 crs: Any = None, compress: bool | None = None, decimals: Mapping[str, int] | None = None) -> None:
         self.path = Path(path)
+        self.decimals = decimals  # of x, y, z, for a header made for text points; else each chunk's
         self.names = tuple(names)
         self.template = template
         self.crs = crs
@@ -535,11 +552,20 @@ class LasWriter:
         self._fh: laspy.LasWriter | None = None
         self._extra: list[str] = []
         self._given_extra: list[str] = []
+        # a header made for text points: the decimals of x, y, z it was asked to keep, the lowest
+        # and highest of each written, and the file the points went to once its scale was made finer
+        self._asked: list[int] | None = None
+        self._lowest = np.full(3, np.inf)
+        self._highest = np.full(3, -np.inf)
+        self._rescaled: Path | None = None
 
     def _open(self, table: PointTable) -> None:
         import laspy
 
-        header = copy.deepcopy(self.template) if self.template is not None else new_header(table, crs=self.crs)
+        header = copy.deepcopy(self.template) if self.template is not None \
+            else new_header(table, crs=self.crs, decimals=self._decimals_of(table))
+        if self.template is None:
+            self._asked = asked_places(self._decimals_of(table))
         if self.template is not None and self.crs is not None and not _names_crs(header, self.crs):
             header = holding_crs(header, self.crs)  # --crs over the source's own (aldpat.core.crs.output_crs)
         known = set(header.point_format.dimension_names)
@@ -574,6 +600,8 @@ class LasWriter:
         n = len(table)
         if n == 0:
             return
+        if self._asked is not None and table.record is None:
+            self._keep_decimals(table)
         same: frozenset[str] = frozenset()
         if table.record is not None and self.template is not None and not self._extra \
                 and self._stored_alike(table.record):
@@ -633,9 +661,75 @@ class LasWriter:
         return bool(np.array_equal(scales, self._header.scales)
                     and np.array_equal(record.offsets, self._header.offsets))
 
+    def _decimals_of(self, table: PointTable) -> Mapping[str, int]:
+        """The decimals of x, y, z the header keeps: the writer's, else the chunk's."""
+        return self.decimals if self.decimals is not None else (table.meta.get("decimals") or {})
+
+    def _keep_decimals(self, table: PointTable) -> None:
+        """Make the scale finer where a chunk of text points holds more decimals than the lines the
+        header was made from (the reader widens its decimals as it reads: 100.5 there, 512.125
+        further down), as far as the integers hold every point written and this chunk's from the
+        offsets. The points written so far are copied into a new file at the finer scale, exactly
+        (they held no more decimals than the old scale), and the rest go on into it."""
+        assert self._asked is not None and self._fh is not None
+        asked = asked_places(self._decimals_of(table))
+        for k, n in enumerate("xyz"):
+            if len(table):
+                self._lowest[k] = min(self._lowest[k], float(np.min(table.columns[n])))
+                self._highest[k] = max(self._highest[k], float(np.max(table.columns[n])))
+        if all(a <= b for a, b in zip(asked, self._asked, strict=True)):
+            return
+        self._asked = [max(a, b) for a, b in zip(asked, self._asked, strict=True)]
+        scales = self._header.scales.copy()
+        for k in range(3):
+            places = places_held(self._asked[k], float(self._lowest[k]), float(self._highest[k]),
+                                 float(self._header.offsets[k]))
+            scales[k] = min(float(scales[k]), 10.0 ** -places)
+        if np.array_equal(scales, self._header.scales):
+            return
+        self._rescale(scales)
+
+    def _rescale(self, scales: np.ndarray) -> None:
+        """Go on writing into a new file whose header takes ``scales``, the points written so far
+        copied into it at those scales."""
+        import laspy
+
+        from aldpat.io.atomic import temp_name
+
+        assert self._fh is not None
+        self._fh.close()
+        self._fh = None
+        written = self._rescaled or self.path
+        header = copy.deepcopy(self._header)
+        header.scales = scales
+        header.point_count = 0
+        target = temp_name(self.path)  # a temporary name: a killed run's leftover is recognised and removed
+        writer = None
+        try:
+            writer = laspy.open(target, mode="w", header=header, do_compress=self.compress)
+            with laspy.open(written) as source:
+                for old in source.chunk_iterator(DEFAULT_CHUNK):
+                    points = laspy.ScaleAwarePointRecord(old.array.copy(), header.point_format, header.scales,
+                                                         header.offsets)
+                    points.x, points.y, points.z = old.x, old.y, old.z
+                    writer.write_points(points)
+        except BaseException:
+            if writer is not None:
+                writer.close()
+            target.unlink(missing_ok=True)
+            raise
+        if self._rescaled is not None:
+            self._rescaled.unlink()
+        self._fh, self._header, self._rescaled = writer, header, target
+        log.info("%s: text points further down hold more decimals: LAS scales now %s", self.path,
+                 ", ".join(f"{v:g}" for v in scales))
+
     def close(self) -> None:
         if self._fh is None:
             # an empty output still gets a valid header
             self._open(PointTable({n: np.zeros(0) for n in ("x", "y", "z")}))
         assert self._fh is not None
         self._fh.close()
+        if self._rescaled is not None:
+            os.replace(self._rescaled, self.path)
+            self._rescaled = None

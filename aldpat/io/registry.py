@@ -7,7 +7,7 @@ takes chunks and renames the finished file into place, shaped like a :class:`Poi
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -98,12 +98,14 @@ def output_extension(source: Path | None, out_format: str | None) -> str:
 @contextlib.contextmanager
 def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = False,
                  like: PointSource | None = None,
-                 delimiter: str = "space", decimals: dict | None = None, crs: Any = None, template: Any = None
+                 delimiter: str = "space", decimals: Mapping[str, int] | None = None, crs: Any = None, template: Any = None
                  ) -> Iterator[LasWriter | TextWriter]:
     """Open an atomic point writer; the file appears under ``path`` only when the block succeeds.
 
     ``like`` is the source reader: a LAS output keeps its header (format, scale, offset, VLRs),
-    or ``template``'s when given, a text output its decimals.
+    or ``template``'s when given, a text output its decimals. ``decimals``: those to write (a
+    text output) or keep (the scales of a LAS output made for text points) instead of the
+    chunks' own; a live mapping where they may widen as the input is read.
     """
     path = Path(path)
     fmt = detect_format(path)
@@ -113,7 +115,7 @@ def write_points(path: str | Path, names: tuple[str, ...], *, overwrite: bool = 
             if template is None and getattr(like, "format", None) == "las":
                 template = getattr(like, "header", None)
             writer = LasWriter(tmp, names, template=template, crs=crs if crs is not None else getattr(like, "crs", None),
-                               compress=path.suffix.lower() == ".laz")
+                               compress=path.suffix.lower() == ".laz", decimals=decimals)
         else:
             if decimals is None and like is not None:
                 decimals = getattr(like, "decimals", None)

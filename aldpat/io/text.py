@@ -12,7 +12,7 @@ the input had (detected from its first lines), so a round trip does not change c
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -56,6 +56,36 @@ TEXT_ERRORS = "replace"
 
 def altm_names(order: str) -> tuple[str, ...]:
     return ALTM_FIRST_LAST if order == "first-last" else ALTM_LAST_FIRST
+
+
+class PulseDecimals(Mapping[str, int]):
+    """The decimals of the points of a tape's pulses (x, y, z, intensity, t) from its reader's
+    columns: a coordinate takes the more of its two returns' (x1 and x2 ...), an intensity none.
+    A live view, read at every write: the reader widens its own decimals as it reads further
+    down the tape, and a copy taken at the start would round what comes after."""
+
+    def __init__(self, columns: Mapping[str, int]) -> None:
+        self._columns = columns
+
+    def _value(self, name: str) -> int | None:
+        if name == "intensity":
+            return 0
+        if name == "t":
+            return self._columns.get("t")
+        found = [self._columns[f"{name}{k}"] for k in (1, 2) if f"{name}{k}" in self._columns]
+        return max(found) if found else None
+
+    def __getitem__(self, name: str) -> int:
+        value = self._value(name) if name in ("x", "y", "z", "intensity", "t") else None
+        if value is None:
+            raise KeyError(name)
+        return value
+
+    def __iter__(self) -> Iterator[str]:
+        return (n for n in ("x", "y", "z", "intensity", "t") if self._value(n) is not None)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
 
 
 def _split(line: str, delimiter: str) -> list[str]:
@@ -299,7 +329,7 @@ class TextReader:
 
 
 def format_rows(table: PointTable, names: tuple[str, ...], delimiter: str = " ",
-                decimals: dict | None = None) -> str:
+                decimals: Mapping[str, int] | None = None) -> str:
     """The rows of ``table`` as text lines (one C-level formatting call per chunk)."""
     n = len(table)
     if n == 0:
@@ -321,7 +351,7 @@ class TextWriter:
     """
 
     def __init__(self, path: Path, names: tuple[str, ...], *, delimiter: str = "space",
-                 decimals: dict | None = None):
+                 decimals: Mapping[str, int] | None = None):
         self.path = Path(path)
         self.names = tuple(names)
         self.delimiter = _DELIMS.get(delimiter, delimiter)

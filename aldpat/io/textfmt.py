@@ -15,6 +15,7 @@ tasks write) the digits are exactly those ``%.Nf`` gives.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -82,7 +83,7 @@ def decimal_places(value: float, most: int = MOST_DECIMALS) -> int:
     return most
 
 
-def column_formats(table: PointTable, names: tuple[str, ...], decimals: dict | None = None) -> list[str]:
+def column_formats(table: PointTable, names: tuple[str, ...], decimals: Mapping[str, int] | None = None) -> list[str]:
     """printf formats per column: integers for integer columns, the input's decimals otherwise."""
     decimals = decimals if decimals is not None else table.meta.get("decimals", {})
     fmts = []
@@ -100,7 +101,7 @@ def column_formats(table: PointTable, names: tuple[str, ...], decimals: dict | N
     return fmts
 
 
-def format_block(table: PointTable, names: tuple[str, ...], delimiter: str = " ", decimals: dict | None = None) -> np.ndarray:
+def format_block(table: PointTable, names: tuple[str, ...], delimiter: str = " ", decimals: Mapping[str, int] | None = None) -> np.ndarray:
     """The rows of ``table`` as text lines (a uint8 array), with the columns and decimals of
     :func:`column_formats` (those :func:`aldpat.io.text.format_rows` uses too)."""
     n = len(table)

@@ -12,6 +12,7 @@ the file holds no duplicate points.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from aldpat.core.crs import output_crs
 from aldpat.errors import UsageError
 from aldpat.io.las import RETURN_DIMENSIONS
 from aldpat.io.table import PointTable
+from aldpat.io.text import PulseDecimals
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
 from aldpat.jobs.task import Planned, Task
@@ -66,9 +68,7 @@ def convert_tape(source: Path, params: ConvertParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source, layout="altm9", order=params.order)
     out = ctx.outputs_for(source)[0].path  # LAS/LAZ: convert_outputs refuses text
     crs = output_crs(params.crs, None, out, ctx.warn)  # a tape names no CRS
-    dec = reader.decimals
-    decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": max(dec.get("z1", 0), dec.get("z2", 0)),
-                "intensity": 0, "t": dec.get("t")}
+    decimals = PulseDecimals(reader.decimals)
     names = TAPE_NAMES if params.fields == "xyzi" else tuple(n for n in TAPE_NAMES if n != "intensity")
     with ctx.write_points(out, names, decimals=decimals, crs=crs) as writer:
         for chunk in reader.chunks():
@@ -76,7 +76,7 @@ def convert_tape(source: Path, params: ConvertParams, ctx: JobContext) -> None:
     ctx.wrote(out, writer.count)
 
 
-def pulse_points(chunk: PointTable, decimals: dict) -> PointTable:
+def pulse_points(chunk: PointTable, decimals: Mapping[str, int]) -> PointTable:
     """The points of a chunk of tape pulses, each pulse's first return then its last (left out
     when it is the first: same x, y, z), numbered as the module docstring says."""
     single = (chunk["x1"] == chunk["x2"]) & (chunk["y1"] == chunk["y2"]) & (chunk["z1"] == chunk["z2"])

@@ -23,6 +23,7 @@ WKT with ``minor_version=4``, and LAStools converts with ``las2las -set_version 
 
 from __future__ import annotations
 
+from collections import ChainMap
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -80,10 +81,10 @@ def ortho_height_one(source: Path, params: OrthoHeightParams, ctx: JobContext) -
     out = ctx.outputs_for(source)[0].path
     like, decimals = reader, None
     if convert.to_crs is not None:
-        dec = dict(getattr(reader, "decimals", None) or {})
-        if convert.to_crs.is_geographic:
-            dec.update(x=9, y=9)  # degrees need more decimals than metres
-        decimals = dec or None
+        # the reader's own decimals, which it widens as it reads (a live view, not a copy); degrees
+        # need more decimals than metres
+        decimals = ChainMap({"x": 9, "y": 9} if convert.to_crs.is_geographic else {},
+                            getattr(reader, "decimals", None) or {})
     if reader.format == "las":
         like = _las_template(reader, convert)
     if out.suffix.lower() in (".las", ".laz"):

@@ -21,6 +21,7 @@ from aldpat.core.returns import stop_gap_mask, strip_zone, zone_prefix
 from aldpat.errors import DataError, ParamError
 from aldpat.io.las import RETURN_DIMENSIONS
 from aldpat.io.table import PointTable
+from aldpat.io.text import PulseDecimals
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
 from aldpat.jobs.task import Planned, Task
@@ -123,9 +124,7 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
     reader = ctx.open_input(source, layout="altm9", order=params.order)
     first_out, last_out = (p.path for p in ctx.outputs_for(source))
     names = ("x", "y", "z") + (("intensity",) if params.fields == "xyzi" else ())
-    dec = reader.decimals
-    decimals = {"x": dec.get("x1"), "y": dec.get("y1"), "z": dec.get("z1"), "intensity": 0}
-    z_decimals = max(dec.get("z1", -1), dec.get("z2", -1)) if "z1" in dec and "z2" in dec else None
+    decimals = PulseDecimals(reader.decimals)
     # a stripped zone leaves as many decimals as before
     strip = ZoneStripper(parse_zone(params.utm_zone), source, reader.first_data_line)
     crs = output_crs(params.crs, None, first_out, ctx.warn)  # a tape names no CRS; one line for both files
@@ -140,7 +139,7 @@ def separate_returns_one(source: Path, params: SeparateReturnsParams, ctx: JobCo
             x2, y2 = strip(chunk["x2"], chunk["y2"], total)
             z1, z2 = chunk["z1"], chunk["z2"]
             i1, i2 = chunk["i1"], chunk["i2"]
-            swap = stop_gap_mask(z1, z2, params.stop_gap, z_decimals)
+            swap = stop_gap_mask(z1, z2, params.stop_gap, decimals.get("z"))
             first = {"x": x1, "y": y1, "z": z1, "intensity": i1}
             last = {"x": np.where(swap, x1, x2), "y": np.where(swap, y1, y2), "z": np.where(swap, z1, z2),
                     "intensity": np.where(swap, i1, i2)}

@@ -232,3 +232,42 @@ def test_a_class_a_las_12_file_cannot_hold_names_the_point_formats_that_can():
         _check_whole(np.array([2.0, 256.0]), "class", "classification", las14=True)
     _check_whole(np.array([2, 40], np.uint8), "class", "classification", las14=True)
     _check_whole(np.array([0, 65535], np.uint16), "intensity", "intensity", las14=False)
+
+
+@pytest.mark.parametrize("ext", [".las", ".laz"])
+def test_text_points_with_more_decimals_further_down_keep_them_in_las(tmp_path, ext):
+    """The header's scales come from the first chunk; a chunk further down with more decimals
+    (100.5 there, 512.125 later) was stored at the first chunk's scale: rounded, silently. The
+    points written before are now copied into a file of the finer scale, exactly."""
+    src = tmp_path / "mixed.txt"
+    src.write_text("".join(f"{512000 + k * 0.5} {5400000 + k * 0.5} {10 + k * 0.5}\n" for k in range(250))
+                   + "512999.125 5400999.0625 12.3456\n" + "513000.5 5401000.5 13.5\n" * 3)
+    reader = open_points(src)
+    out = tmp_path / f"again{ext}"
+    with write_points(out, reader.names, like=reader) as w:
+        for chunk in reader.chunks(size=100):
+            w.write(chunk)
+    las = laspy.read(out)
+    expected = np.loadtxt(src)
+    assert list(las.header.scales) == pytest.approx([0.001, 0.0001, 0.0001])
+    assert list(las.header.offsets) == [512000, 5400000, 0]
+    for k, axis in enumerate("xyz"):
+        assert np.array_equal(np.round(np.asarray(las[axis]), 4), expected[:, k]), axis
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["mixed.txt", f"again{ext}"])  # no temporaries
+
+
+def test_more_decimals_further_down_than_the_integers_hold_are_kept_as_far_as_they_can(tmp_path):
+    """Over 20 km the 32-bit integers hold four decimals of a metre, not the sixth a later line
+    asks for: the scale becomes 1e-4, no point overflows, every point within its rounding."""
+    rows = [f"{500000 + k * 100.0:.2f} 4000000.00 10.00\n" for k in range(201)]
+    rows.append("510000.123456 4000000.00 10.00\n")
+    src = tmp_path / "wide.txt"
+    src.write_text("".join(rows))
+    reader = open_points(src)
+    out = tmp_path / "wide.las"
+    with write_points(out, reader.names, like=reader) as w:
+        for chunk in reader.chunks(size=100):
+            w.write(chunk)
+    las = laspy.read(out)
+    assert las.header.scales[0] == pytest.approx(1e-4)
+    np.testing.assert_allclose(np.asarray(las.x), np.loadtxt(src)[:, 0], rtol=0, atol=0.5e-4 + 1e-9)

@@ -82,6 +82,18 @@ def test_reprojection_to_geographic_keeps_enough_decimals(tmp_path):
     assert rows[0, 2] == pytest.approx(180.25 - N, abs=0.1)
 
 
+def test_reprojection_of_text_to_geographic_las_keeps_enough_decimals(tmp_path):
+    """A LAS made for text points took the text's metre decimals for its scales: degrees were
+    stored at 0.01 (about a kilometre)."""
+    src = utm_points(tmp_path)
+    report = get_task("ortho-height")([src], crs="EPSG:32615", geoid=str(GEOID), to_crs="EPSG:4326",
+                                      out_format="las")
+    assert report.exit_code == 0, report.results[0].error
+    out = laspy.read(tmp_path / "strip_Ortho.las")
+    assert list(out.header.scales[:2]) == pytest.approx([1e-8, 1e-8])
+    assert (out.x[0], out.y[0]) == pytest.approx((LON, LAT), abs=2e-7)
+
+
 def test_point_outside_the_geoid_is_named_and_nothing_written(tmp_path, runner, cli):
     far = TO_UTM.transform(LON + 2.0, LAT)
     src = utm_points(tmp_path, extra=[[far[0], far[1], 100.0, 1]])

@@ -1,5 +1,6 @@
 """separate-returns (manual task 2): first/last files, stop gap, UTM zone prefixes, fields."""
 
+import laspy
 import numpy as np
 import pytest
 
@@ -106,3 +107,21 @@ def test_a_gap_of_exactly_the_stop_gap_is_decided_at_the_tapes_precision(tmp_pat
     tape = write_tape(tmp_path / "s.txt", rows)
     assert get_task("separate-returns")([tape], stop_gap=5.0).exit_code == 0
     np.testing.assert_array_equal(np.loadtxt(tmp_path / "s_2.txt"), rows[:, 1:5])
+
+
+def test_returns_further_down_a_tape_keep_their_decimals(tmp_path):
+    """The decimals of a tape's first lines were copied once at the start: coordinates further
+    down with more (500999.125, 10.9985) were written as 500999.12 and 11.00, to text and LAS."""
+    lines = [f"{k + 1.0:.1f} {500001 + k:.2f} 2800001.00 {10 + k * 0.01:.2f} 11 {500001 + k:.2f} 2800001.10 "
+             f"{10.5 + k * 0.01:.2f} 21" for k in range(300)]
+    lines.append("301.0 500999.125 2800001.00 10.9985 11 500999.125 2800001.10 11.4985 21")
+    tape = tmp_path / "t.txt"
+    tape.write_text("\n".join(lines) + "\n")
+    assert get_task("separate-returns")([tape], stop_gap=0.0).exit_code == 0
+    assert (tmp_path / "t_1.txt").read_text().splitlines()[-1] == "500999.125 2800001.10 11.4985 21"
+    assert (tmp_path / "t_2.txt").read_text().splitlines()[-1] == "500999.125 2800001.00 10.9985 11"
+    out = tmp_path / "las"
+    assert get_task("convert")([tape], tape=True, out_format="las", odir=str(out)).exit_code == 0
+    las = laspy.read(out / "t.las")
+    assert (float(las.x[-1]), float(las.z[-1]), float(las.z[-2])) == pytest.approx((500999.125, 10.9985, 11.4985),
+                                                                                   abs=1e-9)
