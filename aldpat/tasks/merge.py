@@ -11,8 +11,11 @@ the mark (text) -- when it lies outside its tile's core in ``tile_parameter.txt`
 or the one beside the input listing it). A file that is neither is taken whole.
 
 Streamed chunk by chunk: memory does not depend on the inputs' size. A LAS/LAZ output takes the
-first LAS input's header (point format, scales, offsets, VLRs); inputs stored at other scales or
-offsets are stored again at its (with a warning when that may round a coordinate), and the merged
+first LAS input's header (point format, offsets, VLRs) with the finest scales that keep every
+input's coordinates exact (a tile at 0.001 m after one at 0.01 m: 0.001 m); inputs stored at
+other scales or offsets are stored again at its (with a warning when that may round a
+coordinate: offsets apart by less than a step, or integers that cannot hold the finer scale over
+the merged extent), and the merged
 file has no ``tile_buffer`` dimension: it holds no buffer point. Inputs must share one CRS.
 """
 
@@ -49,24 +52,49 @@ class MergeParams(FieldsOption, CrsOption):
 
 
 def _las_template(readers):
-    """The output's LAS header: the first LAS input's, without the buffer mark; None for text inputs."""
+    """The output's LAS header: the first LAS input's, without the buffer mark, its scales made as
+    fine as the finest input's where that keeps every input exact (:func:`_finest_scales`); None
+    for text inputs."""
     first = next((r for r in readers if r.format == "las"), None)
     if first is None:
         return None
     header = copy.deepcopy(first.header)
     if BUFFER_DIMENSION in header.point_format.extra_dimension_names:
         header.point_format.remove_extra_dimension(BUFFER_DIMENSION)
+    header.scales = _finest_scales(header, [r.header for r in readers if r.format == "las"])
     return header
+
+
+def _finest_scales(header, inputs) -> np.ndarray:
+    """Per axis, the finest of the inputs' scales where every input's coordinates are exact at it
+    from ``header``'s offset (:func:`_exact_axis`) and the 32-bit integers hold every input's
+    extent from that offset; else ``header``'s own. A tile stored at 0.001 m merged after one at
+    0.01 m was rounded to centimetres (lasmerge and PDAL keep the first or a default scale)."""
+    scales = np.array(header.scales, dtype=np.float64)
+    lowest = np.min([h.mins for h in inputs], axis=0)
+    highest = np.max([h.maxs for h in inputs], axis=0)
+    for k in range(3):
+        finer = min(float(h.scales[k]) for h in inputs)
+        reach = max(float(highest[k]) - float(header.offsets[k]), float(header.offsets[k]) - float(lowest[k]))
+        if finer < scales[k] and reach / finer < 2 ** 31 - 1 and all(
+                _exact_axis(float(h.scales[k]), float(h.offsets[k]), finer, float(header.offsets[k])) for h in inputs):
+            scales[k] = finer
+    return scales
+
+
+def _exact_axis(scale: float, offset: float, to_scale: float, to_offset: float) -> bool:
+    """Whether a coordinate stored at ``scale`` from ``offset`` keeps every digit stored again at
+    ``to_scale`` from ``to_offset`` (the scale a whole multiple of the other, the offsets apart by
+    whole steps)."""
+    ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
+    return ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) <= 1e-9 and abs(shift - round(shift)) <= 1e-6
 
 
 def _exact_at(header, template) -> bool:
     """Whether the coordinates stored under ``header`` keep every digit stored under ``template``'s
-    scales and offsets (scales a whole multiple of the template's, offsets apart by whole steps)."""
-    for scale, offset, to_scale, to_offset in zip(header.scales, header.offsets, template.scales, template.offsets, strict=False):
-        ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
-        if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 or abs(shift - round(shift)) > 1e-6:
-            return False
-    return True
+    scales and offsets."""
+    return all(_exact_axis(*axis) for axis in zip(header.scales, header.offsets, template.scales, template.offsets,
+                                                   strict=True))
 
 
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
@@ -111,8 +139,8 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
                 writer.write(chunk.select(names))
                 kept += len(chunk)
     if rescaled:
-        ctx.warn(f"{', '.join(rescaled)}: stored at finer scales or other offsets than {out.name} takes from "
-                 "the first LAS input; their coordinates are rounded to its scales")
+        ctx.warn(f"{', '.join(rescaled)}: stored at scales or offsets that {out.name}'s, from the first LAS "
+                 "input, cannot hold exactly; their coordinates are rounded to its scales")
     ctx.wrote(out, kept)
     if copies:
         ctx.note(f"{copies} buffer points of tiles left out (copies of points their own tiles hold)")

@@ -60,7 +60,7 @@ def test_text_tiles_merge_by_their_cores(tmp_path, samp24):
     assert len(ground) > 0.5 * len(original) and not got - held  # no point twice (genuine duplicates kept)
 
 
-def test_plain_files_merge_whole_and_mixed_scales_are_stored_at_the_first(tmp_path):
+def test_plain_files_merge_whole_at_the_finest_scales_that_keep_every_input_exact(tmp_path):
     original = laspy.read(STRIP)
     half = len(original.points) // 2
     first = laspy.LasData(original.header)
@@ -77,8 +77,24 @@ def test_plain_files_merge_whole_and_mixed_scales_are_stored_at_the_first(tmp_pa
     second.write(tmp_path / "b.laz")
     report = get_task("merge")([tmp_path / "a.laz", tmp_path / "b.laz"], output=str(tmp_path / "ab.laz"))
     assert report.exit_code == 0
-    assert any("finer scales" in w for w in report.results[0].warnings)
+    assert not any("rounded" in w for w in report.results[0].warnings)
     merged = laspy.read(tmp_path / "ab.laz")
-    assert np.array_equal(points_of(original), points_of(merged))  # 1 cm coordinates survive 1 mm storage
+    assert list(merged.header.scales) == pytest.approx([0.001] * 3)  # the finer: b's millimetres kept
+    assert list(merged.header.offsets) == list(original.header.offsets)
+
+    def coordinates(las) -> np.ndarray:  # every point: coordinates in millimetres and attributes, sorted
+        return np.sort(np.rec.fromarrays([np.rint(np.asarray(las[a]) * 1000).astype(np.int64) for a in "xyz"]
+                                         + [las.intensity, las.return_number]))
+
+    assert np.array_equal(coordinates(original), coordinates(merged))
+    # a tile's millimetres after one at centimetres: kept, not rounded to the first's scale
+    header.offsets = np.array([494000.0005, 5420000.0, 0.0])  # half a step off: no one scale holds both
+    shifted = laspy.LasData(header)
+    shifted.points = laspy.ScaleAwarePointRecord.zeros(3, header=header)
+    shifted.x, shifted.y, shifted.z = original.x[:3] + 0.0005, original.y[:3], original.z[:3]
+    shifted.write(tmp_path / "c.laz")
+    report = get_task("merge")([tmp_path / "a.laz", tmp_path / "c.laz"], output=str(tmp_path / "ac.laz"))
+    assert report.exit_code == 0
+    assert any("c.laz: stored at scales or offsets" in w and "rounded" in w for w in report.results[0].warnings)
     with pytest.raises(UsageError, match="would replace the input"):  # before anything runs
         get_task("merge")([tmp_path / "a.laz"], output=str(tmp_path / "a.laz"), overwrite=True)
