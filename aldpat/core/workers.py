@@ -22,14 +22,17 @@ process twice a second.
 from __future__ import annotations
 
 import contextlib
+import logging
 import multiprocessing
 import os
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 
 from aldpat import interrupt
-from aldpat.core.resources import MEMORY_SHARE, available_memory
+from aldpat.core.resources import MEMORY_SHARE, available_memory, size_text
 from aldpat.core.threads import set_budget, share_for
+
+log = logging.getLogger(__name__)
 
 #: seconds a worker told to stop is given to clean up before the pool's owner kills it
 GRACE = 30.0
@@ -70,6 +73,17 @@ def affordable_workers(wanted: int) -> int:
     started a thousand processes, about 190 GB before any data."""
     room = int(available_memory() * MEMORY_SHARE) // WORKER_MEMORY
     return max(1, min(wanted, MOST_WORKERS, room))
+
+
+def workers_to_start(wanted: int, asked: str) -> int:
+    """:func:`affordable_workers` of ``wanted``, with a warning when that is fewer, saying why;
+    ``asked``: what asked for them (``-j 1024``)."""
+    affordable = affordable_workers(wanted)
+    if affordable < wanted:
+        log.warning(f"{asked}: {affordable} worker processes: at most {MOST_WORKERS} here (four per core, "
+                    f"sixteen at least), and as many as the memory available holds (about "
+                    f"{size_text(WORKER_MEMORY)} a process before its data)")
+    return affordable
 
 
 class WorkerPool:

@@ -30,7 +30,7 @@ from aldpat.core import units
 from aldpat.core.compiled import compiled
 from aldpat.core.resources import check_disk, count_text
 from aldpat.core.tiles import MOST_COPIES, copies_with_buffer, least_square_for, spanned
-from aldpat.core.workers import WorkerPool, affordable_workers
+from aldpat.core.workers import WorkerPool, workers_to_start
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import scratch_dir
 from aldpat.io.registry import PointReader
@@ -292,7 +292,7 @@ def _map(fn: Callable, jobs: list[tuple], workers: int) -> Iterator:
         with worker_client() as client:
             yield from _each_once([client.submit(fn, *job, pure=False) for job in jobs])
         return
-    workers = affordable_workers(workers)  # the run's own -j was weighed likewise
+    workers = workers_to_start(workers, f"-j {workers} for the chunks")
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             yield fn(*job)

@@ -13,8 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.core import units
-from aldpat.core.resources import size_text
-from aldpat.core.workers import MOST_WORKERS, WORKER_MEMORY, affordable_workers
+from aldpat.core.workers import workers_to_start
 from aldpat.errors import UsageError
 from aldpat.io.chunks import scratch_folder
 from aldpat.jobs.cluster import scheduler_for
@@ -136,12 +135,8 @@ def _execute(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, 
              wanted: int, results: list[JobResult], progress: Progress | None) -> None:
     """Run ``jobs`` on the cluster, here, or in up to ``wanted`` worker processes."""
     workers = max(1, min(wanted, len(jobs)))
-    affordable = affordable_workers(workers)
-    if affordable < workers and scheduler is None:
-        log.warning(f"-j {wanted}: {affordable} worker processes: at most {MOST_WORKERS} here (four per core, "
-                    f"sixteen at least), and as many as the memory available holds (about "
-                    f"{size_text(WORKER_MEMORY)} a process before its data)")
-        workers = affordable
+    if scheduler is None:
+        workers = workers_to_start(workers, f"-j {wanted}")
     if scheduler is not None:
         from aldpat.jobs.cluster import run_on_cluster
 
