@@ -332,8 +332,13 @@ def _columns(header: laspy.LasHeader) -> tuple[tuple[str, ...], dict[str, int]]:
     its scales give x, y, z."""
     dims = set(header.point_format.dimension_names)
     names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
-    return names, {n: max(decimal_places(float(s)), decimal_places(float(o)))
-                   for n, s, o in zip("xyz", header.scales, header.offsets, strict=False)}
+    return names, dict(zip("xyz", stored_decimals(header.scales, header.offsets), strict=True))
+
+
+def stored_decimals(scales: Iterable[float], offsets: Iterable[float]) -> list[int]:
+    """The decimals that write every x, y, z a LAS file stores at ``scales`` from ``offsets``
+    exactly: the more of the scale's and the offset's (a scale of 0.025: 3)."""
+    return [max(decimal_places(float(s)), decimal_places(float(o))) for s, o in zip(scales, offsets, strict=True)]
 
 
 def buffer_marks(table: PointTable) -> np.ndarray | None:
@@ -552,11 +557,10 @@ class LasWriter:
         self._fh: laspy.LasWriter | None = None
         self._extra: list[str] = []
         self._given_extra: list[str] = []
-        # a header made for text points: the decimals of x, y, z it was asked to keep, the lowest
-        # and highest of each written, and the file the points went to once its scale was made finer
-        self._asked: list[int] | None = None
-        self._lowest = np.full(3, np.inf)
-        self._highest = np.full(3, -np.inf)
+        # the decimals of x, y, z the header's scales keep for text points (those it was made
+        # from, or those a template's scales hold), and the file the points went to once its
+        # scales were made finer
+        self._asked: list[int] = []
         self._rescaled: Path | None = None
 
     def _open(self, table: PointTable) -> None:
@@ -564,8 +568,8 @@ class LasWriter:
 
         header = copy.deepcopy(self.template) if self.template is not None \
             else new_header(table, crs=self.crs, decimals=self._decimals_of(table))
-        if self.template is None:
-            self._asked = asked_places(self._decimals_of(table))
+        self._asked = asked_places(self._decimals_of(table)) if self.template is None \
+            else stored_decimals(header.scales, header.offsets)
         if self.template is not None and self.crs is not None and not _names_crs(header, self.crs):
             header = holding_crs(header, self.crs)  # --crs over the source's own (aldpat.core.crs.output_crs)
         known = set(header.point_format.dimension_names)
@@ -600,7 +604,7 @@ class LasWriter:
         n = len(table)
         if n == 0:
             return
-        if self._asked is not None and table.record is None:
+        if table.record is None:  # text points: their decimals may ask for finer scales
             self._keep_decimals(table)
         same: frozenset[str] = frozenset()
         if table.record is not None and self.template is not None and not self._extra \
@@ -666,24 +670,27 @@ class LasWriter:
         return self.decimals if self.decimals is not None else (table.meta.get("decimals") or {})
 
     def _keep_decimals(self, table: PointTable) -> None:
-        """Make the scale finer where a chunk of text points holds more decimals than the lines the
-        header was made from (the reader widens its decimals as it reads: 100.5 there, 512.125
-        further down), as far as the integers hold every point written and this chunk's from the
-        offsets. The points written so far are copied into a new file at the finer scale, exactly
-        (they held no more decimals than the old scale), and the rest go on into it."""
-        assert self._asked is not None and self._fh is not None
-        asked = asked_places(self._decimals_of(table))
-        for k, n in enumerate("xyz"):
-            if len(table):
-                self._lowest[k] = min(self._lowest[k], float(np.min(table.columns[n])))
-                self._highest[k] = max(self._highest[k], float(np.max(table.columns[n])))
+        """Make the scales finer where a chunk of text points holds more decimals than they keep:
+        the lines a header was made from showed fewer (the reader widens its decimals as it reads:
+        100.5 there, 512.125 further down), or a template's scales hold fewer (a text file merged
+        after a LAS tile at centimetres) -- as far as the integers hold every point written and
+        this chunk's from the offsets. The points written so far are copied into a new file at the
+        finer scales, exactly (they held no more decimals than the old scales), and the rest go on
+        into it. A text without decimals known asks for none more under a template."""
+        assert self._fh is not None
+        decimals = self._decimals_of(table)
+        asked = asked_places(decimals) if self.template is None \
+            else [min(max(int(decimals.get(n, 0)), 0), MOST_DECIMALS) for n in "xyz"]
         if all(a <= b for a, b in zip(asked, self._asked, strict=True)):
             return
         self._asked = [max(a, b) for a, b in zip(asked, self._asked, strict=True)]
+        written = self._fh.header  # its bounds grow with every chunk written
         scales = self._header.scales.copy()
-        for k in range(3):
-            places = places_held(self._asked[k], float(self._lowest[k]), float(self._highest[k]),
-                                 float(self._header.offsets[k]))
+        for k, n in enumerate("xyz"):
+            lowest, highest = float(np.min(table.columns[n])), float(np.max(table.columns[n]))
+            if written.point_count:
+                lowest, highest = min(lowest, float(written.mins[k])), max(highest, float(written.maxs[k]))
+            places = places_held(self._asked[k], lowest, highest, float(self._header.offsets[k]))
             scales[k] = min(float(scales[k]), 10.0 ** -places)
         if np.array_equal(scales, self._header.scales):
             return

@@ -98,3 +98,22 @@ def test_plain_files_merge_whole_at_the_finest_scales_that_keep_every_input_exac
     assert any("c.laz: stored at scales or offsets" in w and "rounded" in w for w in report.results[0].warnings)
     with pytest.raises(UsageError, match="would replace the input"):  # before anything runs
         get_task("merge")([tmp_path / "a.laz"], output=str(tmp_path / "a.laz"), overwrite=True)
+
+
+def test_a_text_file_merged_after_a_las_tile_keeps_its_decimals(tmp_path):
+    """A text input's points took the first LAS input's centimetres: 500030.125 became 500030.12,
+    silently. The LAS output's scales now become as fine as the text's decimals ask."""
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales, header.offsets = np.array([0.01, 0.01, 0.01]), np.array([500000.0, 4000000.0, 0.0])
+    tile = laspy.LasData(header)
+    tile.x, tile.y, tile.z = np.array([500010.0, 500011.0]), np.array([4000001.0, 4000002.0]), np.array([10.0, 11.0])
+    tile.write(tmp_path / "a.las")
+    (tmp_path / "c.txt").write_text("500030.125 4000001.000 10.125\n500031.250 4000002.000 11.500\n")
+    report = get_task("merge")([tmp_path / "a.las", tmp_path / "c.txt"], output=str(tmp_path / "ac.las"),
+                               fields="xyz")
+    assert report.exit_code == 0, report.results[0].error
+    merged = laspy.read(tmp_path / "ac.las")
+    assert list(merged.header.scales) == pytest.approx([0.001] * 3)
+    assert np.asarray(merged.x).tolist() == pytest.approx([500010.0, 500011.0, 500030.125, 500031.25], abs=1e-9)
+    assert np.asarray(merged.z).tolist() == pytest.approx([10.0, 11.0, 10.125, 11.5], abs=1e-9)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.las", "ac.las", "ac.log", "c.txt"]
