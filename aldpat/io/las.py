@@ -463,10 +463,10 @@ def new_header(table: PointTable, *, crs: Any = None, decimals: Mapping[str, int
     return header
 
 
-def asked_places(decimals: Mapping[str, int]) -> list[int]:
-    """The decimals of x, y and z a header for text points is asked to keep: the text's own (3
-    where it says none), at most :data:`MOST_DECIMALS`."""
-    return [min(max(int(decimals.get(n, 3)), 0), MOST_DECIMALS) for n in "xyz"]
+def asked_places(decimals: Mapping[str, int], unknown: int = 3) -> list[int]:
+    """The decimals of x, y and z a header for text points is asked to keep: the text's own
+    (``unknown`` where it says none), at most :data:`MOST_DECIMALS`."""
+    return [min(max(int(decimals.get(n, unknown)), 0), MOST_DECIMALS) for n in "xyz"]
 
 
 def places_held(places: int, lowest: float, highest: float, offset: float) -> int:
@@ -679,8 +679,7 @@ class LasWriter:
         into it. A text without decimals known asks for none more under a template."""
         assert self._fh is not None
         decimals = self._decimals_of(table)
-        asked = asked_places(decimals) if self.template is None \
-            else [min(max(int(decimals.get(n, 0)), 0), MOST_DECIMALS) for n in "xyz"]
+        asked = asked_places(decimals, unknown=3 if self.template is None else 0)
         if all(a <= b for a, b in zip(asked, self._asked, strict=True)):
             return
         self._asked = [max(a, b) for a, b in zip(asked, self._asked, strict=True)]
@@ -728,7 +727,7 @@ class LasWriter:
         if self._rescaled is not None:
             self._rescaled.unlink()
         self._fh, self._header, self._rescaled = writer, header, target
-        log.info("%s: text points further down hold more decimals: LAS scales now %s", self.path,
+        log.info("%s: text points hold more decimals than the scales kept: LAS scales now %s", self.path,
                  ", ".join(f"{v:g}" for v in scales))
 
     def close(self) -> None:
