@@ -48,6 +48,7 @@ labelling of its 4-neighbour graph, the steps and cells between each pair of seg
 
 from __future__ import annotations
 
+import itertools
 import threading
 from dataclasses import dataclass
 
@@ -111,8 +112,8 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
     graph = _segment_graph(z, step, decode, spacing, cell, strip_rows)
     raised = _decide(graph, step, down_share, levels, max_cells=MAX_OBJECT_AREA / (cell * cell))
     out = np.empty((rows, cols), bool)
-    for a in range(0, rows, strip_rows):
-        out[a:a + strip_rows] = raised[graph.segment[a:a + strip_rows]]
+    for a, b in _strips(rows, strip_rows):
+        out[a:b] = raised[graph.segment[a:b]]
     return out
 
 
@@ -282,6 +283,11 @@ def _union(parent: np.ndarray, x: int, y: int) -> None:  # pragma: no cover - co
         parent[rx] = ry
 
 
+def _strips(rows: int, strip_rows: int) -> list[tuple[int, int]]:
+    """The rows ``(a, b)`` of each strip of ``strip_rows`` rows, top to bottom."""
+    return [(a, min(rows, a + strip_rows)) for a in range(0, rows, strip_rows)]
+
+
 @compiled(nogil=True)
 def _label_strip(flags: np.ndarray, a: int, b: int, label: np.ndarray, parent: np.ndarray,
                  own: np.ndarray) -> int:  # pragma: no cover - compiled
@@ -343,31 +349,23 @@ def _label_strips(flags: np.ndarray, strip_rows: int, label: np.ndarray) -> tupl
     The strips are labelled on the process's threads, each from 0, and then numbered on from the
     strips above: the same numbers as labelling them one after another."""
     rows, cols = flags.shape
-    starts = list(range(0, rows, strip_rows))
+    strips = _strips(rows, strip_rows)
     held = threading.local()
 
-    def scratch() -> tuple[np.ndarray, np.ndarray]:
-        if not hasattr(held, "arrays"):
+    def label_one(strip: tuple[int, int]) -> int:
+        if not hasattr(held, "scratch"):  # each thread's parent and own, kept from one strip to the next
             size = min(rows, strip_rows) * cols
-            held.arrays = (np.empty(size, np.int32), np.empty(size, np.int32))
-        return held.arrays
+            held.scratch = (np.empty(size, np.int32), np.empty(size, np.int32))
+        return _label_strip(flags, *strip, label, *held.scratch)
 
-    def label_one(a: int) -> int:
-        return _label_strip(flags, a, min(rows, a + strip_rows), label, *scratch())
-
-    counts = on_threads(label_one, starts)
-    firsts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64).tolist()
-
-    def number_on(s: int) -> None:
-        _number_on(label, starts[s], min(rows, starts[s] + strip_rows), firsts[s])
-
-    on_threads(number_on, list(range(1, len(starts))))
+    firsts = [0, *itertools.accumulate(on_threads(label_one, strips))]
+    on_threads(lambda k: _number_on(label, *strips[k], firsts[k]), range(1, len(strips)))
     # the joins of each strip's upper edge, once every strip is numbered, in the strips' order
-    joins = np.empty((2, max(0, len(starts) - 1) * cols), np.int64)
+    joins = np.empty((2, max(0, len(strips) - 1) * cols), np.int64)
     joined = 0
-    for a in starts[1:]:
+    for a, _ in strips[1:]:
         joined += _joins_across(flags, label, a, joins[:, joined:])
-    return int(firsts[-1]), joins[:, :joined]
+    return firsts[-1], joins[:, :joined]
 
 
 @compiled(nogil=True)
@@ -412,9 +410,8 @@ def _label_totals(z: np.ndarray, scaled: bool, scale: float, offset: float, labe
     """:func:`_strip_totals` of every strip of ``label`` (``count`` labels), on the process's
     threads: a label lies in one strip, so the strips add into disjoint columns."""
     out = np.zeros((3, count))
-    rows = label.shape[0]
-    on_threads(lambda a: _strip_totals(z, scaled, scale, offset, label, a, min(rows, a + strip_rows), out),
-               list(range(0, rows, strip_rows)))
+    on_threads(lambda strip: _strip_totals(z, scaled, scale, offset, label, *strip, out),
+               _strips(label.shape[0], strip_rows))
     return out
 
 
@@ -427,8 +424,7 @@ def _relabel_rows(label: np.ndarray, segment: np.ndarray, a: int, b: int) -> Non
 
 def _relabel(label: np.ndarray, segment: np.ndarray, strip_rows: int) -> None:
     """Every cell's label replaced by its segment, strips on the process's threads."""
-    rows = label.shape[0]
-    on_threads(lambda a: _relabel_rows(label, segment, a, min(rows, a + strip_rows)), list(range(0, rows, strip_rows)))
+    on_threads(lambda strip: _relabel_rows(label, segment, *strip), _strips(label.shape[0], strip_rows))
 
 
 @compiled(nogil=True)

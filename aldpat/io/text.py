@@ -64,6 +64,8 @@ class PulseDecimals(Mapping[str, int]):
     A live view, read at every write: the reader widens its own decimals as it reads further
     down the tape, and a copy taken at the start would round what comes after."""
 
+    NAMES = ("x", "y", "z", "intensity", "t")
+
     def __init__(self, columns: Mapping[str, int]) -> None:
         self._columns = columns
 
@@ -76,13 +78,13 @@ class PulseDecimals(Mapping[str, int]):
         return max(found) if found else None
 
     def __getitem__(self, name: str) -> int:
-        value = self._value(name) if name in ("x", "y", "z", "intensity", "t") else None
+        value = self._value(name) if name in self.NAMES else None
         if value is None:
             raise KeyError(name)
         return value
 
     def __iter__(self) -> Iterator[str]:
-        return (n for n in ("x", "y", "z", "intensity", "t") if self._value(n) is not None)
+        return (n for n in self.NAMES if self._value(n) is not None)
 
     def __len__(self) -> int:
         return sum(1 for _ in self)
