@@ -31,7 +31,7 @@ from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageE
 from aldpat.io.prefetch import read_ahead
 from aldpat.io.table import PointTable
 from aldpat.io.text import MAX_COORDINATE
-from aldpat.io.textfmt import decimal_places
+from aldpat.io.textfmt import COORDINATE_DECIMALS, decimal_places
 
 if TYPE_CHECKING:
     import laspy
@@ -426,9 +426,6 @@ def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
     return header
 
 
-#: the finest scale a header made for text points takes: 1e-8 (a millimetre of latitude is about
-#: 1e-8 degrees), as the text's own decimals ask, and coarser where the points need it
-MOST_DECIMALS = 8
 #: the stored integers the first points of a file may take from its offset: half the 32-bit range,
 #: the other half left for the points after them (the header is made from the first chunk)
 CODES_ROOM = 2.0 ** 30
@@ -437,7 +434,7 @@ CODES_ROOM = 2.0 ** 30
 def new_header(table: PointTable, *, crs: Any = None, decimals: Mapping[str, int] | None = None) -> laspy.LasHeader:
     """A header for points that did not come from LAS: LAS 1.2 format 0, or LAS 1.4 format 6
     when a time exists or the CRS needs WKT (:func:`needs_wkt`). Its scales keep the decimals
-    the text gives, up to :data:`MOST_DECIMALS`, as far as the 32-bit integers hold these points
+    the text gives, up to :data:`COORDINATE_DECIMALS`, as far as the 32-bit integers hold these points
     from the offset (:data:`CODES_ROOM`); its offsets are the points' lowest, rounded down to
     whole kilometres, or to whole units where that leaves too little room (degrees)."""
     import laspy
@@ -465,8 +462,8 @@ def new_header(table: PointTable, *, crs: Any = None, decimals: Mapping[str, int
 
 def asked_places(decimals: Mapping[str, int], unknown: int = 3) -> list[int]:
     """The decimals of x, y and z a header for text points is asked to keep: the text's own
-    (``unknown`` where it says none), at most :data:`MOST_DECIMALS`."""
-    return [min(max(int(decimals.get(n, unknown)), 0), MOST_DECIMALS) for n in "xyz"]
+    (``unknown`` where it says none), at most :data:`COORDINATE_DECIMALS`."""
+    return [min(max(int(decimals.get(n, unknown)), 0), COORDINATE_DECIMALS) for n in "xyz"]
 
 
 def places_held(places: int, lowest: float, highest: float, offset: float) -> int:

@@ -21,7 +21,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.errors import InputFormatError, shown
 from aldpat.io.table import PointTable
-from aldpat.io.textfmt import BLOCK_ROWS, column_formats, decimal_places, format_block
+from aldpat.io.textfmt import BLOCK_ROWS, COORDINATE_DECIMALS, column_formats, decimal_places, format_block, whole_at
 
 #: The ALTM tape / strip layout in the manual's default order (last return first).
 ALTM_LAST_FIRST = ("t", "x2", "y2", "z2", "i2", "x1", "y1", "z1", "i1")
@@ -35,9 +35,6 @@ DEFAULT_CHUNK = 2_000_000
 MAX_COORDINATE = 1e12
 COORDINATE_COLUMNS = frozenset({"x", "y", "z", "x1", "y1", "z1", "x2", "y2", "z2"})
 _SNIFF_BYTES = 1 << 16
-#: the most decimals a value is written again with when its text does not say (exponent form, or
-#: more decimals further down the file than in its first lines): 1e-8 of a degree, a millimetre
-MOST_TEXT_DECIMALS = 8
 #: The longest line read (bytes): a point line is tens of characters, a header line hundreds; a
 #: longer one (a file of one 4 MB line) is not a point file, and reading it whole as a line
 #: would hold it all in memory, and as a point all its numbers as columns.
@@ -108,7 +105,7 @@ def _decimals(token: str) -> int:
     token = token.lower()
     if "e" in token:
         try:
-            return decimal_places(float(token), MOST_TEXT_DECIMALS)
+            return decimal_places(float(token), COORDINATE_DECIMALS)
         except ValueError:
             return 0
     if "." not in token:
@@ -204,18 +201,12 @@ class TextReader:
 
     def _widen_decimals(self, cols: dict[str, np.ndarray]) -> None:
         """Raise (in place: writers share the dict) a column's decimals where this chunk holds
-        values that need more than the first lines showed, up to :data:`MOST_TEXT_DECIMALS`:
+        values that need more than the first lines showed, up to :data:`COORDINATE_DECIMALS`:
         Python's ``print`` writes 100.5 and, further down, 100.25, which was written again as
         100.2."""
         for name, col in cols.items():
             places = self.decimals.get(name, 0)
-            while places < MOST_TEXT_DECIMALS and len(col):
-                shifted = col * 10.0 ** places
-                off = np.rint(shifted)
-                np.subtract(shifted, off, out=off)
-                # whole but for the binary fraction's error, a few units in the last place
-                if float(np.max(np.abs(off, out=off))) <= 16 * float(np.spacing(max(-shifted.min(), shifted.max()))):
-                    break
+            while places < COORDINATE_DECIMALS and len(col) and not whole_at(col, places):
                 places += 1
             if places > self.decimals.get(name, 0):
                 self.decimals[name] = places

@@ -65,6 +65,10 @@ def _column_bytes(values: np.ndarray, decimals: int, integer: bool) -> np.ndarra
 
 #: the most decimals a number is written with: 1e-10, far below any coordinate's precision
 MOST_DECIMALS = 10
+#: the most decimals a coordinate keeps where its own text does not bound them (exponent form,
+#: more decimals further down a file than in its first lines) and the finest LAS scale made for
+#: text points: 1e-8 of a degree, about a millimetre of latitude
+COORDINATE_DECIMALS = 8
 
 
 def decimal_places(value: float, most: int = MOST_DECIMALS) -> int:
@@ -75,12 +79,19 @@ def decimal_places(value: float, most: int = MOST_DECIMALS) -> int:
     if value == 0 or not np.isfinite(value):
         return 0
     for places in range(most):
-        shifted = abs(value) * 10.0 ** places
-        nearest = round(shifted)
-        # whole but for the binary fraction's error: a few units in the last place of the product
-        if nearest >= 1 and abs(shifted - nearest) <= 16 * np.spacing(shifted):
+        if whole_at(np.array([value]), places):
             return places
     return most
+
+
+def whole_at(values: np.ndarray, places: int) -> bool:
+    """Whether every one of ``values`` (finite) is written exactly with ``places`` decimals: times
+    ``10 ** places`` it is whole but for the binary fraction's error, a few units in the last place
+    of the largest product (0.1 * 10 is 1 to the bit, 0.3 * 10 is 3.0000000000000004)."""
+    shifted = np.abs(values) * 10.0 ** places
+    error = np.rint(shifted)
+    np.subtract(shifted, error, out=error)
+    return float(np.max(np.abs(error, out=error))) <= 16 * float(np.spacing(np.max(shifted)))
 
 
 def column_formats(table: PointTable, names: tuple[str, ...], decimals: Mapping[str, int] | None = None) -> list[str]:
