@@ -45,11 +45,11 @@ def refuse_existing(planned: list[Planned]) -> None:
     """Refuse a job whose named outputs exist before it reads anything: without ``--overwrite``
     the writer would refuse them anyway, but only after the work (a ``dtm`` of a big file, a
     filter's passes) and after the job's warnings about an output it will not write. Families
-    (split-tape's strips, tile's tiles) and outputs of every input (a mosaic, written once the
-    jobs are done, and tile's parameter file, which ``--append`` extends) are checked by their
-    own writers."""
+    (split-tape's strips, tile's tiles) are checked by their writers; so is tile's parameter
+    file, which ``--append`` extends. A mosaic, written once the jobs are done, is refused by the
+    run before its jobs start (:func:`aldpat.jobs.run.run_task`)."""
     for p in planned:
-        if (p.source is not None or p.named_by == "output") and not p.family and os.path.lexists(p.path):
+        if (p.source is not None or p.named_by in ("output", "mosaic")) and not p.family and os.path.lexists(p.path):
             raise OutputExistsError("output exists (use --overwrite to replace it)", path=p.path)
 
 

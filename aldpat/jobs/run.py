@@ -18,7 +18,7 @@ from aldpat.errors import UsageError
 from aldpat.io.chunks import scratch_folder
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.context import JobResult, Written
-from aldpat.jobs.execute import Progress, execute_finish, report_result
+from aldpat.jobs.execute import Progress, execute_finish, refuse_existing, report_result
 from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.outputs import check_outputs, forget_folders
@@ -102,6 +102,10 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
     if task.inputs == "many" and not sources:
         return RunReport(task.key, [], input_errors)
+    if task.finish is not None and not (run.output is not None and run.output.values.overwrite):
+        # the finish step writes its output (a mosaic) once every job is done: refused now, not
+        # after the work, as each job refuses its own outputs before it reads anything
+        refuse_existing([p for p in plan.outputs if p.source is None and not p.family])
     first = task.first(sources, run.params.values, run.input.values if run.input else None) \
         if task.first is not None and sources else []
     wanted = run.run.values.jobs or (os.cpu_count() or 1)

@@ -105,13 +105,16 @@ class Task:
             planned = [p for s in sources for p in self.outputs(s, params, ctx)]
         else:
             planned = list(self.outputs(sources, params, ctx)) if sources or self.inputs == "none" else []
-        seen: set[tuple[Path, bool]] = set()
+        mosaics: set[tuple[Path, bool]] = set()
         unique = []
         for p in planned:  # an output of every input (a mosaic) is planned once
-            key = (p.path, p.family)
-            if p.source is None and key in seen:
-                continue
-            seen.add(key)
+            if p.source is None:
+                # against the other outputs of every input only: a mosaic named like one input's
+                # grid is a second output of that name, which the plan's check refuses
+                key = (p.path, p.family)
+                if key in mosaics:
+                    continue
+                mosaics.add(key)
             unique.append(p)
         return unique
 

@@ -484,6 +484,17 @@ def data_loss_cases(root: Path) -> list[Hostile]:
         cases.append(Hostile("data loss", f"{name} naming a pipe, --overwrite", [*command, "--overwrite"], root, 2,
                              r"is a device, a pipe or a socket, not a file: no output replaces one",
                              still_a_pipe(named)))
+    # a mosaic named like an input's own grid once replaced that grid with a VRT of itself (exit 0)
+    for command, grid in ((["grid"], "a_linear.grd"), (["dtm"], "a_dtm.tif")):
+        into = root / f"mosaic-{command[0]}"
+        cases.append(Hostile("data loss", f"{command[0]} --mosaic named like the input's own grid",
+                             [*command, a, "--cell", "5", "--odir", into, "--mosaic", into / grid, "--overwrite"],
+                             root, 2, rf"a\.txt and the run would both write .*{grid.replace('.', '[.]')}",
+                             _no_files(into)))
+    older = _write(root / "older.vrt", ["<VRTDataset/>"])
+    cases.append(Hostile("data loss", "an existing --mosaic, no --overwrite: refused before any grid is made",
+                         ["grid", a, "--cell", "5", "--odir", root / "mosaic-old", "--mosaic", older], root, 1,
+                         r"older\.vrt: output exists", _all(_unchanged(older), _no_files(root / "mosaic-old"))))
     (specials / "folder.vrt").mkdir()
     cases.append(Hostile("data loss", "--mosaic naming a folder", ["grid", a, "--mosaic", specials / "folder.vrt",
                          "--overwrite"], root, 2, r"mosaic: .*folder\.vrt' is a folder; name a file"))
