@@ -16,7 +16,9 @@ input's coordinates exact (a tile at 0.001 m after one at 0.01 m: 0.001 m); inpu
 other scales or offsets are stored again at its (with a warning when that may round a
 coordinate: offsets apart by less than a step, or integers that cannot hold the finer scale over
 the merged extent), and the merged
-file has no ``tile_buffer`` dimension: it holds no buffer point. Inputs must share one CRS.
+file has no ``tile_buffer`` dimension: it holds no buffer point. Inputs must share one CRS and
+their columns, whatever their order: LAS into LAS one point format and the same extra dimensions;
+otherwise intensity in every input or in none (``--fields xyz`` merges x, y and z alone).
 """
 
 from __future__ import annotations
@@ -97,6 +99,36 @@ def _exact_at(header, template) -> bool:
                                                    strict=True))
 
 
+def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
+    """The columns of the merged file, the same whatever the order of the inputs: every LAS input's
+    (LAS inputs into a LAS file, of one point format, whose whole records are copied: their extra
+    dimensions must agree, but for the buffer mark), else x, y, z and, with ``--fields xyzi``, intensity when every input has it.
+    Where some inputs hold a column the others lack, a :class:`DataError` names both: the first
+    input's columns once decided, silently leaving out what later inputs held."""
+    first = readers[0]
+    if las_out and all(r.format == "las" for r in readers):
+        def extra(reader) -> set[str]:
+            return set(reader.header.point_format.extra_dimension_names) - {BUFFER_DIMENSION}
+
+        own = extra(first)
+        for reader in readers[1:]:
+            theirs = extra(reader)
+            if theirs != own:
+                more, fewer = sorted(theirs - own), sorted(own - theirs)
+                differ = "; ".join(part for part in (f"has {', '.join(more)}" if more else "",
+                                                      f"lacks {', '.join(fewer)}" if fewer else "") if part)
+                raise DataError(f"{differ} (extra bytes), unlike {first.path.name}: LAS inputs merged into one LAS "
+                                "file hold the same extra dimensions", path=reader.path)
+        return first.names
+    if fields == "xyzi":
+        having = [r for r in readers if "intensity" in r.names]
+        lacking = [r for r in readers if "intensity" not in r.names]
+        if having and lacking:
+            raise DataError(f"has no intensity column and {having[0].path.name} has one; use --fields xyz to "
+                            "merge x, y and z alone", path=lacking[0].path)
+    return point_names(first, fields)
+
+
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
     """``-o FILE``: like every path, from where the command runs (a worksheet's folder)."""
     assert params.output is not None  # required
@@ -111,13 +143,15 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
         kinds = {r.header.point_format.id for r in readers if r.format == "las"}
         if len(kinds) > 1:
             raise DataError(f"LAS inputs of point formats {sorted(kinds)}: a LAS file holds one", path=sources[0])
-    all_las = all(r.format == "las" for r in readers)
-    names = readers[0].names if template is not None and all_las else point_names(readers[0], params.fields)
+    names = _merged_names(readers, params.fields, las_out=template is not None)
+    if template is not None:
+        for reader in readers:
+            dropped = [n for n in reader.names if n not in names and n != BUFFER_DIMENSION]
+            if reader.format == "las" and dropped:
+                ctx.warn(f"{reader.path.name}: its {', '.join(dropped)} are not written: the text inputs have none "
+                         f"(x, y, z{' and intensity' if 'intensity' in names else ''} are)")
     known = [r for r in readers if r.crs is not None]
     for reader in readers:
-        if not set(names) <= set(reader.names):
-            raise DataError(f"has no {', '.join(sorted(set(names) - set(reader.names)))} column like "
-                            f"{readers[0].path.name}; use --fields xyz", path=reader.path)
         if reader.crs is not None and reader.crs != known[0].crs:
             raise DataError(f"its CRS differs from {known[0].path.name}'s: merge inputs of one CRS", path=reader.path)
     kept = copies = 0

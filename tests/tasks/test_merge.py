@@ -117,3 +117,38 @@ def test_a_text_file_merged_after_a_las_tile_keeps_its_decimals(tmp_path):
     assert np.asarray(merged.x).tolist() == pytest.approx([500010.0, 500011.0, 500030.125, 500031.25], abs=1e-9)
     assert np.asarray(merged.z).tolist() == pytest.approx([10.0, 11.0, 10.125, 11.5], abs=1e-9)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.las", "ac.las", "ac.log", "c.txt"]
+
+
+def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_dropped_silently(tmp_path):
+    """The first input's columns once decided the merged file's: x y z first, then a file with
+    intensity, merged to x y z (its intensity gone without a word); the other order was refused.
+    Now both orders are refused, naming the two files; ``--fields xyz`` merges x, y and z of both.
+    A LAS input's classes left out of a LAS output that a text input joins are said once."""
+    from tests.cli.fresh import aldpat, leftovers
+
+    (tmp_path / "xyz.txt").write_text("500000.5 4000000.5 10.25\n500001.5 4000001.5 11.25\n")
+    (tmp_path / "xyzi.txt").write_text("500002.5 4000002.5 12.25 40\n500003.5 4000003.5 13.25 50\n")
+    for order in (["xyz.txt", "xyzi.txt"], ["xyzi.txt", "xyz.txt"]):
+        done = aldpat("merge", *order, "-o", "m.txt", cwd=tmp_path)
+        assert done.returncode == 1, done.stderr
+        assert "xyz.txt: has no intensity column and xyzi.txt has one; use --fields xyz" in done.stderr
+        assert not (tmp_path / "m.txt").exists()
+    aldpat("merge", "xyzi.txt", "xyz.txt", "-o", "m.txt", "--fields", "xyz", cwd=tmp_path).ok()
+    assert np.loadtxt(tmp_path / "m.txt").shape == (4, 3)
+
+    tile = laspy.read(STRIP)
+    tile.write(tmp_path / "strip.las")
+    done = aldpat("merge", "xyz.txt", "strip.las", "-o", "m.las", "--fields", "xyz", cwd=tmp_path).ok()
+    assert "strip.las: its intensity, classification, return_number, number_of_returns are not written" in done.stderr
+    assert len(laspy.read(tmp_path / "m.las").points) == 2 + len(tile.points)
+
+    # LAS inputs into LAS: their extra dimensions agree, or the merge says which differ
+    extra = laspy.read(STRIP)
+    extra.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.float32))
+    extra.height_above_ground = np.ones(len(extra.points), np.float32)
+    extra.write(tmp_path / "extra.las")
+    for order in (["strip.las", "extra.las"], ["extra.las", "strip.las"]):
+        done = aldpat("merge", *order, "-o", "e.las", cwd=tmp_path)
+        assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
+        assert not (tmp_path / "e.las").exists()
+    assert leftovers(tmp_path) == []
