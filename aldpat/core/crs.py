@@ -68,11 +68,16 @@ def carries_crs(out: Any) -> bool:
     return str(out).lower().endswith(CRS_CARRIERS)
 
 
+#: the end of :func:`without_crs`'s line
+WITHOUT_CRS = ": written without a CRS (none given with --crs, none in the input)"
+
+
 def without_crs(out: Any) -> str:
     """The one warning line of an output that can carry a CRS (LAS/LAZ, GeoTIFF, a shapefile's or
-    ArcGIS grid's ``.prj``) and will not: none was given and the input names none."""
+    ArcGIS grid's ``.prj``) and will not: none was given and the input names none. A job that
+    fails does not say it (:func:`aldpat.jobs.execute.execute`): its outputs were not written."""
     name = getattr(out, "name", str(out))
-    return f"{name}: written without a CRS (none given with --crs, none in the input)"
+    return f"{name}{WITHOUT_CRS}"
 
 
 def horizontal_part(crs: Any) -> Any:

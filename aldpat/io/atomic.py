@@ -92,6 +92,13 @@ def temp_name(path: Path) -> Path:
     return path.with_name(f"{path.stem}{TMP_MARK}{os.getpid()}-{next(_serial)}-h{HOST_TAG}{path.suffix}")
 
 
+def shown_name(path: Path) -> str:
+    """The name a user knows a file by: a temporary name (:func:`temp_name`) without its mark."""
+    path = Path(path)
+    stem, mark, _ = path.stem.partition(TMP_MARK)
+    return f"{stem}{path.suffix}" if mark else path.name
+
+
 def process_alive(pid: int) -> bool:
     """Whether process ``pid`` exists on this machine."""
     try:

@@ -559,6 +559,8 @@ class LasWriter:
         # scales were made finer
         self._asked: list[int] = []
         self._rescaled: Path | None = None
+        self._coarse: set[int] = set()  # the axes whose scale keeps fewer decimals than asked, said once
+        self._reach: list[tuple[float, float]] = []  # lowest and highest x and y written
 
     def _open(self, table: PointTable) -> None:
         import laspy
@@ -589,6 +591,8 @@ class LasWriter:
         header.point_count = 0
         header.generating_software = generating_software()  # the file is ours, whatever the input's said
         self._header = header
+        if self.template is None:
+            self._say_coarse(header.scales)
         self._fh = laspy.open(self.path, mode="w", header=header, do_compress=self.compress)
 
     def write(self, table: PointTable) -> None:
@@ -596,6 +600,8 @@ class LasWriter:
 
         if "decoded_only" in table.meta:  # its record's other fields were never decoded
             raise AssertionError("a table read with only= is for reading, not for writing")
+        if len(table):
+            self._check_extent(table)
         if self._fh is None:
             self._open(table)
         n = len(table)
@@ -651,6 +657,38 @@ class LasWriter:
         self._fh.write_points(points)
         self.count += n
 
+    def _check_extent(self, table: PointTable) -> None:
+        """Refuse (:class:`DataError`, one line) x or y spreading, with the points written before,
+        over more than :data:`MOST_EXTENT`: the file could not be read back (:class:`LasReader`
+        refuses such bounds). One stray point with a lost decimal point (51386646 among
+        513866.46) made such a file, and every x of it a decimal coarser."""
+        for k, name in enumerate("xy"):
+            values = table.columns[name]
+            lo, hi = float(np.min(values)), float(np.max(values))
+            if len(self._reach) > k:
+                lo, hi = min(lo, self._reach[k][0]), max(hi, self._reach[k][1])
+                self._reach[k] = (lo, hi)
+            else:
+                self._reach.append((lo, hi))
+            if hi - lo > MOST_EXTENT:
+                raise DataError(f"{name} reaches from {lo:.10g} to {hi:.10g}, more than the Earth's circumference: a "
+                                "LAS file of these points could not be read back (a stray point far from the others? "
+                                "aldpat info shows the bounds)")
+
+    def _say_coarse(self, scales: np.ndarray) -> None:
+        """A warning, once an axis, where the scales keep fewer decimals of text points than the text
+        holds, and fewer than three (a millimetre): the 32-bit integers cannot hold them over the
+        points' extent from the offset. Past the third a lost decimal is below any survey's
+        precision (z printed to 1e-8 over 100 m keeps 1e-7), and saying so would be noise."""
+        for k, name in enumerate("xyz"):
+            if k not in self._coarse and float(scales[k]) > 1.000001 * 10.0 ** -min(self._asked[k], 3):
+                self._coarse.add(k)
+                from aldpat.io.atomic import shown_name
+
+                log.warning("%s: %s stored at %g, coarser than the %d decimals of the text: LAS integers cannot "
+                            "hold them over the points' extent (a stray point far from the others?)",
+                            shown_name(self.path), name, float(scales[k]), self._asked[k])
+
     def _stored_alike(self, record: Any) -> bool:
         """Whether ``record`` stores points as this file does (layout, scales, offsets), so that its
         bytes can be written as they are (another file's may not: a merge of tiles)."""
@@ -688,6 +726,7 @@ class LasWriter:
                 lowest, highest = min(lowest, float(written.mins[k])), max(highest, float(written.maxs[k]))
             places = places_held(self._asked[k], lowest, highest, float(self._header.offsets[k]))
             scales[k] = min(float(scales[k]), 10.0 ** -places)
+        self._say_coarse(scales)
         if np.array_equal(scales, self._header.scales):
             return
         self._rescale(scales)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Protocol
 
 from aldpat import interrupt
+from aldpat.core.crs import WITHOUT_CRS
 from aldpat.errors import AldpatError, OutputExistsError, UsageError
 from aldpat.io.atomic import forget_temporaries
 from aldpat.jobs.context import JobContext, JobResult
@@ -94,6 +95,8 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
         result.error = f"{job_names(sources)}: internal error: {type(exc).__name__}: {exc}"
         result.detail = traceback.format_exc()
     result.seconds = time.perf_counter() - start
+    if not result.ok:  # said before the job wrote its outputs, which it now does not write
+        result.warnings = [w for w in result.warnings if not w.endswith(WITHOUT_CRS)]
     if result.ok and result.outputs and task.writes_outputs:
         try:
             where, warning = write_job_log(run, result, command)
