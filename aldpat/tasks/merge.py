@@ -62,7 +62,7 @@ def _las_template(readers):
         return None
     header = copy.deepcopy(first.header)
     if BUFFER_DIMENSION in header.point_format.extra_dimension_names:
-        header.point_format.remove_extra_dimension(BUFFER_DIMENSION)
+        header.remove_extra_dim(BUFFER_DIMENSION)  # its Extra Bytes record too, else it describes bytes no point has
     header.scales = _finest_scales(header, [r.header for r in readers if r.format == "las"])
     return header
 

@@ -152,3 +152,46 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
         assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
         assert not (tmp_path / "e.las").exists()
     assert leftovers(tmp_path) == []
+
+
+def _extra_bytes_described(path: Path) -> int:
+    """How many dimensions the file's Extra Bytes record (LASF_Spec 4) describes, read from its bytes:
+    laspy rebuilds it from the point format, and a stale one is what PDAL refuses."""
+    import struct
+
+    with laspy.open(path) as f:
+        stored = f.header.point_format.num_extra_bytes  # what each point record holds past its format
+    data = path.read_bytes()
+    header_size, _, vlrs = struct.unpack_from("<HII", data, 94)
+    at, described = header_size, 0
+    for _ in range(vlrs):
+        user, record, length = struct.unpack_from("<16sHH", data, at + 2)
+        if user.rstrip(b"\0") == b"LASF_Spec" and record == 4:
+            described = length // 192
+            sizes = [struct.unpack_from("<2xB", data, at + 54 + 192 * k)[0] for k in range(described)]
+            assert sum({9: 4, 10: 8, 3: 2, 4: 2, 1: 1, 2: 1, 5: 4, 6: 4, 7: 8, 8: 8}[t] for t in sizes) == stored
+        at += 54 + length
+    return described
+
+
+@pytest.mark.parametrize("vendor_extra", [False, True])
+def test_merged_tiles_describe_only_the_extra_bytes_their_points_hold(tmp_path, vendor_extra):
+    """The merged file dropped the tiles' buffer mark from its points but kept it in its Extra Bytes
+    record: PDAL refused the file ("extra byte specification exceeds point length"), and with a
+    vendor's own extra bytes laspy did too ("incoherent point size")."""
+    source = laspy.read(STRIP)
+    if vendor_extra:
+        source.add_extra_dim(laspy.ExtraBytesParams(name="amplitude", type=np.float32))
+        source.amplitude = np.linspace(0, 1, len(source.points), dtype=np.float32)
+    source.write(tmp_path / "site.laz")
+    assert get_task("tile")([tmp_path / "site.laz"], width=150.0, height=150.0, buffer=20.0,
+                            odir=str(tmp_path / "tiles")).exit_code == 0
+    report = get_task("merge")(sorted((tmp_path / "tiles").glob("*.laz")), output=str(tmp_path / "site_back.laz"))
+    assert report.exit_code == 0, report.results[0].error
+    back = laspy.read(tmp_path / "site_back.laz")
+    assert list(back.point_format.extra_dimension_names) == (["amplitude"] if vendor_extra else [])
+    assert _extra_bytes_described(tmp_path / "site_back.laz") == (1 if vendor_extra else 0)
+    assert np.array_equal(points_of(back), points_of(source))
+    if vendor_extra:
+        order_a, order_b = np.lexsort((source.Z, source.Y, source.X)), np.lexsort((back.Z, back.Y, back.X))
+        assert np.array_equal(np.asarray(source.amplitude)[order_a], np.asarray(back.amplitude)[order_b])
