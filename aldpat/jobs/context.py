@@ -59,6 +59,7 @@ class JobResult:
     counts: dict[str, int] = field(default_factory=dict)
     error: str | None = None
     usage: bool = False  # the error was a usage error (exit status 2)
+    existed: bool = False  # the error was an output that exists (made before, no --overwrite)
     detail: str | None = None  # traceback of an unexpected failure (shown with -v)
     seconds: float = 0.0
     log_path: str | None = None

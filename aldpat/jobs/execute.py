@@ -30,7 +30,10 @@ def execute(task: Task, sources: list[str], run: ResolvedRun, command: str) -> J
         forget_temporaries()
         planned = ctx.planned([Path(s) for s in sources])  # what the job may write (JobContext.wrote holds to it)
         run_one = task.first_pass if run.stage == "first" else task.run_one
-        if task.writes_outputs and not ctx.overwrite:  # a tile's job also reads its neighbours: their outputs are theirs
+        # a tile's job also reads its neighbours: their outputs are theirs. A first pass writes
+        # only scratch files its neighbours read: it runs whether or not its tile's output exists
+        # (a rerun of dtm over tiles, some made, found every missing one's neighbours "failed")
+        if task.writes_outputs and not ctx.overwrite and run.stage != "first":
             refuse_existing([p for p in planned if run_one is None or p.source == Path(sources[0])])
         if run_one is not None:
             ctx.neighbours = [Path(s) for s in sources[1:]]  # a planned job's other inputs
@@ -81,6 +84,7 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
     except OutputExistsError as exc:
         named = exc.path is not None and exc.path.startswith(tuple(ctx.named_after_inputs))
         result.error = str(exc.named_after_input() if named else exc)
+        result.existed = True
     except AldpatError as exc:
         # a message names its file: the job's inputs when the step that refused did not know them
         result.error = str(exc) if exc.path is not None or not sources else f"{job_names(sources)}: {exc}"

@@ -422,7 +422,12 @@ def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -
         return
     failed = [r for r in results if not r.ok]
     if failed:
-        raise DataError(f"mosaic not written: {len(failed)} of {len(results)} grids failed", path=params.mosaic)
+        existed = sum(r.existed for r in failed)
+        why = f"{len(failed) - existed} of {len(results)} grids failed" if existed < len(failed) else ""
+        if existed:  # a rerun that made the missing grids: those of the earlier run are not taken unasked
+            why += f"{', and ' if why else ''}{existed} of {len(results)} grids exist from an earlier run " \
+                   "(--overwrite makes every grid and the mosaic again)"
+        raise DataError(f"mosaic not written: {why}", path=params.mosaic)
     out = mosaic_outputs(params, ctx)[0].path
     tiles = []
     crs = params.crs

@@ -160,3 +160,28 @@ def test_a_buffer_of_many_tiles_is_refused_for_each_tile_before_reading_its_neig
         assert not any(p.suffix in (".tif", ".grd") for p in (tmp_path / "out").glob("*"))
     aldpat("grid", "tiles", "--cell", "1", "--buffer", "180", "--odir", "out", cwd=tmp_path).ok()
     assert len(list((tmp_path / "out").glob("*.grd"))) == len(tiles)
+
+
+def test_a_rerun_of_dtm_over_tiles_makes_the_missing_dtms(tmp_path):
+    """A run over tiles stopped part way, run again as it was: each missing tile's DTM needs the
+    ground classes of its neighbours, whose first pass was refused because their DTMs existed, so
+    every missing one failed ("needs the ground classes of its neighbouring tile ..."). The first
+    pass now runs for every tile; the missing DTMs are made as an uninterrupted run made them,
+    those that exist are refused as without --overwrite, and the mosaic says why it waits."""
+    aldpat("tile", SITES["fsite5"], "--width", "150", "--height", "150", "--buffer", "20", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    aldpat("dtm", "tiles", "--cell", "2", "-j", "2", "--odir", "dtm", "--mosaic", "dtm/dtm.vrt", cwd=tmp_path).ok()
+    made = sorted((tmp_path / "dtm").glob("*_dtm.tif"))
+    assert len(made) >= 4
+    before = {p.name: p.read_bytes() for p in made}
+    lost = made[1:3]
+    for path in [*lost, tmp_path / "dtm" / "dtm.vrt"]:
+        path.unlink()
+    done = aldpat("dtm", "tiles", "--cell", "2", "-j", "2", "--odir", "dtm", "--mosaic", "dtm/dtm.vrt", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "needs the ground classes" not in done.stderr, done.stderr
+    assert {p.name: p.read_bytes() for p in (tmp_path / "dtm").glob("*_dtm.tif")} == before
+    assert f"mosaic not written: {len(made) - 2} of {len(made)} grids exist from an earlier run" in done.stderr
+    aldpat("dtm", "tiles", "--cell", "2", "--odir", "dtm", "--mosaic", "dtm/dtm.vrt", "--overwrite", cwd=tmp_path).ok()
+    assert (tmp_path / "dtm" / "dtm.vrt").exists()
+    assert leftovers(tmp_path) == []
