@@ -200,7 +200,8 @@ class LasReader:
         count is bounded by its size (a point takes 0.007 bytes at the least: a million points,
         each the one before it)."""
         size = self.path.stat().st_size
-        if self.path.suffix.lower() == ".laz" or self.header.point_format.id >= 128:
+        # by the header's compression bit, not the name: a LAZ file named .las is a LAZ file
+        if getattr(self.header, "are_points_compressed", False) or self.path.suffix.lower() == ".laz":
             if self.count > size * 1024:
                 raise InputFormatError(f"truncated or a corrupt header: header says {self.count:,} points, more than "
                                        f"the file's {size:,} bytes can hold", path=self.path)

@@ -41,9 +41,9 @@ class InfoRecord(Record):
             ("format", self["format"] + delimited),
             ("points", f"{self['count']:,}"),
             ("fields", " ".join(self["fields"])),
-            ("x range", f"{b[0]:.3f} .. {b[2]:.3f}  ({b[2] - b[0]:.3f})"),
-            ("y range", f"{b[1]:.3f} .. {b[3]:.3f}  ({b[3] - b[1]:.3f})"),
-            ("z range", f"{self['z_range'][0]:.3f} .. {self['z_range'][1]:.3f}"),
+            ("x range", "-" if b is None else f"{b[0]:.3f} .. {b[2]:.3f}  ({b[2] - b[0]:.3f})"),
+            ("y range", "-" if b is None else f"{b[1]:.3f} .. {b[3]:.3f}  ({b[3] - b[1]:.3f})"),
+            ("z range", "-" if b is None else f"{self['z_range'][0]:.3f} .. {self['z_range'][1]:.3f}"),
             ("density", "-" if self["density"] is None else f"{self['density']:.3f} points per unit² (bounding box)"),
             ("crs", self["crs"] or "unknown"),
         ]
@@ -141,7 +141,12 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
     returns = np.zeros(256, np.int64)
     withheld = 0
     sample = Sample()
-    for chunk in reader.chunks():
+    # a LAS file of no points is a valid file (an empty edge tile of a delivery): its header is
+    # reported, with a warning, where reading its points would refuse it
+    empty = reader.format == "las" and reader.count == 0
+    if empty:
+        ctx.warn(f"{source.name}: holds no points")
+    for chunk in () if empty else reader.chunks():
         if len(chunk) == 0:
             continue
         count += len(chunk)
@@ -178,9 +183,9 @@ def info_one(source: Path, params: InfoParams, ctx: JobContext) -> None:
     ctx.emit(InfoRecord({
         "path": str(source),
         "count": count,
-        "bounds": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])],
-        "z_range": [float(lo[2]), float(hi[2])],
-        "density": count / area if area > 0 else None,
+        "bounds": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])] if count else None,
+        "z_range": [float(lo[2]), float(hi[2])] if count else None,
+        "density": count / area if count and area > 0 else None,
         "fields": list(reader.names),
         "format": reader.format if reader.format != "las" else source.suffix.lower().lstrip("."),
         "delimiter": {" ": "space", ",": "comma", "\t": "tab"}.get(getattr(reader, "delimiter", "")),
