@@ -53,6 +53,8 @@ _READ_DIMS = ("intensity", "classification", "return_number", "number_of_returns
 BUFFER_DIMENSION = "tile_buffer"
 #: extra-byte dimension -> the description written in its extra-bytes record (32 characters at most)
 EXTRA_DESCRIPTIONS = {BUFFER_DIMENSION: "1: buffer, a neighbour's point"}
+#: the user id of a COPC file's records (its info VLR and its hierarchy EVLR; COPC 1.0, section 3)
+COPC_USER = "copc"
 #: The return columns of a point table and the LAS dimensions they set.
 RETURN_DIMENSIONS = ("return_number", "number_of_returns")
 #: LAS 1.2 point format -> the LAS 1.4 format with the same attributes (LAS 1.4 R15, section 2.6:
@@ -404,6 +406,22 @@ def set_crs(header: laspy.LasHeader, crs: Any) -> None:
     header.global_encoding.wkt = True
 
 
+def _kept_records(header: laspy.LasHeader, replaced_crs: bool) -> list[Any]:
+    """Prepare a source's header for an output, in place: its COPC info record dropped (the
+    output's points are not in a COPC's order, and laspy writes no COPC); and return the extended
+    VLRs (LAS 1.4 R15, section 2.5) the output keeps -- all but a COPC hierarchy, and but the CRS
+    records when ``--crs`` replaced the source's. laspy writes EVLRs only when asked: a CRS a
+    vendor stored in one was lost in every output."""
+    from laspy.vlrs.vlrlist import VLRList
+
+    def user(record: Any) -> str:
+        return str(getattr(record, "user_id", "")).rstrip("\0")
+
+    header.vlrs = VLRList([v for v in header.vlrs if user(v) != COPC_USER])
+    return [record for record in header.evlrs or ()
+            if user(record) != COPC_USER and not (replaced_crs and user(record) == "LASF_Projection")]
+
+
 def holding_crs(header: laspy.LasHeader, crs: Any) -> laspy.LasHeader:
     """A copy of ``header`` recording ``crs`` (:func:`set_crs`): as LAS 1.4 (:func:`as_las14`,
     every attribute kept) when it is a format 0-5 header whose GeoTIFF keys cannot hold ``crs``."""
@@ -561,6 +579,7 @@ class LasWriter:
         self._asked: list[int] = []
         self._rescaled: Path | None = None
         self._coarse: set[int] = set()  # the axes whose scale keeps fewer decimals than asked, said once
+        self._evlrs: list[Any] = []  # the template's extended VLRs, written once the points are
         self._reach: list[tuple[float, float]] = []  # lowest and highest x and y written
 
     def _open(self, table: PointTable) -> None:
@@ -570,8 +589,10 @@ class LasWriter:
             else new_header(table, crs=self.crs, decimals=self._decimals_of(table))
         self._asked = asked_places(self._decimals_of(table)) if self.template is None \
             else stored_decimals(header.scales, header.offsets)
-        if self.template is not None and self.crs is not None and not _names_crs(header, self.crs):
+        replaced_crs = self.template is not None and self.crs is not None and not _names_crs(header, self.crs)
+        if replaced_crs:
             header = holding_crs(header, self.crs)  # --crs over the source's own (aldpat.core.crs.output_crs)
+        self._evlrs = _kept_records(header, replaced_crs)
         known = set(header.point_format.dimension_names)
         self._extra = [n for n in self.names if n not in LAS_DIMENSIONS and n not in known]
         # extra-byte dimensions the template already has and the table sets (a tile of a tile)
@@ -772,6 +793,10 @@ class LasWriter:
             # an empty output still gets a valid header
             self._open(PointTable({n: np.zeros(0) for n in ("x", "y", "z")}))
         assert self._fh is not None
+        if self._evlrs and (self._header.version.major, self._header.version.minor) >= (1, 4):
+            from laspy.vlrs.vlrlist import VLRList
+
+            self._fh.write_evlrs(VLRList(self._evlrs))
         self._fh.close()
         if self._rescaled is not None:
             os.replace(self._rescaled, self.path)
