@@ -207,6 +207,15 @@ class LasReader:
             if self.count > size * 1024:
                 raise InputFormatError(f"truncated or a corrupt header: header says {self.count:,} points, more than "
                                        f"the file's {size:,} bytes can hold", path=self.path)
+            chunked = laz_chunk_points(self.path, self.header)
+            if chunked is not None:
+                least, most = chunked
+                if self.count > most:
+                    raise InputFormatError(f"truncated or a corrupt header: header says {self.count:,} points, its "
+                                           f"compressed chunks hold at most {most:,}", path=self.path)
+                if self.count < least:
+                    raise InputFormatError(f"header says {self.count:,} points, its compressed chunks hold at least "
+                                           f"{least:,}: the others would be lost", path=self.path)
             return
         end = int(getattr(self.header, "start_of_first_evlr", 0) or 0) or size
         record = int(self.header.point_format.size)
@@ -492,6 +501,33 @@ def places_held(places: int, lowest: float, highest: float, offset: float) -> in
     while places > 0 and reach * 10.0 ** places > CODES_ROOM:
         places -= 1
     return places
+
+
+def laz_chunk_points(path: Path, header: laspy.LasHeader) -> tuple[int, int] | None:
+    """The fewest and the most points a LAZ file's compressed chunks hold, from its chunk table
+    (LASzip: a table of each chunk's points and bytes, after the points): a header's count
+    outside them is a damaged or hand-made header. With chunks of a fixed size (LASzip's 50,000)
+    the last chunk holds 1 to that many; with variable chunks the table counts each. None where
+    the file has no readable table (LASzip 1.x files may lack one), which then bounds nothing."""
+    import lazrs
+
+    vlr = next((v for v in header.vlrs if type(v).__name__ == "LasZipVlr"), None)
+    if vlr is None:
+        return None
+    try:
+        laz = lazrs.LazVlr(vlr.record_data_bytes())
+        with open(path, "rb") as fh:
+            fh.seek(int(header.offset_to_point_data))
+            table = lazrs.read_chunk_table(fh, laz)
+    except Exception:  # noqa: BLE001  (lazrs raises several kinds for a missing or damaged table)
+        return None
+    if not table:
+        return None
+    counts = [int(points) for points, _ in table]
+    fixed = int(struct.unpack_from("<I", vlr.record_data_bytes(), 12)[0])  # LASzip VLR: chunk size at byte 12
+    if fixed == 0xFFFFFFFF:  # variable chunks: each counted
+        return sum(counts), sum(counts)
+    return (len(counts) - 1) * fixed + 1, len(counts) * fixed
 
 
 def _names_crs(header: laspy.LasHeader, crs: Any) -> bool:

@@ -335,3 +335,35 @@ def test_extended_records_are_kept_and_a_copc_input_is_written_as_plain_laz(tmp_
     written = laspy.read(tmp_path / "fromcopc" / "site.copc_pm.laz")
     assert len(written.points) == len(copc.points)
     assert not any(str(v.user_id).rstrip("\0") == "copc" for v in written.header.vlrs)
+
+
+@pytest.mark.parametrize("claimed, refused", [
+    (40_000, "header says 40,000 points, its compressed chunks hold at least 100,001: the others would be lost"),
+    (100_000_000, ("truncated or a corrupt header: header says 100,000,000 points, its compressed chunks hold at "
+                  "most 150,000")),
+    (120_000, None),
+])
+def test_a_laz_header_count_the_chunks_cannot_hold_is_refused(tmp_path, claimed, refused):
+    """A LAZ header's point count was bounded only by the file's size: a count too large had the
+    points allocated (3 GB from a 116 kB file) before the reader found the file short, and one
+    too small lost the points after it without a word. Its chunk table (three chunks of 50,000
+    points here) now bounds it both ways, in a fresh ``aldpat info``."""
+    import struct
+
+    from tests.cli.fresh import aldpat
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = np.array([0.01] * 3), np.array([500000.0, 4000000.0, 0.0])
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(3)
+    las.x, las.y, las.z = rng.uniform(500000, 500300, 120_000), rng.uniform(4000000, 4000300, 120_000), \
+        rng.uniform(0, 10, 120_000)
+    las.write(tmp_path / "site.laz")
+    data = bytearray((tmp_path / "site.laz").read_bytes())
+    struct.pack_into("<Q", data, 247, claimed)  # LAS 1.4: the 64-bit point count
+    (tmp_path / "site.laz").write_bytes(bytes(data))
+    done = aldpat("info", "site.laz", "--json", cwd=tmp_path)
+    if refused is None:
+        assert done.returncode == 0 and json.loads(done.stdout)["count"] == 120_000
+    else:
+        assert done.returncode == 1 and done.stderr.splitlines()[0] == f"aldpat: site.laz: {refused}"
