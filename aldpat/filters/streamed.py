@@ -32,6 +32,7 @@ from aldpat.core import units
 from aldpat.core.height_codes import Decode, LinearDecode, ScaledHeights
 from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, floor_index, grid_spec
+from aldpat.errors import DataError
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.grid_stage import cell_classes
 from aldpat.filters.marks import MARK_GROUND
@@ -62,6 +63,31 @@ def streamable(algorithm: str, params: Any) -> bool:
     if spec.rotations is not None and any(float(a) % 360.0 for a in spec.rotations(params)):
         return False
     return spec.needs_every_point(params) is None
+
+
+def grid_bounds(reader: LasReader, params: GroundParams, chunk: int) -> Extent:
+    """The extent the first pass lays its grid over: the header's bounds, unless their grid cannot
+    be held or is far larger than the file's points need (:data:`STALE_CELLS_PER_POINT`): then
+    the points' own, from a pass reading x and y alone. A tile carrying its project's header made
+    every grid filter refuse it ("grid too large") or hold gigabytes for a few thousand points."""
+    bounds = reader.bounds
+    try:
+        outer = grid_spec(np.zeros(0), np.zeros(0), params.cell, origin=params.origin, extent=bounds)
+        if outer.size <= max(STALE_GRID_CELLS, STALE_CELLS_PER_POINT * reader.count):
+            return bounds
+    except DataError:
+        pass
+    lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]
+    for table in reader.chunks(chunk, only=(), ahead=True):
+        if len(table):
+            x, y = table.x, table.y
+            lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
+            hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
+    if not np.isfinite(lo[0]):
+        return bounds
+    log.info("%s: the header's bounds %s ask for a grid far larger than the points' own %s: gridding those",
+             reader.path.name, bounds, (lo[0], lo[1], hi[0], hi[1]))
+    return (lo[0], lo[1], hi[0], hi[1])
 
 
 def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHeights, cell: float,
@@ -110,6 +136,14 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
     del codes
     extent = (lo[0], lo[1], hi[0], hi[1]) if np.isfinite(lo[0]) else None
     return CellHeights(own, grid, heights, owned=True, spacing=point_spacing(count, extent))
+
+
+#: A header's bounds are taken for a stale one (a tile carrying its project's header) when its grid
+#: has more than this many cells a point and more than :data:`STALE_GRID_CELLS`: the points' own
+#: extent is read first. Sparse data at fine cells has tens of cells a point; a stale header,
+#: thousands.
+STALE_CELLS_PER_POINT = 256
+STALE_GRID_CELLS = 1 << 24
 
 
 def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, heights: ScaledHeights,
@@ -182,7 +216,7 @@ class ChunkNoise:
 def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk: int, *,
                   used: Callable[[PointTable], np.ndarray] | None = None,
                   seen: Callable[[PointTable], object] | None = None,
-                  reads: tuple[str, ...] | None = None
+                  reads: tuple[str, ...] | None = None, bounds: Extent | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, Extent] | None:
     """The ground points of a LAS/LAZ file in two passes (what ``aldpat dtm`` triangulates): x, y
     and z of the ground points, the file's point count and its points' extent; the points
@@ -195,7 +229,8 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
     point of the file (a DTM's occupancy grid: :mod:`aldpat.core.data_gaps`). ``reads``: the LAS
     dimensions ``used`` and ``seen`` read besides x, y and z, when known: both passes then decode
     no other (:meth:`aldpat.io.las.LasReader.chunks`' ``only``). Both passes read the next chunk
-    while this one is gridded or classified.
+    while this one is gridded or classified. ``bounds``: the extent to grid, when the caller has
+    it from :func:`grid_bounds` already.
     """
     from aldpat.io.las import z_codes
 
@@ -215,7 +250,8 @@ def stream_ground(reader: LasReader, algorithm: str, params: GroundParams, chunk
                 yield table.x[part], table.y[part], z_codes(table)[part]
 
     try:
-        classes = stream_classes(coded_chunks, reader.bounds, heights, algorithm, params)
+        classes = stream_classes(coded_chunks, bounds if bounds is not None else grid_bounds(reader, params, chunk),
+                                 heights, algorithm, params)
     except Unstreamable as exc:
         log.info("%s: %s; reading the file whole", reader.path, exc)
         return None

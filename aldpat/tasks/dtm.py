@@ -53,7 +53,7 @@ from aldpat.core.interpolate import linear
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.options import LowOutlierOption
-from aldpat.filters.streamed import stream_ground, streamable
+from aldpat.filters.streamed import grid_bounds, stream_ground, streamable
 from aldpat.filters.survey import TAKING_PART_FIELDS, ExistingClassesOption, taking_part
 from aldpat.io.bounds import Bounds, point_bounds
 from aldpat.io.classified import parse_classes, product_points
@@ -191,14 +191,17 @@ def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> lis
     return jobs
 
 
-def points_used(params: DtmParams):
+def points_used(params: DtmParams, fparams: Any = None):
     """``used(table) -> mask``: the points a DTM is made from -- with ``classes``, those of the
-    classes (the file's own ground), else those taking part in finding ground. Either reads no
-    LAS dimension but x, y, z and :data:`~aldpat.filters.survey.TAKING_PART_FIELDS`."""
+    classes (the file's own ground), else those taking part in finding ground with the filter's
+    parameters ``fparams`` (default :meth:`DtmParams.ground_params`; :func:`aldpat.dtm` has its
+    call's). Either reads no LAS dimension but x, y, z and
+    :data:`~aldpat.filters.survey.TAKING_PART_FIELDS`."""
     if params.classes is not None:
         classes = parse_classes(params.classes)
         return lambda table: product_points(table, classes)
-    fparams = params.ground_params()
+    if fparams is None:
+        fparams = params.ground_params()
 
     def used(table: PointTable) -> np.ndarray:
         part = taking_part(table, fparams)
@@ -284,8 +287,10 @@ def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints
     if ctx.neighbours or reader.format != "las" or reader.count == 0 or not streamable(params.algorithm, fparams):
         return None
     # the header's extent holds every point (a point outside it ends the streaming), so the
-    # DTM's nodes, from the points' own extent, are a window of this lattice
-    hx0, hy0, hx1, hy1 = reader.bounds
+    # DTM's nodes, from the points' own extent, are a window of this lattice (the points' own
+    # extent where the header's is stale)
+    extent = grid_bounds(reader, fparams, STREAM_CHUNK)
+    hx0, hy0, hx1, hy1 = extent
     outer = grid_spec_for(params, xy=(np.array([hx0, hx1]), np.array([hy0, hy1])))
     assert outer is not None  # from the points
     try:
@@ -294,7 +299,8 @@ def _streamed_ground(reader, params: DtmParams, ctx: JobContext) -> GroundPoints
         return None  # a header far wider than its points: read whole, on the points' own extent
     occupancy = Occupancy(outer)
     made = stream_ground(reader, params.algorithm, fparams, STREAM_CHUNK, used=points_used(params),
-                         seen=lambda table: occupancy.add(table.x, table.y), reads=TAKING_PART_FIELDS)
+                         seen=lambda table: occupancy.add(table.x, table.y), reads=TAKING_PART_FIELDS,
+                         bounds=extent)
     if made is None:
         return None
     x, y, z, count, (xmin, ymin, xmax, ymax) = made

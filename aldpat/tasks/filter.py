@@ -243,7 +243,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
     first, the classes and outputs from the second; memory holds the grid, not the points.
     False (nothing written) when the file cannot go this way -- a point outside the header's
     bounds, a z scale that is not positive: the caller then reads the file whole."""
-    from aldpat.filters.streamed import ChunkNoise, Unstreamable, stream_classes
+    from aldpat.filters.streamed import ChunkNoise, Unstreamable, grid_bounds, stream_classes
     from aldpat.io.las import z_codes
 
     outputs = _outputs(source, params, ctx, reader, algorithm)
@@ -266,7 +266,7 @@ def filter_streamed(source: Path, reader, params, ctx: JobContext, *, algorithm:
         log.info("%s: z scale not positive; reading the file whole", source)
         return False
     try:
-        classes = stream_classes(coded_chunks, reader.bounds, heights, algorithm, params)
+        classes = stream_classes(coded_chunks, grid_bounds(reader, params, STREAM_CHUNK), heights, algorithm, params)
     except Unstreamable as exc:
         log.info("%s: %s; reading the file whole", source, exc)
         return False

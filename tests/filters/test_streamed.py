@@ -131,6 +131,38 @@ def test_a_header_wider_than_the_points_gives_the_points_own_grid():
         lowest_codes(chunks, (xmin + 10.0, ymin, xmax, ymax), reader.height_codes(), 1.0, None)
 
 
+def test_a_stale_header_far_wider_than_the_points_grids_the_points_own_extent(tmp_path):
+    """A tile carrying its project's header (bounds 20 km across, points a few hundred metres):
+    every grid filter refused it ("a 26668 x 26668 grid of 0.75 m cells is too large"), and with
+    14 km bounds held 1.5 GB for a strip of 20,000 points. The first pass now reads the points'
+    own extent first; in fresh processes, filter and dtm give the classes and the DTM of the same
+    file with a true header."""
+    import struct
+
+    las = laspy.read(STRIP)
+    las.write(tmp_path / "true.las", do_compress=False)
+    stale = tmp_path / "stale.las"
+    stale.write_bytes((tmp_path / "true.las").read_bytes())
+    x0, y0 = float(np.asarray(las.x).min()), float(np.asarray(las.y).min())
+    with open(stale, "r+b") as fh:  # Max X, Min X, Max Y, Min Y: doubles from byte 179
+        fh.seek(179)
+        fh.write(struct.pack("<dddd", x0 + 20_000.0, x0 - 500.0, y0 + 20_000.0, y0 - 500.0))
+    for name in ("true", "stale"):
+        aldpat("filter", "gapm", f"{name}.las", "--odir", "out", cwd=tmp_path).ok()
+        aldpat("filter", "pm", f"{name}.las", "--odir", "out", cwd=tmp_path).ok()
+        aldpat("dtm", f"{name}.las", "--cell", "2", "--odir", "out", cwd=tmp_path).ok()
+    for suffix in ("_gapm.las", "_pm.las"):
+        classes = [np.asarray(laspy.read(tmp_path / "out" / f"{n}{suffix}").classification) for n in ("true", "stale")]
+        assert np.array_equal(*classes) and (classes[0] == 2).mean() > 0.5
+    import rasterio
+
+    rasters = []
+    for name in ("true", "stale"):
+        with rasterio.open(tmp_path / "out" / f"{name}_dtm.tif") as ds:
+            rasters.append((ds.transform, ds.read(1)))
+    assert rasters[0][0] == rasters[1][0] and np.array_equal(rasters[0][1], rasters[1][1])
+
+
 def test_a_header_narrower_than_the_points_is_refused(tmp_path, runner, cli):
     """Bounds in the header that leave points out contradict the data (a damaged file, or a tool
     that did not update them): the file is refused in one line naming the first such point,
