@@ -29,7 +29,14 @@ from aldpat.io.table import PointTable
 from aldpat.io.toml import load_toml
 from aldpat.options import ChunkOption
 from aldpat.params import resolve, spec_map, unknown_key_error
-from aldpat.tasks.dtm import LOW_OUTLIER_KEYS, DtmParams, filtered_ground, occupancy_over, terrain_raster
+from aldpat.tasks.dtm import (
+    LOW_OUTLIER_KEYS,
+    DtmParams,
+    filtered_ground,
+    occupancy_over,
+    points_used,
+    terrain_raster,
+)
 from aldpat.tasks.filter import classify_points
 from aldpat.tasks.grid import grid_spec_for
 
@@ -78,7 +85,9 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     and ``auto``, and the
     filter's own parameters, either as keywords (``slope_threshold=0.4``) or, for the filter's
     ``cell`` too, as ``filter_params`` -- a mapping or the TOML file ``aldpat dtm
-    --filter-params`` takes.
+    --filter-params`` takes. As in the command, a LAS's withheld points, those of
+    ``ignore_classes`` (noise: 7 and 18) and, with ``returns``, the other returns take no part in
+    finding ground; all of them count as data for ``max_gap``.
 
     Returns a :class:`Raster`: ``.array`` (float32, first row north, ``.nodata`` at blank
     nodes), ``.transform``, ``.crs``, ``.nodata`` and ``.write(path)``.
@@ -106,10 +115,13 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     table, crs = _table(points)
     spec = grid_spec_for(dtm_params, xy=(table.x, table.y))
     assert spec is not None  # from the points
-    ground = filtered_ground(table.x, table.y, table.z, dtm_params, ground_params)
     occupancy = occupancy_over(spec, 0.0)
-    occupancy.add(table.x, table.y)
-    raster, _ = terrain_raster(table.x[ground], table.y[ground], table.z[ground], spec, dtm_params,
+    occupancy.add(table.x, table.y)  # every point, of any class: a node near noise is no data gap
+    # as the command, the filter sees only the points taking part (a LAS's withheld points, its
+    # ignore_classes and other returns stay out); x, y, z have no classes: all of them do
+    used = table.take(points_used(dtm_params, ground_params)(table))
+    ground = filtered_ground(used.x, used.y, used.z, dtm_params, ground_params)
+    raster, _ = terrain_raster(used.x[ground], used.y[ground], used.z[ground], spec, dtm_params,
                                crs=dtm_params.crs or crs, occupancy=occupancy)
     return raster
 
@@ -138,9 +150,9 @@ def _table(points: Points) -> tuple[PointTable, Any]:
     if hasattr(points, "header") and hasattr(points, "points"):  # a laspy.LasData
         return las_table(points), _las_crs(points)
     if isinstance(points, tuple) and len(points) == 3:
-        x, y, z = (np.asarray(v, dtype=np.float64) for v in points)
+        x, y, z = (_numbers(v, points) for v in points)
     else:
-        xyz = np.asarray(points, dtype=np.float64)
+        xyz = _numbers(points, points)
         if xyz.ndim != 2 or xyz.shape[1] != 3:
             raise ParamError(f"points: expected a path, a laspy LasData, an (N, 3) array or an (x, y, z) tuple; "
                              f"got {type(points).__name__} of shape {xyz.shape}")
@@ -149,6 +161,16 @@ def _table(points: Points) -> tuple[PointTable, Any]:
         raise ParamError(f"points: x, y and z must be 1-D and of one length; got shapes {x.shape}, {y.shape}, "
                          f"{z.shape}")
     return PointTable({"x": x, "y": y, "z": z}), None
+
+
+def _numbers(values: Any, points: Points) -> np.ndarray:
+    """``values`` (``points`` or one of its x, y, z) as float64: numpy's own error for text or a
+    mapping names no argument, so the one raised names ``points``, as every other bad input does."""
+    try:
+        return np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ParamError(f"points: expected a path, a laspy LasData, an (N, 3) array or an (x, y, z) tuple of "
+                         f"numbers; got {type(points).__name__}: {err}") from None
 
 
 def _las_crs(las: Any) -> Any:

@@ -24,6 +24,7 @@ import difflib
 import inspect
 import logging
 import math
+import numbers
 import types
 import typing
 from collections.abc import Mapping, Sequence
@@ -247,9 +248,15 @@ def format_value(value: Any) -> str:
 
 
 def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
-    """Convert one scalar (from TOML or a command-line string) to the spec's kind."""
+    """Convert one scalar (from TOML, a command-line string or a Python call, whose numbers may be
+    numpy's) to the spec's kind."""
     def bad(expected: str) -> ParamError:
-        return ParamError(f"{where}{spec.name}: expected {expected}, got {shown(value)}")
+        # a value of a type no kind takes may print as one that is (a 0-d numpy array as 1.5):
+        # its type is named, lest the message read "expected a number, got 1.5"
+        cls = type(value)
+        named = cls.__name__ if cls.__module__ == "builtins" else f"{cls.__module__}.{cls.__name__}"
+        of = "" if isinstance(value, (str, numbers.Real)) else f" ({named})"
+        return ParamError(f"{where}{spec.name}: expected {expected}, got {shown(value)}{of}")
 
     if kind == "bool":
         if isinstance(value, bool):
@@ -260,10 +267,10 @@ def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
     if kind == "int":
         if isinstance(value, bool):
             raise bad("a whole number")
-        if isinstance(value, int):
-            return value
-        if isinstance(value, float) and value.is_integer():
+        if isinstance(value, numbers.Integral):  # numpy's integers too, as a call passes them
             return int(value)
+        if isinstance(value, numbers.Real) and float(value).is_integer():
+            return int(float(value))
         if isinstance(value, str):
             try:
                 return int(value.strip())
@@ -273,7 +280,7 @@ def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
     if kind == "float":
         if isinstance(value, bool):
             raise bad("a number")
-        if isinstance(value, (int, float)):
+        if isinstance(value, numbers.Real):  # numpy's float32, int64... too, as a call passes them
             v = float(value)
         elif isinstance(value, str):
             try:
@@ -286,7 +293,7 @@ def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
             raise bad("a finite number")
         return v
     if kind == "str":
-        if isinstance(value, (str, int, float)) and not isinstance(value, bool):
+        if isinstance(value, (str, numbers.Real)) and not isinstance(value, bool):
             return str(value)
         raise bad("text")
     raise AssertionError(kind)

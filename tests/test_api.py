@@ -113,6 +113,13 @@ def test_dtm_takes_the_filters_parameters_and_its_own(tmp_path):
     (lambda: aldpat.ground(STRIP, "gapx"), "algorithm: no filter 'gapx'"),
     (lambda: aldpat.ground(STRIP, window_series=[4, 2]), "window_series"),
     (lambda: aldpat.ground(np.zeros((5, 2))), "points: expected"),
+    (lambda: aldpat.ground([["a", "b", "c"]]), "points: expected"),  # not numpy's bare ValueError
+    (lambda: aldpat.ground({"x": 1}), "points: expected"),  # nor its TypeError
+    (lambda: aldpat.ground((["a"], [1.0], [2.0])), "points: expected"),
+    (lambda: aldpat.ground(STRIP, cell=np.float32("nan")), "ground: cell: expected a finite number"),
+    (lambda: aldpat.ground(STRIP, cell=True), "ground: cell: expected a number, got True"),
+    (lambda: aldpat.ground(STRIP, low_outlier_window=np.float32(2.5)), "expected a whole number, got 2.5"),
+    (lambda: aldpat.ground(STRIP, cell=np.array([1.5])), "got [1.5] (numpy.ndarray)"),  # its type named
     (lambda: aldpat.dtm(STRIP, cell=0), "dtm: cell: 0 is out of range"),
     (lambda: aldpat.dtm(STRIP, crs="EPSG:0"), "dtm: crs:"),
     (lambda: aldpat.dtm(STRIP, mosaic="x.vrt"), "mosaic: an option of the command 'aldpat dtm'"),
@@ -159,3 +166,73 @@ def test_dtm_takes_the_low_outlier_options_as_the_command_does():
     assert np.array_equal(default.array, same.array)
     lowest = {name: r.array[r.array != r.nodata].min() for name, r in (("default", default), ("off", off))}
     assert lowest["off"] < lowest["default"] - 100.0, lowest
+
+
+def test_numpy_numbers_are_numbers():
+    """A value computed with numpy (``np.float32``, ``np.int64``) is taken as the Python number it
+    equals: refusing it as "expected a number, got 1.5" contradicted itself."""
+    las = laspy.read(STRIP)
+    xyz = np.column_stack([las.x, las.y, las.z])[:5000]
+    for numpy_value, value in ((np.float32(1.5), 1.5), (np.int64(2), 2), (np.float64(2.0), 2)):
+        np.testing.assert_array_equal(aldpat.ground(xyz, cell=numpy_value), aldpat.ground(xyz, cell=value))
+    for window in (np.int64(3), np.int32(5), np.float32(5.0)):
+        np.testing.assert_array_equal(aldpat.ground(xyz, low_outlier_window=window),
+                                      aldpat.ground(xyz, low_outlier_window=int(window)))
+
+
+def _noisy_strip(path: Path, returns: str) -> np.ndarray:
+    """The strip written to ``path`` with points a survey sets aside lowered 40 m: 300 of class 7,
+    50 of class 18, 100 withheld and, for ``returns`` "last", 150 first returns of two (the
+    others last ones). Returns which points take part; none of the changed ones is at the edge
+    of the extent, so the DTM of the others alone has the same nodes."""
+    las = laspy.read(STRIP)
+    x, y = np.asarray(las.x), np.asarray(las.y)
+    rng = np.random.default_rng(7)
+    inner = np.flatnonzero((x > x.min()) & (x < x.max()) & (y > y.min()) & (y < y.max()))
+    picked = rng.choice(inner, 600, replace=False)
+    noise, high, held, first = picked[:300], picked[300:350], picked[350:450], picked[450:]
+    classes = np.zeros(len(x), np.uint8)
+    classes[noise], classes[high] = 7, 18
+    las.classification = classes
+    las.withheld = np.isin(np.arange(len(x)), held)
+    lowered = picked[:450]
+    number = np.ones(len(x), np.uint8)
+    if returns == "last":
+        las.number_of_returns = np.full(len(x), 2, np.uint8)
+        number[:] = 2
+        number[first] = 1
+        lowered = picked
+    las.return_number = number
+    z = np.asarray(las.z).copy()
+    z[lowered] -= 40.0
+    las.z = z
+    las.write(path)
+    return ~np.isin(np.arange(len(x)), lowered)
+
+
+@pytest.mark.parametrize("returns", ["all", "last"])
+def test_dtm_leaves_out_the_points_the_command_leaves_out(returns, tmp_path):
+    """Noise classes (``ignore_classes``: 7, 18), withheld points and, with ``returns``, the other
+    returns take no part in the DTM of a call, as in ``aldpat dtm``'s: a file's and a laspy
+    ``LasData``'s DTM is the command's, node for node, and none is pulled down by the noise."""
+    import rasterio
+
+    source = tmp_path / "noisy.laz"
+    taking_part = _noisy_strip(source, returns)
+    run_aldpat("dtm", source, "--cell", "2", "--returns", returns, "--odir", tmp_path / "cli").ok()
+    with rasterio.open(tmp_path / "cli" / "noisy_dtm.tif") as ds:
+        band, transform = ds.read(1), ds.transform
+    las = laspy.read(source)
+    x, y, z = (np.asarray(v)[taking_part] for v in (las.x, las.y, las.z))
+    # only the points taking part, given as x, y, z: the terrain the noise must not change
+    clean = aldpat.dtm((x, y, z), cell=2.0, returns=returns).array
+    for points in (source, las):
+        dem = aldpat.dtm(points, cell=2.0, returns=returns)
+        assert dem.array.shape == band.shape and rasterio.Affine(*dem.transform) == transform
+        np.testing.assert_array_equal(dem.array == dem.nodata, band == dem.nodata)
+        valued = band != dem.nodata
+        np.testing.assert_allclose(dem.array[valued], band[valued], rtol=0, atol=1e-6)
+        both = valued & (clean != dem.nodata)  # blank nodes differ: every point read counts for data gaps
+        assert both.sum() > 0.9 * valued.sum()
+        assert (dem.array[both] - clean[both]).min() > -1e-6
+        assert dem.array[valued].min() >= z.min() - 1e-3  # no node within 40 m of the noise's depth
