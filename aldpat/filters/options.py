@@ -24,8 +24,8 @@ class FilterOutputOption(SharedOption):
     result: str | None = param(
         None, "what to write: terrain points, non-terrain points, both files, or every point classified "
         "(in input order with every attribute: ground LAS class 2, a former 2 or 0 that is not ground 1, low "
-        "outliers 7, other classes kept; text: a column class); default: classified for a LAS/LAZ output, "
-        "terrain for text", choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
+        "outliers 7, other classes kept; text: a column class); terrain and non-terrain hold those points "
+        "and classes split at class 2; default: classified for a LAS/LAZ output, terrain for text", choices=("terrain", "nonterrain", "both", "classified"), manual="Result Mode")
     data_mode: str = param(
         "real",
         "output points at their own x, y (real) or one point per cell at the cell centre (center)",

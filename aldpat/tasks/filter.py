@@ -140,12 +140,19 @@ def _output_names(reader, params) -> tuple[str, ...]:
     return names
 
 
-def _with_classes(rows: PointTable, reader, params, marks: np.ndarray, cls: np.ndarray | None) -> PointTable:
+def _with_classes(rows: PointTable, reader, params, marks: np.ndarray, cls: np.ndarray) -> PointTable:
+    """``rows`` with the filter's marks (``--marks``) and its classes (:func:`classes_written`):
+    in a classified output, and in every output whose points carry a class (a LAS's, a text
+    column ``classification`` or ``class``), so that a terrain output's points are class 2 and a
+    non-terrain output's hold no class 2 -- the classified output's points split in two. A LAS
+    terrain output that kept the input's classes (1, 64...) read as no ground at all to
+    ``evaluate`` and to every tool that takes class 2 for ground."""
     extra: dict[str, np.ndarray] = {}
     if params.marks:
         extra["mark"] = marks.astype(np.int32)
-    if cls is not None:
-        extra["classification" if reader.format == "las" or "classification" in rows.columns else "class"] = cls
+    carried = next((n for n in ("classification", "class") if n in rows.columns), None)
+    if params.result == "classified" or carried is not None or reader.format == "las":
+        extra[carried or ("classification" if reader.format == "las" else "class")] = cls
     return rows.with_columns(**extra) if extra else rows
 
 
@@ -197,7 +204,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
         rows = table
     cls = classes_written(found, rows, part, params, algorithm, _output_point_format(reader, ctx, source))
     ground = ground_flags(found, part)
-    rows = _with_classes(rows, reader, params, marks, cls if params.result == "classified" else None)
+    rows = _with_classes(rows, reader, params, marks, cls)
     names = _output_names(reader, params)
     n_ground = int(ground.sum())
     if n_ground == 0:
@@ -380,7 +387,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
             ground = ground_flags(found, part)
             n_ground += int(ground.sum())
             n += len(table)
-            rows = _with_classes(table, reader, params, marks, cls if params.result == "classified" else None)
+            rows = _with_classes(table, reader, params, marks, cls)
             if behind is None:
                 _write_rows(writers, rows, ground)
             else:

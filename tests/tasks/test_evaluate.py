@@ -168,3 +168,36 @@ def test_one_map_for_several_results_needs_stem(tmp_path, samp24):
     report = get_task("evaluate")([tmp_path / "a.txt", tmp_path / "b.txt"], reference=str(samp24),
                                   map=str(tmp_path / "{stem}_calls.png"))
     assert report.exit_code == 0 and (tmp_path / "a_calls.png").exists() and (tmp_path / "b_calls.png").exists()
+
+
+def test_a_las_terrain_output_is_class_2_and_evaluates_as_the_classified_output(tmp_path):
+    """A LAS terrain output kept its points' input classes (1, 64...), so ``evaluate`` (which reads
+    a LAS by its class 2) found no ground in it, and neither would any tool taking class 2 for
+    ground. In fresh processes, on a LAS 1.4 strip with vendor classes and noise: the terrain and
+    non-terrain outputs now hold the classified output's points and classes, split at class 2,
+    and the terrain output scores as the classified one."""
+    import laspy
+
+    from tests.cli.fresh import TEST_DATA, aldpat
+
+    las = laspy.convert(laspy.read(TEST_DATA / "fsite5_strip.laz"), point_format_id=6, file_version="1.4")
+    rng = np.random.default_rng(5)
+    las.classification = rng.choice(np.array([1, 64, 200], np.uint8), len(las.points))
+    las.classification[rng.random(len(las.points)) < 0.01] = 7
+    las.write(tmp_path / "vendor.laz")
+    aldpat("filter", "gapm", "vendor.laz", "--odir", "all", cwd=tmp_path).ok()
+    aldpat("filter", "gapm", "vendor.laz", "--result", "both", "--odir", "split", cwd=tmp_path).ok()
+    every = laspy.read(tmp_path / "all" / "vendor_gapm.laz")
+    terrain = laspy.read(tmp_path / "split" / "vendor_gapm.laz")
+    objects = laspy.read(tmp_path / "split" / "vendor_gapm_nt.laz")
+    ground = np.asarray(every.classification) == 2
+    assert ground.mean() > 0.5 and set(np.unique(terrain.classification)) == {2}
+    assert np.array_equal(np.asarray(terrain.X), np.asarray(every.X)[ground])
+    assert np.array_equal(np.asarray(objects.classification), np.asarray(every.classification)[~ground])
+    assert 7 in set(np.unique(objects.classification))  # noise stays noise
+    # the reference: the classified output's own calls, ground 0 and object 1
+    reference = np.column_stack([every.x, every.y, every.z, np.where(ground, 0, 1)])
+    np.savetxt(tmp_path / "reference.txt", reference, fmt="%.2f %.2f %.2f %d")
+    scores = [json.loads(aldpat("evaluate", result, "--reference", "reference.txt", "--json", cwd=tmp_path).ok().stdout)
+              for result in ("all/vendor_gapm.laz", "split/vendor_gapm.laz")]
+    assert scores[0]["total"] == scores[1]["total"] == 0.0
