@@ -55,6 +55,9 @@ BYTES_PER_NODE = {"nearest": 32, "linear": 64, "idw": 56, "kriging": 40, "min": 
 #: exist (a block triangulates only its points and their buffer), so this size is part of the
 #: result: kept at the size the grids were made with when qhull built the blocks.
 _TIN_POINTS = 12_000
+#: How many times a block of the TIN grid may double its buffer of points to make every triangle
+#: over its nodes one of the TIN of all the points (:func:`linear`): 8 spacings become 128.
+TIN_BUFFER_DOUBLINGS = 4
 #: (triangle, node) candidate pairs rasterised at once
 _PAIR_BATCH = 4_000_000
 
@@ -242,16 +245,25 @@ def merge_duplicates(pts: np.ndarray, pz: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def _tin_block(px: np.ndarray, py: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int],
-               rows: tuple[int, int], max_distance: float | None, out: np.ndarray) -> None:
+               rows: tuple[int, int], max_distance: float | None, out: np.ndarray,
+               known: tuple[float, float, float, float] | None = None) -> bool:
+    """The block's nodes from the TIN of its points; False when a triangle over a node may not be
+    one of the TIN of every point (:func:`aldpat.core.tin_raster.tin_block` with ``known``, the
+    rectangle whose every point ``px``, ``py`` hold)."""
     if len(px) < 3:
-        return
+        return True
     origin = (float(px.mean()), float(py.mean()))
     pts = np.column_stack([px - origin[0], py - origin[1]])
-    if tin_block(pts, pz, spec.xmin - origin[0], spec.ymin - origin[1], spec.dx, spec.dy, cols, rows,
-                 max_distance, out):
-        return
+    frame = None if known is None else np.array(known) - np.array([origin[0], origin[1], origin[0], origin[1]])
+    done = tin_block(pts, pz, spec.xmin - origin[0], spec.ymin - origin[1], spec.dx, spec.dy, cols, rows,
+                     max_distance, out, frame)
+    if done is None:
+        return False
+    if done:
+        return True
     log.debug("block rows %s cols %s: hull triangles displaced, triangulated by qhull", rows, cols)
     _qhull_block(*merge_duplicates(pts, pz), spec, cols, rows, origin, max_distance, out)
+    return True
 
 
 def _qhull_block(pts: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int], rows: tuple[int, int],
@@ -308,14 +320,17 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
     "Triangulation with Linear Interpolation").
 
     The tile is cut into blocks of nodes; each block triangulates the points within a buffer
-    of 8 mean point spacings around it, far enough for the triangles over the block to be
-    those of the whole tile (they coincide wherever the data are not sparser than the buffer;
-    across wider gaps, which ``max_distance`` blanks anyway, a block may choose another valid
-    triangulation, or, where its buffer holds no point beyond the gap, leave the nodes blank: a
-    hole wider than the buffer is blank in block-shaped parts, not bridged as one TIN of every
-    point would bridge it). Planes are reproduced exactly. Points sharing an x, y are one vertex at
-    their mean height (:func:`merge_duplicates`). ``dtype`` float32 gives the nodes rounded as
-    a float32 raster stores them, in half the memory.
+    of 8 mean point spacings around it, and checks that every triangle over its nodes is one of
+    the TIN of all the points: a triangle whose circumcircle lies within the rectangle of points
+    taken holds no point of any in it. Where a gap wider than the buffer (the ground under a
+    building) gives one whose circle reaches out, the block is triangulated again with twice the
+    buffer, up to :data:`TIN_BUFFER_DOUBLINGS` times: the nodes are then those of one TIN of
+    every point (to the cocircular ties of equally valid triangulations), as a whole tile and
+    its parts in tiles agree. Past that, or where the buffer holds no point beyond a gap, a
+    block may keep another valid triangle or leave nodes blank (a hole far wider than the buffer
+    is blank in block-shaped parts, not bridged). Planes are reproduced exactly. Points sharing
+    an x, y are one vertex at their mean height (:func:`merge_duplicates`). ``dtype`` float32
+    gives the nodes rounded as a float32 raster stores them, in half the memory.
     """
     x, y, z = grid_points(x, y, z)
     out = np.full(spec.shape, np.nan, dtype)
@@ -332,31 +347,47 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
     # not used (as within the blocks)
     nbx = -(-spec.nx // bcols)
     nby = -(-spec.ny // brows)
-    order, bounds = _block_order(x, y, spec.xmin - spec.dx / 2 - buffer, spec.xmax + spec.dx / 2 + buffer,
-                                 spec.ymin - spec.dy / 2 - buffer, spec.ymax + spec.dy / 2 + buffer,
+    # the points taken reach no farther than those the blocks were ordered from: beyond them (and
+    # beyond the points' own extent) there is no point a circumcircle could hold
+    taken = (spec.xmin - spec.dx / 2 - buffer * 2 ** TIN_BUFFER_DOUBLINGS,
+             spec.ymin - spec.dy / 2 - buffer * 2 ** TIN_BUFFER_DOUBLINGS,
+             spec.xmax + spec.dx / 2 + buffer * 2 ** TIN_BUFFER_DOUBLINGS,
+             spec.ymax + spec.dy / 2 + buffer * 2 ** TIN_BUFFER_DOUBLINGS)
+    order, bounds = _block_order(x, y, taken[0], taken[2], taken[1], taken[3],
                                  spec.xmin, spec.ymin, spec.dx / 2, spec.dy / 2, bcols * spec.dx,
                                  brows * spec.dy, nbx, nby)
-    reach_x = math.ceil(buffer / (bcols * spec.dx))
-    reach_y = math.ceil(buffer / (brows * spec.dy))
+    extent = (float(x.min()), float(y.min()), float(x.max()), float(y.max()))
 
     def run(block: tuple[int, int]) -> None:
         i, j = block
         cols = (i * bcols, min(spec.nx, (i + 1) * bcols))
         rows = (j * brows, min(spec.ny, (j + 1) * brows))
-        parts = []
-        for jj in range(max(0, j - reach_y), min(nby, j + reach_y + 1)):
-            lo = bounds[jj * nbx + max(0, i - reach_x)]
-            hi = bounds[jj * nbx + min(nbx - 1, i + reach_x) + 1]
-            parts.append(order[lo:hi])
-        sel = np.concatenate(parts)
-        x0 = spec.xmin + cols[0] * spec.dx - buffer
-        x1 = spec.xmin + (cols[1] - 1) * spec.dx + buffer
-        y0 = spec.ymin + rows[0] * spec.dy - buffer
-        y1 = spec.ymin + (rows[1] - 1) * spec.dy + buffer
-        px, py = x[sel], y[sel]
-        inside = (px >= x0) & (px <= x1) & (py >= y0) & (py <= y1)
-        sel = sel[inside]
-        _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out)
+        reach = buffer
+        for attempt in range(TIN_BUFFER_DOUBLINGS + 1):
+            reach_x = math.ceil(reach / (bcols * spec.dx))
+            reach_y = math.ceil(reach / (brows * spec.dy))
+            parts = []
+            for jj in range(max(0, j - reach_y), min(nby, j + reach_y + 1)):
+                lo = bounds[jj * nbx + max(0, i - reach_x)]
+                hi = bounds[jj * nbx + min(nbx - 1, i + reach_x) + 1]
+                parts.append(order[lo:hi])
+            sel = np.concatenate(parts)
+            x0 = spec.xmin + cols[0] * spec.dx - reach
+            x1 = spec.xmin + (cols[1] - 1) * spec.dx + reach
+            y0 = spec.ymin + rows[0] * spec.dy - reach
+            y1 = spec.ymin + (rows[1] - 1) * spec.dy + reach
+            px, py = x[sel], y[sel]
+            inside = (px >= x0) & (px <= x1) & (py >= y0) & (py <= y1)
+            sel = sel[inside]
+            # a side past the points' extent (the edge of the data) bounds no circle; the last
+            # attempt keeps what it finds
+            known = None if attempt == TIN_BUFFER_DOUBLINGS else (
+                -math.inf if x0 <= extent[0] else x0, -math.inf if y0 <= extent[1] else y0,
+                math.inf if x1 >= extent[2] else x1, math.inf if y1 >= extent[3] else y1)
+            if _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out, known):
+                return
+            out[rows[0]:rows[1], cols[0]:cols[1]] = np.nan  # gridded again from more points
+            reach *= 2
 
     blocks = [(i, j) for j in range(nby) for i in range(nbx)]
     on_threads(run, blocks, worker_count(workers))  # the compiled TIN and qhull release the GIL

@@ -68,12 +68,19 @@ def _insert_all(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, 
 @compiled(nogil=True)
 def _rasterise(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, n_tri: int, gx0: float, gy0: float,
                dx: float, dy: float, c0: int, c1: int, r0: int, r1: int, max_edge: float, out: np.ndarray,
-               covered: np.ndarray) -> None:
+               covered: np.ndarray, known: np.ndarray) -> int:
     """Linear interpolation on every triangle without a corner vertex (0-3), at the nodes of
     columns c0..c1-1 and rows r0..r1-1 it covers; ``max_edge`` >= 0 leaves out triangles with a
     longer edge. Node (row, col) lies at (gx0 + col dx, gy0 + row dy) in the vertices' frame.
-    ``covered[row - r0, col - c0]`` is set for every node under a triangle, long edges or not."""
+    ``covered[row - r0, col - c0]`` is set for every node under a triangle, long edges or not.
+
+    Returns how many of the triangles covering a node have a circumcircle reaching out of
+    ``known`` (x0, y0, x1, y1: the rectangle all of whose points were triangulated). Such a
+    triangle may not be one of the TIN of every point: a point beyond the rectangle may lie in
+    its circumcircle. One whose circle lies inside holds no point of any (the block's points
+    are every point there), so it is."""
     eps = 1e-9
+    unsure = 0
     for t in range(n_tri):
         a = tv[t, 0]
         b = tv[t, 1]
@@ -92,6 +99,7 @@ def _rasterise(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, n
         row_lo = max(math.ceil((min(y1, y2, y3) - gy0) / dy - eps), r0)
         row_hi = min(math.floor((max(y1, y2, y3) - gy0) / dy + eps), r1 - 1)
         z1, z2, z3 = pz[a], pz[b], pz[c]
+        hit = False
         for row in range(row_lo, row_hi + 1):
             qy = gy0 + row * dy
             for col in range(col_lo, col_hi + 1):
@@ -101,8 +109,29 @@ def _rasterise(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, n
                 l3 = 1.0 - l1 - l2
                 if l1 >= -eps and l2 >= -eps and l3 >= -eps:
                     covered[row - r0, col - c0] = True
+                    hit = True
                     if short:
                         out[row, col] = l1 * z1 + l2 * z2 + l3 * z3
+        if hit and not _circle_within(x1, y1, x2, y2, x3, y3, known):
+            unsure += 1
+    return unsure
+
+
+@compiled(nogil=True)
+def _circle_within(x1: float, y1: float, x2: float, y2: float, x3: float, y3: float,
+                   known: np.ndarray) -> bool:  # pragma: no cover - compiled
+    """Whether the circumcircle of the triangle lies inside the rectangle ``known`` (x0, y0, x1, y1)."""
+    bx, by, cx, cy = x2 - x1, y2 - y1, x3 - x1, y3 - y1
+    d = 2.0 * (bx * cy - by * cx)
+    if d == 0.0:
+        return False
+    b2, c2 = bx * bx + by * by, cx * cx + cy * cy
+    ux = (cy * b2 - by * c2) / d
+    uy = (bx * c2 - cx * b2) / d
+    r = math.sqrt(ux * ux + uy * uy) * (1.0 + 1e-9)
+    ux += x1
+    uy += y1
+    return ux - r >= known[0] and uy - r >= known[1] and ux + r <= known[2] and uy + r <= known[3]
 
 
 @compiled(nogil=True)
@@ -144,13 +173,16 @@ def insertion_order(x: np.ndarray, y: np.ndarray, square: float) -> np.ndarray:
 
 
 def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float, dy: float, cols: tuple[int, int], rows: tuple[int, int],
-              max_distance: float | None, out: np.ndarray) -> bool:
+              max_distance: float | None, out: np.ndarray, known: np.ndarray | None = None) -> bool | None:
     """Grid the nodes ``rows`` x ``cols`` of ``out`` from the TIN of ``pts`` (n, 2: coordinates
     in a local frame; ``gx0``, ``gy0``: node (0, 0) in the same frame) with heights ``pz``.
 
     False when some node of the block lies inside the points' convex hull but under no triangle
     of the points (a hull triangle displaced by the starting rectangle): the caller grids the
-    block another way. Nodes the TIN leaves blank stay as they were (NaN).
+    block another way. None when a triangle over a node may not be one of the TIN of every point
+    (:func:`_rasterise`: its circumcircle reaches out of ``known``, the rectangle whose every
+    point ``pts`` holds, in the same frame; default: no bound): the caller grids the block again
+    with more of the points. Nodes the TIN leaves blank stay as they were (NaN).
     """
     from scipy import spatial
 
@@ -169,8 +201,11 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
     stack = np.zeros(len(tv) + 8, np.int64)
     _insert_all(px, py, vz, tv, tn, stamp, count, stack, n)
     covered = np.zeros((rows[1] - rows[0], cols[1] - cols[0]), np.bool_)
-    _rasterise(px, py, vz, tv, int(count[0]), gx0, gy0, dx, dy, cols[0], cols[1], rows[0], rows[1],
-               -1.0 if max_distance is None else float(max_distance), out, covered)
+    bound = np.array([-np.inf, -np.inf, np.inf, np.inf]) if known is None else np.asarray(known, np.float64)
+    unsure = _rasterise(px, py, vz, tv, int(count[0]), gx0, gy0, dx, dy, cols[0], cols[1], rows[0], rows[1],
+                        -1.0 if max_distance is None else float(max_distance), out, covered, bound)
+    if unsure:
+        return None
     blank_r, blank_c = np.nonzero(~covered)
     if not len(blank_r):
         return True
