@@ -55,9 +55,20 @@ BYTES_PER_NODE = {"nearest": 32, "linear": 64, "idw": 56, "kriging": 40, "min": 
 #: exist (a block triangulates only its points and their buffer), so this size is part of the
 #: result: kept at the size the grids were made with when qhull built the blocks.
 _TIN_POINTS = 12_000
-#: How many times a block of the TIN grid may double its buffer of points to make every triangle
-#: over its nodes one of the TIN of all the points (:func:`linear`): 8 spacings become 128.
-TIN_BUFFER_DOUBLINGS = 4
+#: A block of the TIN grid takes points up to this many times its buffer (8 mean spacings) around
+#: its nodes to make every triangle over them one of the TIN of all the points (:func:`linear`),
+#: in at most :data:`TIN_ATTEMPTS` triangulations; a triangle whose circumcircle reaches farther
+#: (a sliver bridging a bay of the data's outline, blank in a DTM as a data gap) is kept as found.
+TIN_WIDEST_BUFFER = 16
+TIN_ATTEMPTS = 3
+
+
+def _open_past(extent: tuple[float, float, float, float], rect: tuple[float, float, float, float]
+               ) -> tuple[float, float, float, float]:
+    """``rect`` (x0, y0, x1, y1) with each side past the points' ``extent`` moved to infinity: no
+    point lies there for a circumcircle to hold."""
+    return (-math.inf if rect[0] <= extent[0] else rect[0], -math.inf if rect[1] <= extent[1] else rect[1],
+            math.inf if rect[2] >= extent[2] else rect[2], math.inf if rect[3] >= extent[3] else rect[3])
 #: (triangle, node) candidate pairs rasterised at once
 _PAIR_BATCH = 4_000_000
 
@@ -246,24 +257,30 @@ def merge_duplicates(pts: np.ndarray, pz: np.ndarray) -> tuple[np.ndarray, np.nd
 
 def _tin_block(px: np.ndarray, py: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int],
                rows: tuple[int, int], max_distance: float | None, out: np.ndarray,
-               known: tuple[float, float, float, float] | None = None) -> bool:
-    """The block's nodes from the TIN of its points; False when a triangle over a node may not be
-    one of the TIN of every point (:func:`aldpat.core.tin_raster.tin_block` with ``known``, the
-    rectangle whose every point ``px``, ``py`` hold)."""
+               known: tuple[float, ...] | None = None, most: tuple[float, ...] | None = None
+               ) -> tuple[float, float, float, float] | None:
+    """The block's nodes from the TIN of its points. With ``known`` (the rectangle whose every
+    point ``px``, ``py`` hold) and ``most`` (the largest the caller would take), the rectangle
+    (x0, y0, x1, y1) of the circumcircles of the triangles over a node that may not be the TIN of
+    every point's (:func:`aldpat.core.tin_raster.tin_block`), if any; else None."""
     if len(px) < 3:
-        return True
+        return None
     origin = (float(px.mean()), float(py.mean()))
     pts = np.column_stack([px - origin[0], py - origin[1]])
-    frame = None if known is None else np.array(known) - np.array([origin[0], origin[1], origin[0], origin[1]])
+    shift = np.array([origin[0], origin[1], origin[0], origin[1]])
+    frame = None if known is None else np.array(known) - shift
+    grow = None if most is None else np.concatenate([[np.inf, np.inf, -np.inf, -np.inf], np.array(most) - shift])
     done = tin_block(pts, pz, spec.xmin - origin[0], spec.ymin - origin[1], spec.dx, spec.dy, cols, rows,
-                     max_distance, out, frame)
+                     max_distance, out, frame, grow)
     if done is None:
-        return False
+        assert grow is not None
+        x0, y0, x1, y1 = (float(v) for v in grow[:4] + shift)
+        return x0, y0, x1, y1
     if done:
-        return True
+        return None
     log.debug("block rows %s cols %s: hull triangles displaced, triangulated by qhull", rows, cols)
     _qhull_block(*merge_duplicates(pts, pz), spec, cols, rows, origin, max_distance, out)
-    return True
+    return None
 
 
 def _qhull_block(pts: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int], rows: tuple[int, int],
@@ -323,12 +340,12 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
     of 8 mean point spacings around it, and checks that every triangle over its nodes is one of
     the TIN of all the points: a triangle whose circumcircle lies within the rectangle of points
     taken holds no point of any in it. Where a gap wider than the buffer (the ground under a
-    building) gives one whose circle reaches out, the block is triangulated again with twice the
-    buffer, up to :data:`TIN_BUFFER_DOUBLINGS` times: the nodes are then those of one TIN of
-    every point (to the cocircular ties of equally valid triangulations), as a whole tile and
-    its parts in tiles agree. Past that, or where the buffer holds no point beyond a gap, a
-    block may keep another valid triangle or leave nodes blank (a hole far wider than the buffer
-    is blank in block-shaped parts, not bridged). Planes are reproduced exactly. Points sharing
+    building) gives one whose circle reaches out, the block is triangulated again with the points
+    its circles reach, up to :data:`TIN_WIDEST_BUFFER` buffers around it: the nodes are then
+    those of one TIN of every point (to the cocircular ties of equally valid triangulations), as
+    a whole tile and its parts in tiles agree. Past that (a sliver bridging a bay of the data's
+    outline), or where the buffer holds no point beyond a gap, a block may keep another valid
+    triangle or leave nodes blank. Planes are reproduced exactly. Points sharing
     an x, y are one vertex at their mean height (:func:`merge_duplicates`). ``dtype`` float32
     gives the nodes rounded as a float32 raster stores them, in half the memory.
     """
@@ -343,16 +360,14 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
     if max_distance is not None:
         buffer = max(buffer, 2 * max_distance)
     # the points by block, as indices (no sorted copy of the points): each block gathers its
-    # neighbours' points by slices of ``order``; points beyond the buffer around the grid are
-    # not used (as within the blocks)
+    # neighbours' points by slices of ``order``. A block takes points up to ``widest`` around its
+    # nodes to make its triangles the TIN of every point's: points farther around the grid are
+    # not used
     nbx = -(-spec.nx // bcols)
     nby = -(-spec.ny // brows)
-    # the points taken reach no farther than those the blocks were ordered from: beyond them (and
-    # beyond the points' own extent) there is no point a circumcircle could hold
-    taken = (spec.xmin - spec.dx / 2 - buffer * 2 ** TIN_BUFFER_DOUBLINGS,
-             spec.ymin - spec.dy / 2 - buffer * 2 ** TIN_BUFFER_DOUBLINGS,
-             spec.xmax + spec.dx / 2 + buffer * 2 ** TIN_BUFFER_DOUBLINGS,
-             spec.ymax + spec.dy / 2 + buffer * 2 ** TIN_BUFFER_DOUBLINGS)
+    widest = buffer * TIN_WIDEST_BUFFER
+    taken = (spec.xmin - spec.dx / 2 - widest, spec.ymin - spec.dy / 2 - widest,
+             spec.xmax + spec.dx / 2 + widest, spec.ymax + spec.dy / 2 + widest)
     order, bounds = _block_order(x, y, taken[0], taken[2], taken[1], taken[3],
                                  spec.xmin, spec.ymin, spec.dx / 2, spec.dy / 2, bcols * spec.dx,
                                  brows * spec.dy, nbx, nby)
@@ -363,7 +378,11 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
         cols = (i * bcols, min(spec.nx, (i + 1) * bcols))
         rows = (j * brows, min(spec.ny, (j + 1) * brows))
         reach = buffer
-        for attempt in range(TIN_BUFFER_DOUBLINGS + 1):
+        node_rect = (spec.xmin + cols[0] * spec.dx, spec.ymin + rows[0] * spec.dy,
+                     spec.xmin + (cols[1] - 1) * spec.dx, spec.ymin + (rows[1] - 1) * spec.dy)
+        most = _open_past(extent, (node_rect[0] - widest, node_rect[1] - widest, node_rect[2] + widest,
+                                   node_rect[3] + widest))
+        for attempt in range(TIN_ATTEMPTS):
             reach_x = math.ceil(reach / (bcols * spec.dx))
             reach_y = math.ceil(reach / (brows * spec.dy))
             parts = []
@@ -372,22 +391,20 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
                 hi = bounds[jj * nbx + min(nbx - 1, i + reach_x) + 1]
                 parts.append(order[lo:hi])
             sel = np.concatenate(parts)
-            x0 = spec.xmin + cols[0] * spec.dx - reach
-            x1 = spec.xmin + (cols[1] - 1) * spec.dx + reach
-            y0 = spec.ymin + rows[0] * spec.dy - reach
-            y1 = spec.ymin + (rows[1] - 1) * spec.dy + reach
+            x0, y0 = node_rect[0] - reach, node_rect[1] - reach
+            x1, y1 = node_rect[2] + reach, node_rect[3] + reach
             px, py = x[sel], y[sel]
             inside = (px >= x0) & (px <= x1) & (py >= y0) & (py <= y1)
             sel = sel[inside]
-            # a side past the points' extent (the edge of the data) bounds no circle; the last
-            # attempt keeps what it finds
-            known = None if attempt == TIN_BUFFER_DOUBLINGS else (
-                -math.inf if x0 <= extent[0] else x0, -math.inf if y0 <= extent[1] else y0,
-                math.inf if x1 >= extent[2] else x1, math.inf if y1 >= extent[3] else y1)
-            if _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out, known):
+            last = attempt == TIN_ATTEMPTS - 1  # keeps what it finds
+            circles = _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out,
+                                 None if last else _open_past(extent, (x0, y0, x1, y1)), None if last else most)
+            if circles is None:
                 return
-            out[rows[0]:rows[1], cols[0]:cols[1]] = np.nan  # gridded again from more points
-            reach *= 2
+            out[rows[0]:rows[1], cols[0]:cols[1]] = np.nan  # gridded again from the points the circles reach
+            needed = max(node_rect[0] - circles[0], node_rect[1] - circles[1], circles[2] - node_rect[2],
+                         circles[3] - node_rect[3])
+            reach = min(widest, max(needed + spacing, 2 * reach))
 
     blocks = [(i, j) for j in range(nby) for i in range(nbx)]
     on_threads(run, blocks, worker_count(workers))  # the compiled TIN and qhull release the GIL

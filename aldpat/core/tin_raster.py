@@ -68,17 +68,19 @@ def _insert_all(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, 
 @compiled(nogil=True)
 def _rasterise(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, n_tri: int, gx0: float, gy0: float,
                dx: float, dy: float, c0: int, c1: int, r0: int, r1: int, max_edge: float, out: np.ndarray,
-               covered: np.ndarray, known: np.ndarray) -> int:
+               covered: np.ndarray, known: np.ndarray, grow: np.ndarray) -> int:
     """Linear interpolation on every triangle without a corner vertex (0-3), at the nodes of
     columns c0..c1-1 and rows r0..r1-1 it covers; ``max_edge`` >= 0 leaves out triangles with a
     longer edge. Node (row, col) lies at (gx0 + col dx, gy0 + row dy) in the vertices' frame.
     ``covered[row - r0, col - c0]`` is set for every node under a triangle, long edges or not.
 
     Returns how many of the triangles covering a node have a circumcircle reaching out of
-    ``known`` (x0, y0, x1, y1: the rectangle all of whose points were triangulated). Such a
-    triangle may not be one of the TIN of every point: a point beyond the rectangle may lie in
-    its circumcircle. One whose circle lies inside holds no point of any (the block's points
-    are every point there), so it is."""
+    ``known`` (x0, y0, x1, y1: the rectangle all of whose points were triangulated) but inside
+    ``grow[4:]`` (the most the caller would take), and widens ``grow[:4]`` (x0, y0, x1, y1) to
+    hold their circles. Such a triangle may not be one of the TIN of every point: a point beyond
+    the rectangle may lie in its circumcircle. One whose circle lies inside holds no point of
+    any (the block's points are every point there), so it is; one whose circle reaches past
+    what the caller would take (a sliver along the data's outline) is kept as it is."""
     eps = 1e-9
     unsure = 0
     for t in range(n_tri):
@@ -112,26 +114,26 @@ def _rasterise(px: np.ndarray, py: np.ndarray, pz: np.ndarray, tv: np.ndarray, n
                     hit = True
                     if short:
                         out[row, col] = l1 * z1 + l2 * z2 + l3 * z3
-        if hit and not _circle_within(x1, y1, x2, y2, x3, y3, known):
+        if not hit:
+            continue
+        bx, by, cx, cy = x2 - x1, y2 - y1, x3 - x1, y3 - y1  # the circumcircle, from the first vertex
+        d2 = 2.0 * (bx * cy - by * cx)
+        b2, c2 = bx * bx + by * by, cx * cx + cy * cy
+        ux = (cy * b2 - by * c2) / d2
+        uy = (bx * c2 - cx * b2) / d2
+        r = math.sqrt(ux * ux + uy * uy) * (1.0 + 1e-9)
+        ux += x1
+        uy += y1
+        lo_x, lo_y, hi_x, hi_y = ux - r, uy - r, ux + r, uy + r
+        if lo_x >= known[0] and lo_y >= known[1] and hi_x <= known[2] and hi_y <= known[3]:
+            continue
+        if lo_x >= grow[4] and lo_y >= grow[5] and hi_x <= grow[6] and hi_y <= grow[7]:
             unsure += 1
+            grow[0] = min(grow[0], lo_x)
+            grow[1] = min(grow[1], lo_y)
+            grow[2] = max(grow[2], hi_x)
+            grow[3] = max(grow[3], hi_y)
     return unsure
-
-
-@compiled(nogil=True)
-def _circle_within(x1: float, y1: float, x2: float, y2: float, x3: float, y3: float,
-                   known: np.ndarray) -> bool:  # pragma: no cover - compiled
-    """Whether the circumcircle of the triangle lies inside the rectangle ``known`` (x0, y0, x1, y1)."""
-    bx, by, cx, cy = x2 - x1, y2 - y1, x3 - x1, y3 - y1
-    d = 2.0 * (bx * cy - by * cx)
-    if d == 0.0:
-        return False
-    b2, c2 = bx * bx + by * by, cx * cx + cy * cy
-    ux = (cy * b2 - by * c2) / d
-    uy = (bx * c2 - cx * b2) / d
-    r = math.sqrt(ux * ux + uy * uy) * (1.0 + 1e-9)
-    ux += x1
-    uy += y1
-    return ux - r >= known[0] and uy - r >= known[1] and ux + r <= known[2] and uy + r <= known[3]
 
 
 @compiled(nogil=True)
@@ -173,7 +175,8 @@ def insertion_order(x: np.ndarray, y: np.ndarray, square: float) -> np.ndarray:
 
 
 def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float, dy: float, cols: tuple[int, int], rows: tuple[int, int],
-              max_distance: float | None, out: np.ndarray, known: np.ndarray | None = None) -> bool | None:
+              max_distance: float | None, out: np.ndarray, known: np.ndarray | None = None,
+              grow: np.ndarray | None = None) -> bool | None:
     """Grid the nodes ``rows`` x ``cols`` of ``out`` from the TIN of ``pts`` (n, 2: coordinates
     in a local frame; ``gx0``, ``gy0``: node (0, 0) in the same frame) with heights ``pz``.
 
@@ -181,8 +184,9 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
     of the points (a hull triangle displaced by the starting rectangle): the caller grids the
     block another way. None when a triangle over a node may not be one of the TIN of every point
     (:func:`_rasterise`: its circumcircle reaches out of ``known``, the rectangle whose every
-    point ``pts`` holds, in the same frame; default: no bound): the caller grids the block again
-    with more of the points. Nodes the TIN leaves blank stay as they were (NaN).
+    point ``pts`` holds, in the same frame, and inside ``grow[4:]``, the most the caller would
+    take; default: no bound): ``grow[:4]`` then holds those circles, and the caller grids the
+    block again with the points there. Nodes the TIN leaves blank stay as they were (NaN).
     """
     from scipy import spatial
 
@@ -202,8 +206,10 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
     _insert_all(px, py, vz, tv, tn, stamp, count, stack, n)
     covered = np.zeros((rows[1] - rows[0], cols[1] - cols[0]), np.bool_)
     bound = np.array([-np.inf, -np.inf, np.inf, np.inf]) if known is None else np.asarray(known, np.float64)
+    if grow is None:
+        grow = np.array([np.inf, np.inf, -np.inf, -np.inf, 0.0, 0.0, 0.0, 0.0])
     unsure = _rasterise(px, py, vz, tv, int(count[0]), gx0, gy0, dx, dy, cols[0], cols[1], rows[0], rows[1],
-                        -1.0 if max_distance is None else float(max_distance), out, covered, bound)
+                        -1.0 if max_distance is None else float(max_distance), out, covered, bound, grow)
     if unsure:
         return None
     blank_r, blank_c = np.nonzero(~covered)
