@@ -59,7 +59,7 @@ _TIN_POINTS = 12_000
 #: its nodes to make every triangle over them one of the TIN of all the points (:func:`linear`),
 #: in at most :data:`TIN_ATTEMPTS` triangulations; a triangle whose circumcircle reaches farther
 #: (a sliver bridging a bay of the data's outline, blank in a DTM as a data gap) is kept as found.
-TIN_WIDEST_BUFFER = 16
+TIN_WIDEST_BUFFER = 8
 TIN_ATTEMPTS = 3
 
 
