@@ -63,6 +63,12 @@ TIN_WIDEST_BUFFER = 8
 TIN_ATTEMPTS = 3
 
 
+def _block_of(v: float, start: float, step: float, nodes: int, count: int) -> int:
+    """The block (of ``nodes`` nodes from node 0 at ``start``, ``count`` of them) holding ``v`` as
+    :func:`_block_order` assigns a point: the first or last block beyond the grid."""
+    return min(max(math.floor((v - start + step / 2) / (nodes * step)), 0), count - 1)
+
+
 def _open_past(extent: tuple[float, float, float, float], rect: tuple[float, float, float, float]
                ) -> tuple[float, float, float, float]:
     """``rect`` (x0, y0, x1, y1) with each side past the points' ``extent`` moved to infinity: no
@@ -377,34 +383,33 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
         i, j = block
         cols = (i * bcols, min(spec.nx, (i + 1) * bcols))
         rows = (j * brows, min(spec.ny, (j + 1) * brows))
-        reach = buffer
         node_rect = (spec.xmin + cols[0] * spec.dx, spec.ymin + rows[0] * spec.dy,
                      spec.xmin + (cols[1] - 1) * spec.dx, spec.ymin + (rows[1] - 1) * spec.dy)
-        most = _open_past(extent, (node_rect[0] - widest, node_rect[1] - widest, node_rect[2] + widest,
-                                   node_rect[3] + widest))
+        rect = (node_rect[0] - buffer, node_rect[1] - buffer, node_rect[2] + buffer, node_rect[3] + buffer)
+        widest_rect = (node_rect[0] - widest, node_rect[1] - widest, node_rect[2] + widest, node_rect[3] + widest)
+        most = _open_past(extent, widest_rect)
         for attempt in range(TIN_ATTEMPTS):
-            reach_x = math.ceil(reach / (bcols * spec.dx))
-            reach_y = math.ceil(reach / (brows * spec.dy))
-            parts = []
-            for jj in range(max(0, j - reach_y), min(nby, j + reach_y + 1)):
-                lo = bounds[jj * nbx + max(0, i - reach_x)]
-                hi = bounds[jj * nbx + min(nbx - 1, i + reach_x) + 1]
-                parts.append(order[lo:hi])
+            x0, y0, x1, y1 = rect
+            b0 = _block_of(x0, spec.xmin, spec.dx, bcols, nbx)
+            b1 = _block_of(x1, spec.xmin, spec.dx, bcols, nbx)
+            parts = [order[bounds[jj * nbx + b0]:bounds[jj * nbx + b1 + 1]]
+                     for jj in range(_block_of(y0, spec.ymin, spec.dy, brows, nby),
+                                     _block_of(y1, spec.ymin, spec.dy, brows, nby) + 1)]
             sel = np.concatenate(parts)
-            x0, y0 = node_rect[0] - reach, node_rect[1] - reach
-            x1, y1 = node_rect[2] + reach, node_rect[3] + reach
             px, py = x[sel], y[sel]
             inside = (px >= x0) & (px <= x1) & (py >= y0) & (py <= y1)
             sel = sel[inside]
             last = attempt == TIN_ATTEMPTS - 1  # keeps what it finds
             circles = _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out,
-                                 None if last else _open_past(extent, (x0, y0, x1, y1)), None if last else most)
+                                 None if last else _open_past(extent, rect), None if last else most)
             if circles is None:
                 return
             out[rows[0]:rows[1], cols[0]:cols[1]] = np.nan  # gridded again from the points the circles reach
-            needed = max(node_rect[0] - circles[0], node_rect[1] - circles[1], circles[2] - node_rect[2],
-                         circles[3] - node_rect[3])
-            reach = min(widest, max(needed + spacing, 2 * reach))
+            # the rectangle grown (on the sides they reach) to hold the circles, and a spacing more
+            rect = (max(widest_rect[0], min(rect[0], circles[0] - spacing)),
+                    max(widest_rect[1], min(rect[1], circles[1] - spacing)),
+                    min(widest_rect[2], max(rect[2], circles[2] + spacing)),
+                    min(widest_rect[3], max(rect[3], circles[3] + spacing)))
 
     blocks = [(i, j) for j in range(nby) for i in range(nbx)]
     on_threads(run, blocks, worker_count(workers))  # the compiled TIN and qhull release the GIL
