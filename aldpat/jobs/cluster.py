@@ -43,7 +43,7 @@ from aldpat.core.units import TOPIC as UNITS_TOPIC
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.execute import Progress, execute, job_names, report_result
+from aldpat.jobs.execute import Progress, doing, execute, job_names, report_result
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Task
 from aldpat.options import LOCAL_SCHEDULER, NO_SCHEDULER, check_scheduler
@@ -199,10 +199,11 @@ def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command:
     heard = _hear_units(client, set(keys), progress) if progress is not None else None
     futures = [client.submit(_execute_in_folder, folder, task, job, run, command, pure=False, key=key)
                for key, job in zip(keys, jobs, strict=False)]
+    start = len(results)  # the run's results may hold a first pass's failures
     try:
         for job, fut in zip(jobs, futures, strict=False):
-            def state(done: int = len(results)) -> str:
-                return f"{task.key} on {scheduler} ({done} of {len(jobs)} inputs done)"
+            def state(done: int = len(results) - start) -> str:
+                return doing(task, run, done, len(jobs), f" on {scheduler}")
 
             with interrupt.doing(state):
                 try:

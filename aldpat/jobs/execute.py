@@ -112,6 +112,16 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
     return result
 
 
+def doing(task: Task, run: ResolvedRun, done: int, total: int, more: str = "") -> str:
+    """What a run is doing, for the line an interruption prints: its jobs done (``more`` after
+    them), or -- in a first pass (``dtm`` over tiles: every tile's ground classes, which write no
+    output) -- that pass's. An interrupted first pass said "4 of 16 inputs done" of a folder
+    still empty."""
+    if run.stage == "first":
+        return f"{task.key}, first pass ({done} of {total} inputs' ground classes found, no output written yet{more})"
+    return f"{task.key} ({done} of {total} inputs done{more})"
+
+
 def job_names(job: list[str]) -> str:
     text = ", ".join(job)
     return text if len(text) <= 200 else text[:197] + "..."

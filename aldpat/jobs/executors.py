@@ -10,7 +10,7 @@ from __future__ import annotations
 from aldpat import interrupt
 from aldpat.core.workers import WorkerPool
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.execute import Progress, execute, job_names, report_result
+from aldpat.jobs.execute import Progress, doing, execute, job_names, report_result
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Task
 
@@ -18,8 +18,9 @@ from aldpat.jobs.task import Task
 def run_in_this_process(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str,
                         results: list[JobResult], progress: Progress | None) -> None:
     """Run ``jobs`` one after the other here."""
+    start = len(results)  # the run's results may hold a first pass's failures
     for job in jobs:
-        with interrupt.doing(f"{task.key} ({len(results)} of {len(jobs)} inputs done)"):
+        with interrupt.doing(doing(task, run, len(results) - start, len(jobs))):
             results.append(execute(task, job, run, command))
         report_result(results[-1], progress)
 
@@ -35,10 +36,11 @@ def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, comman
     pool = WorkerPool(workers)
     try:
         futures = pool.submit_all(execute, [(task, job, run, command) for job in jobs])
+        start = len(results)  # the run's results may hold a first pass's failures
         for job, fut in zip(jobs, futures, strict=False):  # in input order, so output and logs do not depend on -j
-            def state(done: int = len(results)) -> str:
+            def state(done: int = len(results) - start) -> str:
                 running = [job_names(j) for j, f in zip(jobs, futures, strict=False) if f.running()]
-                return f"{task.key} ({done} of {len(jobs)} inputs done; running: {'; '.join(running)})"
+                return doing(task, run, done, len(jobs), f"; running: {'; '.join(running)}")
 
             with interrupt.doing(state):
                 try:

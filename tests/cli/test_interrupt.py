@@ -294,3 +294,17 @@ def test_workers_after_the_run_read_laz_itself(tmp_path):
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in (tmp_path / "ground").glob("*.laz")) == ["a_pm.laz", "b_pm.laz"]
     assert "Traceback" not in done.stderr
+
+
+def test_an_interrupted_first_pass_says_no_output_was_written():
+    """``dtm`` over tiles first finds every tile's ground classes, writing no output: an
+    interruption then said "(4 of 16 inputs done)" of a folder still empty. The line now says
+    which pass it stopped in; the main pass counts its own jobs, not a first pass's failures."""
+    from types import SimpleNamespace
+
+    from aldpat.jobs.execute import doing
+
+    task = SimpleNamespace(key="dtm")
+    assert doing(task, SimpleNamespace(stage="first"), 4, 16) == (
+        "dtm, first pass (4 of 16 inputs' ground classes found, no output written yet)")
+    assert doing(task, SimpleNamespace(stage="main"), 4, 16, " on local:2") == "dtm (4 of 16 inputs done on local:2)"
