@@ -278,15 +278,13 @@ def _tin_block(px: np.ndarray, py: np.ndarray, pz: np.ndarray, spec: GridSpec, c
     grow = None if most is None else np.concatenate([[np.inf, np.inf, -np.inf, -np.inf], np.array(most) - shift])
     done = tin_block(pts, pz, spec.xmin - origin[0], spec.ymin - origin[1], spec.dx, spec.dy, cols, rows,
                      max_distance, out, frame, grow)
-    if done is None:
-        assert grow is not None
-        x0, y0, x1, y1 = (float(v) for v in grow[:4] + shift)
-        return x0, y0, x1, y1
-    if done:
+    if done is False:
+        log.debug("block rows %s cols %s: hull triangles displaced, triangulated by qhull", rows, cols)
+        _qhull_block(*merge_duplicates(pts, pz), spec, cols, rows, origin, max_distance, out)
+    if grow is None or not np.isfinite(grow[0]):  # no triangle in doubt
         return None
-    log.debug("block rows %s cols %s: hull triangles displaced, triangulated by qhull", rows, cols)
-    _qhull_block(*merge_duplicates(pts, pz), spec, cols, rows, origin, max_distance, out)
-    return None
+    x0, y0, x1, y1 = (float(v) for v in grow[:4] + shift)
+    return x0, y0, x1, y1
 
 
 def _qhull_block(pts: np.ndarray, pz: np.ndarray, spec: GridSpec, cols: tuple[int, int], rows: tuple[int, int],
@@ -379,6 +377,17 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
                                  brows * spec.dy, nbx, nby)
     extent = (float(x.min()), float(y.min()), float(x.max()), float(y.max()))
 
+    def points_in(rect: tuple[float, float, float, float]) -> np.ndarray:
+        """The indices of the points inside ``rect``, gathered by slices of the blocks it meets."""
+        x0, y0, x1, y1 = rect
+        b0 = _block_of(x0, spec.xmin, spec.dx, bcols, nbx)
+        b1 = _block_of(x1, spec.xmin, spec.dx, bcols, nbx)
+        sel = np.concatenate([order[bounds[jj * nbx + b0]:bounds[jj * nbx + b1 + 1]]
+                              for jj in range(_block_of(y0, spec.ymin, spec.dy, brows, nby),
+                                              _block_of(y1, spec.ymin, spec.dy, brows, nby) + 1)])
+        px, py = x[sel], y[sel]
+        return sel[(px >= x0) & (px <= x1) & (py >= y0) & (py <= y1)]
+
     def run(block: tuple[int, int]) -> None:
         i, j = block
         cols = (i * bcols, min(spec.nx, (i + 1) * bcols))
@@ -388,28 +397,23 @@ def linear(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, max_dist
         rect = (node_rect[0] - buffer, node_rect[1] - buffer, node_rect[2] + buffer, node_rect[3] + buffer)
         widest_rect = (node_rect[0] - widest, node_rect[1] - widest, node_rect[2] + widest, node_rect[3] + widest)
         most = _open_past(extent, widest_rect)
+        sel = points_in(rect)
         for attempt in range(TIN_ATTEMPTS):
-            x0, y0, x1, y1 = rect
-            b0 = _block_of(x0, spec.xmin, spec.dx, bcols, nbx)
-            b1 = _block_of(x1, spec.xmin, spec.dx, bcols, nbx)
-            parts = [order[bounds[jj * nbx + b0]:bounds[jj * nbx + b1 + 1]]
-                     for jj in range(_block_of(y0, spec.ymin, spec.dy, brows, nby),
-                                     _block_of(y1, spec.ymin, spec.dy, brows, nby) + 1)]
-            sel = np.concatenate(parts)
-            px, py = x[sel], y[sel]
-            inside = (px >= x0) & (px <= x1) & (py >= y0) & (py <= y1)
-            sel = sel[inside]
             last = attempt == TIN_ATTEMPTS - 1  # keeps what it finds
-            circles = _tin_block(px[inside], py[inside], z[sel], spec, cols, rows, max_distance, out,
+            circles = _tin_block(x[sel], y[sel], z[sel], spec, cols, rows, max_distance, out,
                                  None if last else _open_past(extent, rect), None if last else most)
             if circles is None:
                 return
-            out[rows[0]:rows[1], cols[0]:cols[1]] = np.nan  # gridded again from the points the circles reach
             # the rectangle grown (on the sides they reach) to hold the circles, and a spacing more
             rect = (max(widest_rect[0], min(rect[0], circles[0] - spacing)),
                     max(widest_rect[1], min(rect[1], circles[1] - spacing)),
                     min(widest_rect[2], max(rect[2], circles[2] + spacing)),
                     min(widest_rect[3], max(rect[3], circles[3] + spacing)))
+            more = points_in(rect)
+            if len(more) == len(sel):
+                return  # no point where the circles reach past those taken (a sliver along the outline)
+            out[rows[0]:rows[1], cols[0]:cols[1]] = np.nan  # gridded again with the points the circles reach
+            sel = more
 
     blocks = [(i, j) for j in range(nby) for i in range(nbx)]
     on_threads(run, blocks, worker_count(workers))  # the compiled TIN and qhull release the GIL

@@ -182,11 +182,12 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
 
     False when some node of the block lies inside the points' convex hull but under no triangle
     of the points (a hull triangle displaced by the starting rectangle): the caller grids the
-    block another way. None when a triangle over a node may not be one of the TIN of every point
-    (:func:`_rasterise`: its circumcircle reaches out of ``known``, the rectangle whose every
-    point ``pts`` holds, in the same frame, and inside ``grow[4:]``, the most the caller would
-    take; default: no bound): ``grow[:4]`` then holds those circles, and the caller grids the
-    block again with the points there. Nodes the TIN leaves blank stay as they were (NaN).
+    block another way. None when the nodes are gridded but a triangle over a node may not be one
+    of the TIN of every point (:func:`_rasterise`: its circumcircle reaches out of ``known``, the
+    rectangle whose every point ``pts`` holds, in the same frame, and inside ``grow[4:]``, the
+    most the caller would take; default: no bound): ``grow[:4]`` then holds those circles, and
+    the caller keeps the nodes if no point lies there, else grids the block again with those
+    points. Nodes the TIN leaves blank stay as they were (NaN).
     """
     from scipy import spatial
 
@@ -210,15 +211,14 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
         grow = np.array([np.inf, np.inf, -np.inf, -np.inf, 0.0, 0.0, 0.0, 0.0])
     unsure = _rasterise(px, py, vz, tv, int(count[0]), gx0, gy0, dx, dy, cols[0], cols[1], rows[0], rows[1],
                         -1.0 if max_distance is None else float(max_distance), out, covered, bound, grow)
-    if unsure:
-        return None
+    sure = None if unsure else True
     blank_r, blank_c = np.nonzero(~covered)
     if not len(blank_r):
-        return True
+        return sure
     try:
         hull = spatial.ConvexHull(pts)
     except spatial.QhullError:  # fewer than 3 distinct or all collinear points: no triangle at all
-        return True
+        return sure
     qx = gx0 + (cols[0] + blank_c) * dx
     qy = gy0 + (rows[0] + blank_r) * dy
     eq = hull.equations  # unit outward normals: a x + b y + c <= 0 inside
@@ -226,5 +226,5 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
         keep = a * qx + b * qy + c <= 1e-7
         qx, qy = qx[keep], qy[keep]
         if not len(qx):
-            return True
+            return sure
     return False
