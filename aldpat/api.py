@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from aldpat.core.interpolate import BYTES_PER_NODE
 from aldpat.errors import ParamError
 from aldpat.filters.options import FilterOutputOption
 from aldpat.filters.registry import FILTERS
@@ -115,6 +116,8 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     table, crs = _table(points)
     spec = grid_spec_for(dtm_params, xy=(table.x, table.y))
     assert spec is not None  # from the points
+    # as the command refuses it (before numpy's MemoryError for 37 GiB, or the machine swapping)
+    spec.check_fits(BYTES_PER_NODE["linear"], change="use a larger cell")
     occupancy = occupancy_over(spec, 0.0)
     occupancy.add(table.x, table.y)  # every point, of any class: a node near noise is no data gap
     # as the command, the filter sees only the points taking part (a LAS's withheld points, its

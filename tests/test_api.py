@@ -236,3 +236,13 @@ def test_dtm_leaves_out_the_points_the_command_leaves_out(returns, tmp_path):
         assert both.sum() > 0.9 * valued.sum()
         assert (dem.array[both] - clean[both]).min() > -1e-6
         assert dem.array[valued].min() >= z.min() - 1e-3  # no node within 40 m of the noise's depth
+
+
+def test_a_dtm_too_large_for_memory_is_refused_before_it_is_allocated():
+    """``aldpat.dtm(points, cell=0.001)`` over 100 m asked numpy for 37 GiB and raised its bare
+    MemoryError (or swapped); the command refuses such a grid before making it, and so does the
+    call now, with aldpat's error saying what to change."""
+    rng = np.random.default_rng(0)
+    xyz = np.c_[rng.uniform(0, 100, 1000), rng.uniform(0, 100, 1000), rng.uniform(0, 1, 1000)]
+    with pytest.raises(aldpat.AldpatError, match=r"99933 x 99617 grid .* of 0\.001 m cells needs .*use a larger cell"):
+        aldpat.dtm(xyz, cell=0.001)
