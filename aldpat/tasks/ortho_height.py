@@ -111,7 +111,7 @@ class _LasTemplate:
 def _las_template(reader, convert: HeightConverter) -> _LasTemplate:
     """The LAS source's header, as LAS 1.4 when the output's CRS needs WKT
     (:func:`~aldpat.io.las.as_las14`: VLRs and every attribute kept), with the output's CRS as WKT and, when re-projecting, an x, y scale and offset
-    that suit the new coordinates (1e-7 for degrees)."""
+    that suit the new coordinates (1e-7 for degrees, a millimetre for metres or feet)."""
     header = holding_crs(reader.header, convert.recorded_crs)
     if convert.to_crs is not None:
         x0, y0 = (float(v[0]) for v in convert.horizontal([header.mins[0]], [header.mins[1]], path=reader.path))
@@ -119,6 +119,10 @@ def _las_template(reader, convert: HeightConverter) -> _LasTemplate:
             header.scales = np.array([1e-7, 1e-7, header.scales[2]])
             header.offsets = np.array([np.floor(x0), np.floor(y0), header.offsets[2]])
         else:
+            # a millimetre, or the source's finer step -- not its step in degrees (1e-7 of a metre
+            # holds only 214 m of UTM coordinates: the way back from degrees failed)
+            step = [float(v) if 1e-4 <= float(v) < 1e-3 else 1e-3 for v in header.scales[:2]]
+            header.scales = np.array([step[0], step[1], header.scales[2]])
             header.offsets = np.array([np.floor(x0 / 1000.0) * 1000.0, np.floor(y0 / 1000.0) * 1000.0,
                                        header.offsets[2]])
     return _LasTemplate(header, convert.recorded_crs)

@@ -129,3 +129,22 @@ def test_las_reprojected_gets_the_format_6_of_its_format_1_and_the_new_crs(tmp_p
     assert (out.x[0], out.y[0]) == pytest.approx((LON, LAT), abs=2e-7)
     np.testing.assert_array_equal(out.gps_time, [1.5, 2.5])
     assert out.z[0] == pytest.approx(150.0 - N, abs=0.1)
+
+
+def test_a_las_in_degrees_goes_back_to_utm(tmp_path):
+    """UTM to degrees and back, LAS to LAS, in fresh processes: the way back kept the degrees'
+    x, y step of 1e-7, whose 32-bit integers hold 214 m of UTM coordinates, and every point was
+    refused ("cannot be stored in this LAS file"). The projected output now takes a millimetre;
+    the round trip returns every point within the degrees' step (about a centimetre)."""
+    from tests.cli.fresh import TEST_DATA, aldpat
+
+    geoid = DATA / "egm96_15_isprs.gtx"  # the window over the ISPRS sites (UTM 32N)
+    aldpat("ortho-height", TEST_DATA / "fsite5_strip.laz", "--geoid", geoid, "--to-crs", "EPSG:4326",
+           "--odir", "deg", cwd=tmp_path).ok()
+    aldpat("ortho-height", "deg/fsite5_strip_Ortho.laz", "--geoid", geoid, "--reverse", "--to-crs", "EPSG:32632",
+           "--odir", "back", cwd=tmp_path).ok()
+    source, back = laspy.read(TEST_DATA / "fsite5_strip.laz"), laspy.read(tmp_path / "back" / "fsite5_strip_Ortho_Ortho.laz")
+    assert list(back.header.scales[:2]) == [0.001, 0.001]
+    for axis in "xy":
+        assert np.abs(np.asarray(source[axis]) - np.asarray(back[axis])).max() < 0.01
+    assert np.abs(np.asarray(source.z) - np.asarray(back.z)).max() <= 0.011
