@@ -46,7 +46,8 @@ def read_merged(path: str | Path) -> list[Strip]:
             text = line.strip()
             if not text:
                 continue
-            delim = "," if "," in text else None
+            # told by the first column: a comma in the file name (the last) is part of the name
+            delim = "," if "," in text.split(None, 1)[0] else None
             parts = [p.strip() for p in text.split(delim, 4)] if delim else text.split(None, 4)
             if parts[0] == SEPARATOR and len(parts) == 1:
                 close()

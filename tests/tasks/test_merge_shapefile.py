@@ -99,3 +99,20 @@ def test_existing_shapefile_needs_overwrite(tmp_path, bounds):
     again = get_task("shapefile")([tmp_path / "merged.txt"])
     assert again.exit_code == 1 and "exists" in again.results[0].error
     assert get_task("shapefile")([tmp_path / "merged.txt"], overwrite=True).exit_code == 0
+
+
+def test_a_comma_in_a_file_name_reads_back(tmp_path):
+    """merge-boundary writes space-delimited lines; a comma in a boundary file's name (the last
+    column) made the reader split the whole line at commas, so ``shapefile`` could not read what
+    ``merge-boundary`` wrote ("expected 5 columns, found 2"). The delimiter is told by the first
+    column now."""
+    a, b = tmp_path / "strip,A_Bound.txt", tmp_path / "stripB_Bound.txt"
+    np.savetxt(a, RING_A, fmt="%.2f %.2f %.2f %d")
+    np.savetxt(b, RING_B, fmt="%.2f %.2f %.2f %d")
+    merged = tmp_path / "merged.txt"
+    assert get_task("merge-boundary")([a, b], output=str(merged)).exit_code == 0
+    strips = read_merged(merged)
+    assert [s.name for s in strips] == ["strip,A_Bound.txt", "stripB_Bound.txt"]
+    assert get_task("shapefile")([merged], crs="EPSG:32632").exit_code == 0
+    assert [r[1] for r in pyshp.Reader(str(merged.with_suffix(".shp"))).records()] == [
+        "strip,A_Bound.txt", "stripB_Bound.txt"]
