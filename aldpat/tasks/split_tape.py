@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -144,7 +145,26 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
         # leaving the stack renames every strip into place; only then are they recorded
     for out, w in written:
         ctx.wrote(out, w.count)
+    if ctx.overwrite and written:
+        _remove_stale_strips(written[0][0], {out for out, _ in written}, ctx)
     log.info("%s: %d strips", source, len(written))
+
+
+def _remove_stale_strips(first: Path, made: set[Path], ctx: JobContext) -> None:
+    """With ``--overwrite``, the strips of an earlier run of the tape past those made now: the set
+    ``<stem>_stripNN`` is replaced whole, or a tape split again into fewer strips would leave the
+    old later strips beside the new ones, and the next tasks (``separate-returns
+    tape_strip*.txt``) would take them in without a word. Only names of the set itself (two or
+    more digits, nothing after them) are touched."""
+    stem = first.stem[:-2]  # ``tape_strip`` of ``tape_strip01``
+    own = re.compile(re.escape(stem) + r"\d{2,}" + re.escape(first.suffix) + r"\Z")
+    stale = sorted(p for p in first.parent.iterdir() if own.match(p.name) and p not in made and p.is_file())
+    for path in stale:
+        path.unlink()
+    if stale:
+        ctx.warn(f"{first.parent / stem}NN: {len(stale)} {'strip' if len(stale) == 1 else 'strips'} of an earlier "
+                 "run past those of this one removed "
+                 f"({', '.join(p.name for p in stale[:3])}{', ...' if len(stale) > 3 else ''})")
 
 
 register_task(Task(

@@ -105,3 +105,23 @@ def test_strips_are_written_one_open_file_at_a_time(tmp_path):
     assert proc.returncode == 0, proc.stderr
     strips = sorted((tmp_path / "strips").glob("tape_strip*.txt"))
     assert len(strips) == n and all(len(p.read_text().splitlines()) == 2 for p in strips)
+
+
+def test_a_tape_split_again_with_overwrite_replaces_the_whole_set_of_strips(tmp_path):
+    """The same tape split again into fewer strips with --overwrite left the earlier run's later
+    strips beside the new ones, and ``separate-returns tape_strip*.txt`` took them in without a
+    word. In fresh processes: the set is replaced whole, with a warning naming what went, and
+    files that only start like a strip (``tape_strip01_1.txt``, separate-returns' output) stay."""
+    from tests.cli.fresh import aldpat
+
+    write_tape(tmp_path / "tape.txt", tape_rows(TIMES))
+    aldpat("split-tape", "tape.txt", "--interval", "60", "--odir", "strips", cwd=tmp_path).ok()
+    assert sorted(p.name for p in (tmp_path / "strips").glob("*.txt")) == [
+        "tape_strip01.txt", "tape_strip02.txt", "tape_strip03.txt"]
+    (tmp_path / "strips" / "tape_strip01_1.txt").write_text("kept\n")
+    write_tape(tmp_path / "tape.txt", tape_rows(TIMES[:40]))  # the first strip alone
+    done = aldpat("split-tape", "tape.txt", "--interval", "60", "--odir", "strips", "--overwrite", cwd=tmp_path).ok()
+    assert sorted(p.name for p in (tmp_path / "strips").glob("*.txt")) == ["tape_strip01.txt", "tape_strip01_1.txt"]
+    assert "2 strips of an earlier run past those of this one removed (tape_strip02.txt, tape_strip03.txt)" \
+        in done.stderr
+    assert len(np.loadtxt(tmp_path / "strips" / "tape_strip01.txt")) == 40
