@@ -74,15 +74,19 @@ def write_polygons(path: str | Path, polygons: list[Polygon], fields: list[Field
     files = [path.with_suffix(s) for s in PARTS]
     if crs is not None:
         files.append(path.with_suffix(".prj"))
+    # every polygon's rings before the writer opens: a refusal must not leave it half-written (its
+    # finaliser then failed on the closed files with a traceback)
+    shapes = [shapefile_rings(poly.rings) for poly in polygons]
+    for poly, rings in zip(polygons, shapes, strict=True):
+        if not rings:
+            raise UsageError(f"polygon {' '.join(map(str, poly.attributes))} encloses no area (fewer than three "
+                             "distinct vertices, or a boundary crossing itself to nothing)", path=path)
     with atomic_outputs(files, overwrite=overwrite) as tmps:
         with open(tmps[0], "wb") as shp, open(tmps[1], "wb") as shx, open(tmps[2], "wb") as dbf:
             w = shapefile.Writer(shp=shp, shx=shx, dbf=dbf, shapeType=shapefile.POLYGON, encoding="utf-8")
             for name, kind, size, decimal in fields:
                 w.field(name, kind, size=size, decimal=decimal)
-            for poly in polygons:
-                rings = shapefile_rings(poly.rings)
-                if not rings:
-                    raise UsageError("a polygon needs at least three distinct vertices", path=path)
+            for poly, rings in zip(polygons, shapes, strict=True):
                 w.poly(rings)
                 w.record(*poly.attributes)
             w.close()

@@ -17,7 +17,7 @@ from aldpat.core.crs import output_crs
 from aldpat.errors import UsageError
 from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import PARTS as SHAPEFILE_PARTS
-from aldpat.io.shapefile import Polygon, write_polygons
+from aldpat.io.shapefile import Polygon, shapefile_rings, write_polygons
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
 from aldpat.jobs.task import Planned, Task
@@ -59,6 +59,10 @@ def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext)
         for strip in read_merged(source):
             if len({(x, y) for x, y in strip.xyz[:, :2].tolist()}) < 3:
                 ctx.warn(f"{source}: strip {strip.index} ({strip.name}) has fewer than 3 distinct points; skipped")
+                continue
+            if not shapefile_rings([strip.xyz[:, :2]]):
+                ctx.warn(f"{source}: strip {strip.index} ({strip.name}): its boundary encloses no area (it crosses "
+                         "itself to nothing, or its points lie on a line); skipped")
                 continue
             polygons.append(Polygon([strip.xyz[:, :2]], (strip.index, strip.name)))
     if not polygons:

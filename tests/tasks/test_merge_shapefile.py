@@ -116,3 +116,18 @@ def test_a_comma_in_a_file_name_reads_back(tmp_path):
     assert get_task("shapefile")([merged], crs="EPSG:32632").exit_code == 0
     assert [r[1] for r in pyshp.Reader(str(merged.with_suffix(".shp"))).records()] == [
         "strip,A_Bound.txt", "stripB_Bound.txt"]
+
+
+def test_a_strip_enclosing_no_area_is_skipped_by_name_and_the_others_written(tmp_path):
+    """A strip whose boundary crosses itself to no area (a bow-tie of equal halves) has four
+    distinct vertices, passed the check for three, and made the writer refuse the whole file with
+    a pyshp traceback, naming no strip; the other strips were not written. In a fresh process:
+    a warning naming the strip, the others written."""
+    from tests.cli.fresh import aldpat
+
+    merged = tmp_path / "m.txt"
+    merged.write_text("0 0 1 1 a.txt\n10 0 1 1 a.txt\n10 10 1 1 a.txt\n0 10 1 1 a.txt\n-1111\n"
+                      "0 0 1 3 c.txt\n10 10 1 3 c.txt\n10 0 1 3 c.txt\n0 10 1 3 c.txt\n")
+    done = aldpat("shapefile", "m.txt", "--crs", "32632", cwd=tmp_path).ok()
+    assert "strip 3 (c.txt): its boundary encloses no area" in done.stderr
+    assert [r[1] for r in pyshp.Reader(str(tmp_path / "m.shp")).records()] == ["a.txt"]
