@@ -33,6 +33,7 @@ for their extent; LAS/LAZ headers hold it).
 from __future__ import annotations
 
 import logging
+import math
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -318,6 +319,8 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
                                   origin=params.origin, upper_included=params.bounds is None)
     except ValueError as exc:
         raise UsageError(f"--bounds: {exc}" if params.bounds is not None else str(exc)) from None
+    if params.append and param_path.exists():
+        check_same_layout(read_parameter_rows(param_path), layout, param_path)
     log.info("tiling %s into up to %d x %d tiles", ", ".join(map(str, bounds)), layout.nx, layout.ny)
     check_disk(sum(_tiled_bytes(r, ext) for r in readers) * layout.copies, folder,
                f"tiling {len(readers)} input(s) with {params.buffer:g} m buffers ({layout.copies:.1f} copies of "
@@ -360,7 +363,8 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     rows = read_parameter_rows(param_path) if params.append and param_path.exists() else {}
     for (i, j), path, _ in done:
         x0, x1, y0, y1 = layout.core(i, j)
-        rows[str(path.resolve())] = (x0, x1, y0, y1, x1 - x0, y1 - y0, layout.buffer)
+        # the tile's size as given (333.3, not 333.29999999998836 from the edges' difference)
+        rows[str(path.resolve())] = (x0, x1, y0, y1, layout.xs.size, layout.ys.size, layout.buffer)
     write_parameter_file(param_path, rows, delimiter=ctx.delimiter, overwrite=True)
     ctx.wrote(param_path)  # first, so the run's log is tile_parameter.log, not one tile's
     for _, path, count in sorted(done, key=lambda d: str(d[1])):
@@ -372,6 +376,27 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
         ctx.warn(f"{outside} of {total} points lie outside every tile's core (--bounds): no tile holds them "
                  "as its own")
     log.info("%d points, %d in tile cores, %d tiles", total, total - outside, len(done))
+
+
+def check_same_layout(rows: dict[str, tuple[float, ...]], layout: TileLayout, where: Path) -> None:
+    """Refuse ``--append`` into tiles of another layout: tiles of 250 m appended with 200 m ones
+    overlapped their cores (a point the own point of two tiles) and mixed sizes in one
+    tile_parameter.txt. Each existing row must have this layout's size and buffer, its core on its
+    lattice."""
+    for name, (x0, _, y0, _, width, height, buffer) in rows.items():
+        same = (math.isclose(width, layout.xs.size, rel_tol=1e-9, abs_tol=1e-6)
+                and math.isclose(height, layout.ys.size, rel_tol=1e-9, abs_tol=1e-6)
+                and math.isclose(buffer, layout.buffer, rel_tol=1e-9, abs_tol=1e-6))
+        for v, axis in ((x0, layout.xs), (y0, layout.ys)):
+            steps = (v - axis.origin) / axis.size
+            same = same and abs(steps - round(steps)) <= 1e-6
+        if not same:
+            raise UsageError(f"--append: {Path(name).name} is a tile of {number_text(width)} x {number_text(height)} "
+                             f"with a {number_text(buffer)} buffer at {number_text(x0)}, {number_text(y0)}; these are "
+                             f"{number_text(layout.xs.size)} x {number_text(layout.ys.size)} with a "
+                             f"{number_text(layout.buffer)} buffer from origin {number_text(layout.xs.origin)}, "
+                             f"{number_text(layout.ys.origin)}: their cores would overlap (tile into another --odir, "
+                             "or give the same layout)", path=where)
 
 
 register_task(Task(

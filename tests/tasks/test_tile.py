@@ -180,3 +180,26 @@ def test_the_layout_of_given_bounds_is_checked_with_the_parameters():
         TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=4.6)
     TileParams(bounds=(0.0, 0.0, 10.0, 10.0), width=1.0, height=1.0, buffer=4.5)  # 10 tiles along an axis
     TileParams(width=1.0, buffer=500.0, direction="y")  # x spans the data, whose extent the run reads
+
+
+def test_append_refuses_another_layout_and_writes_the_sizes_given(tmp_path):
+    """``--append`` with tiles of another size took 200 m tiles into a folder of 250 m ones: cores
+    overlapping (one point the own point of two tiles), sizes mixed in one tile_parameter.txt,
+    200 m points appended into 250 m files. It is refused before any tile is touched; the same
+    layout appends as before. The parameter rows carry the sizes as given (333.3, not
+    333.29999999998836 from the edges' difference)."""
+    from tests.cli.fresh import REPO, aldpat
+
+    sample = REPO / "jobs" / "data" / "samp24.txt"
+    aldpat("tile", sample, "--width", "60", "--height", "60", "--buffer", "5", "--odir", "t", cwd=tmp_path).ok()
+    before = {p.name: p.read_bytes() for p in (tmp_path / "t").iterdir()}
+    done = aldpat("tile", sample, "--width", "50", "--height", "50", "--buffer", "5", "--odir", "t", "--append",
+                  cwd=tmp_path)
+    assert done.returncode == 2 and "their cores would overlap" in done.stderr
+    assert {p.name: p.read_bytes() for p in (tmp_path / "t").iterdir()} == before
+    aldpat("tile", sample, "--width", "60", "--height", "60", "--buffer", "5", "--odir", "t", "--append",
+           cwd=tmp_path).ok()
+    aldpat("tile", sample, "--width", "33.3", "--height", "25", "--origin", "12.345", "-7.7", "--buffer", "7.5",
+           "--odir", "odd", cwd=tmp_path).ok()
+    rows = (tmp_path / "odd" / "tile_parameter.txt").read_text().splitlines()
+    assert all(line.split()[-3:] == ["33.3", "25", "7.5"] for line in rows)
