@@ -119,3 +119,17 @@ def test_las_to_text_writes_x_y_z_intensity(tmp_path):
     assert get_task("thin")([src], cell=20.0, out_format="text",
                             odir=str(tmp_path)).exit_code == 0
     assert np.loadtxt(tmp_path / "fsite5_strip_thin.txt").shape[1] == 4
+
+
+def test_a_point_on_a_cell_edge_is_in_the_cell_above_it(tmp_path):
+    """Cells are [i w, (i + 1) w): 512000.60 lies in [512000.6, 512000.8) of 0.2 m cells. Its
+    quotient 512000.6 / 0.2 is 2560002.9999999995 in binary floating point, and it fell into the
+    cell below, with 512000.50 (a fifth of exact edges at 0.1 and 0.2 m cells). In a fresh
+    process, the lowest point of each cell."""
+    from tests.cli.fresh import aldpat
+
+    (tmp_path / "edge.txt").write_text("512000.50 5403000.10 1.00\n512000.60 5403000.10 5.00\n"
+                                       "512000.70 5403000.10 9.00\n")
+    aldpat("thin", "edge.txt", "--cell", "0.2", "--odir", "out", cwd=tmp_path).ok()
+    assert (tmp_path / "out" / "edge_thin.txt").read_text().split("\n")[:2] == [
+        "512000.50 5403000.10 1.00", "512000.60 5403000.10 5.00"]
