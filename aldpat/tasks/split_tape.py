@@ -125,8 +125,16 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
 
         writer = None
         previous = None
+        shots = 0
+        back: tuple[int, float] | None = None  # the first shot whose time goes back, and by how much
         for chunk in reader.chunks():
             t = chunk["t"]
+            if back is None:
+                steps = np.diff(np.asarray(t, np.float64), prepend=t[0] if previous is None else previous)
+                behind = np.flatnonzero(steps < -params.interval)
+                if len(behind):
+                    back = (shots + int(behind[0]) + 1, -float(steps[behind[0]]))
+            shots += len(chunk)
             lines = None
             if lines_of is not None:
                 lines = lines_of.take(len(chunk))
@@ -145,6 +153,11 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
         # leaving the stack renames every strip into place; only then are they recorded
     for out, w in written:
         ctx.wrote(out, w.count)
+    if back is not None:
+        # the manual splits where time jumps forward by more than the interval; a jump back is a
+        # tape out of time order (blocks concatenated in another order), whose strips then mix
+        ctx.warn(f"{source}: GPS time goes back by {back[1]:g} s at shot {back[0]:,} (more than the interval): the "
+                 "tape is not in time order, and strips may mix passes; sort it by time first")
     if ctx.overwrite and written:
         _remove_stale_strips(written[0][0], {out for out, _ in written}, ctx)
     log.info("%s: %d strips", source, len(written))

@@ -125,3 +125,17 @@ def test_a_tape_split_again_with_overwrite_replaces_the_whole_set_of_strips(tmp_
     assert "2 strips of an earlier run past those of this one removed (tape_strip02.txt, tape_strip03.txt)" \
         in done.stderr
     assert len(np.loadtxt(tmp_path / "strips" / "tape_strip01.txt")) == 40
+
+
+def test_a_tape_out_of_time_order_is_said(tmp_path):
+    """A strip is cut where GPS time jumps forward by more than the interval (manual task 1); a
+    tape whose blocks were concatenated out of order jumps back, and its passes went into one
+    strip without a word. In a fresh process: a warning naming the shot where time goes back."""
+    from tests.cli.fresh import aldpat
+
+    rows = tape_rows(TIMES)
+    write_tape(tmp_path / "tape.txt", np.concatenate([rows[40:], rows[:40]]))
+    done = aldpat("split-tape", "tape.txt", "--interval", "60", "--odir", "strips", cwd=tmp_path).ok()
+    back = TIMES[-1] - TIMES[0]
+    assert f"GPS time goes back by {back:g} s at shot 56 (more than the interval): the tape is not in time order" \
+        in done.stderr
