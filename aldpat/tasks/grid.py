@@ -21,6 +21,7 @@ roofs -- and any other LAS from every point but noise (7, 18) and withheld point
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -340,14 +341,23 @@ def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
     write_grid(out, values, spec, params, ctx.open_input(tile.source).crs, ctx, len(parts[0].x))
 
 
-def chunk_buffer_for(params: GridParams) -> float:
+#: ``grid --chunk``'s ``auto`` buffer reaches at least this many mean point spacings: twice the 8
+#: the TIN grid's blocks take (:func:`aldpat.core.interpolate.linear`), room for a gap at a chunk's
+#: edge. Ten cells alone (2.5 m at 0.25 m cells over points 2.6 m apart) gave nodes metres from the
+#: whole grid's and blanked half of them.
+CHUNK_BUFFER_SPACINGS = 16
+
+
+def chunk_buffer_for(params: GridParams, spacing: float | None = None) -> float:
     """``--chunk-buffer`` of a grid in metres; ``auto``: the search radius or blanking distance
-    where one is given, else ten cells (a TIN, nearest point or IDW over data spaced less than
-    that apart)."""
+    where one is given, ten cells, and :data:`CHUNK_BUFFER_SPACINGS` mean point ``spacing`` s
+    (when known), whichever is widest: a TIN, nearest point or IDW of a chunk then sees the
+    points the whole grid's would, but across gaps wider than that."""
     given = params.buffer_metres()
     if given is not None:
         return given
-    return max(params.radius or 0.0, params.max_distance or 0.0, 10.0 * params.cell)
+    return max(params.radius or 0.0, params.max_distance or 0.0, 10.0 * params.cell,
+               CHUNK_BUFFER_SPACINGS * (spacing or 0.0))
 
 
 def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None
@@ -357,7 +367,9 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
     and the grid. Returns the grid and the number of points."""
     assert params.chunk is not None  # grid_one calls this only with --chunk
     k = params.chunk_cells(params.cell)
-    buffer = chunk_buffer_for(params)
+    count = reader.count if reader.count is not None else sum(len(c) for c in selected(reader.chunks(), keep))
+    area = max((spec.xmax - spec.xmin) * (spec.ymax - spec.ymin), params.cell * params.cell)
+    buffer = chunk_buffer_for(params, math.sqrt(area / count) if count else None)
     # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1
     lattice = ChunkLattice(k * params.cell, buffer, (spec.xmin - params.cell / 2, spec.ymin - params.cell / 2))
     values = np.full(spec.shape, np.nan)

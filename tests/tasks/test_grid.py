@@ -289,3 +289,23 @@ def test_chunked_grid_agrees_with_the_whole(tmp_path, method):
     assert same.mean() >= 0.999
     assert "chunks of 20 m" in (tmp_path / "chunks" / f"samp24_{method}.log").read_text()
     assert not list(tmp_path.rglob(".aldpat-scratch-*"))
+
+
+def test_chunks_take_a_buffer_of_point_spacings_not_only_of_cells(tmp_path):
+    """``--chunk``'s auto buffer was ten cells: at 0.05 m cells over points a metre apart each
+    chunk saw too few points, and half the nodes of a plane came out blank (52.2 % against 3.3 %).
+    It reaches 16 mean point spacings now; the chunked grid holds the whole grid's nodes."""
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 20, 300), rng.uniform(0, 20, 300)
+    source = write_points(tmp_path / "plane.txt", x, y, 2 * x + 3 * y + 1, fmt="%.6f")
+    grids = []
+    for odir, options in (("whole", {}), ("chunks", {"chunk": 2.0})):
+        report = get_task("grid")([source], cell=0.05, method="linear", grid_format="geotiff",
+                                  odir=str(tmp_path / odir), **options)
+        assert report.exit_code == 0, [r.error for r in report.results]
+        with rasterio.open(tmp_path / odir / "plane_linear.tif") as ds:
+            grids.append(ds.read(1, masked=True).filled(np.nan))
+    whole, chunks = grids
+    both = np.isfinite(whole) & np.isfinite(chunks)
+    assert np.abs(whole[both] - chunks[both]).max() < 1e-4
+    assert np.isnan(chunks).mean() - np.isnan(whole).mean() < 0.01  # measured: 3.37 % against 3.31 %
