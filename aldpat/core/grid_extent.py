@@ -19,6 +19,7 @@ import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -162,3 +163,14 @@ def from_data(x: np.ndarray, y: np.ndarray, cell: float, *, origin: tuple[float,
     ny = math.ceil(steps_between(lo_y, y_max, cell, "y") - _WHOLE) + 1
     # Surfer grids need two nodes a side to define a spacing.
     return GridSpec(lo_x, lo_y, cell, cell, max(nx, 2), max(ny, 2))
+
+
+def refuse_held_nodata(values: np.ndarray, nodata: float, path: str | Path, dtype: Any = np.float64) -> None:
+    """Refuse (:class:`DataError`) a grid a node of which holds its ``nodata`` value itself, as the
+    file stores it (``dtype``): read back, that node would be blank. Every grid format with a
+    nodata value of the user's (GeoTIFF, ArcGIS grids, Surfer 7) asks this before it writes."""
+    kind = np.dtype(dtype).type
+    stored = np.asarray(values).astype(dtype, copy=False)
+    if np.any(stored == kind(nodata)):  # NaN equals nothing: blank nodes never match
+        raise DataError(f"a node holds the nodata value {nodata:g} itself; choose another nodata value",
+                        path=Path(path))

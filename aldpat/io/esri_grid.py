@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.crs import prj_wkt
-from aldpat.core.grid_extent import GridSpec
+from aldpat.core.grid_extent import GridSpec, refuse_held_nodata
 from aldpat.errors import DataError, InputFormatError, InputMissingError
 from aldpat.io.atomic import atomic_outputs
 
@@ -43,10 +43,8 @@ def filled_with_nodata(values: np.ndarray, spec: GridSpec, nodata: float, path: 
     values = np.asarray(values, dtype=np.float64)
     if values.shape != spec.shape:
         raise ValueError(f"values have shape {values.shape}, grid is {spec.shape}")
-    blank = np.isnan(values)
-    if np.any(values[~blank] == nodata):
-        raise DataError(f"a node holds the nodata value {nodata:g} itself; choose another nodata value", path=path)
-    return np.where(blank, nodata, values)
+    refuse_held_nodata(values, nodata, path)
+    return np.where(np.isnan(values), nodata, values)
 
 
 def header_lines(spec: GridSpec, nodata: float, *, ascii: bool = False) -> list[str]:

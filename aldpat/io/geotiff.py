@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from aldpat.core.grid_extent import GridSpec
+from aldpat.core.grid_extent import GridSpec, refuse_held_nodata
 from aldpat.core.paths import not_local
 from aldpat.core.threads import thread_budget
-from aldpat.errors import DataError, InputFormatError, UsageError, one_line
+from aldpat.errors import InputFormatError, UsageError, one_line
 from aldpat.io.atomic import atomic_output
 
 #: ``--grid-format`` / ``--to`` name -> file extension
@@ -83,9 +83,7 @@ class Raster:
         # one float32 copy, north row first; a value equal to nodata once stored as float32
         # would read back as blank (NaN equals nothing, so blank nodes never match)
         band = np.ascontiguousarray(values[::-1], dtype=np.float32)
-        if np.any(band == np.float32(nodata)):
-            raise DataError(f"a node holds the nodata value {nodata:g} itself; choose another nodata value",
-                            path=Path(path or "grid"))
+        refuse_held_nodata(band, nodata, path or "grid", np.float32)
         np.copyto(band, np.float32(nodata), where=np.isnan(band))
         gt = spec.corner_transform()
         return cls(band, (gt[1], gt[2], gt[0], gt[4], gt[5], gt[3]),

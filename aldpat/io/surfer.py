@@ -24,7 +24,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from aldpat.core.grid_extent import GridSpec
+from aldpat.core.grid_extent import GridSpec, refuse_held_nodata
 from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 
@@ -90,6 +90,7 @@ def write_surfer(path: str | Path, values: np.ndarray, spec: GridSpec, *, fmt: s
     if blank is not None and fmt != "surfer7" and blank != BLANK:
         raise UsageError(f"Surfer 6 grids only know the blank value {BLANK:g}; use surfer7 for {blank:g}")
     check_holds(spec, fmt, path)
+    refuse_held_nodata(values, BLANK if blank is None or fmt != "surfer7" else blank, path)
     with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "wb") as fh:
         if fmt == "surfer7":
             _write_dsrb(fh, values, spec, BLANK if blank is None else blank)

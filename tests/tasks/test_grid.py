@@ -309,3 +309,17 @@ def test_chunks_take_a_buffer_of_point_spacings_not_only_of_cells(tmp_path):
     both = np.isfinite(whole) & np.isfinite(chunks)
     assert np.abs(whole[both] - chunks[both]).max() < 1e-4
     assert np.isnan(chunks).mean() - np.isnan(whole).mean() < 0.01  # measured: 3.37 % against 3.31 %
+
+
+def test_a_surfer7_node_holding_the_nodata_value_is_refused_as_in_a_geotiff(tmp_path):
+    """``--nodata 5`` and a node whose mean is 5: the GeoTIFF was refused, the Surfer 7 grid written,
+    and GDAL and grd2bin then read that node as blank. Both refuse it now, in fresh processes."""
+    from tests.cli.fresh import aldpat
+
+    (tmp_path / "bin.txt").write_text("0.2 0.2 10\n0.4 0.1 20\n0.9 0.3 30\n1.2 1.1 5\n2.0 2.0 7\n")
+    for fmt in ("surfer7", "geotiff"):
+        done = aldpat("grid", "bin.txt", "--cell", "1", "--method", "mean", "--nodata", "5", "--grid-format", fmt,
+                      "--odir", fmt, cwd=tmp_path)
+        assert done.returncode == 1 and "a node holds the nodata value 5 itself" in done.stderr, done.stderr
+        assert not any(p.suffix in (".grd", ".tif") for p in (tmp_path / fmt).glob("*"))
+    aldpat("grid", "bin.txt", "--cell", "1", "--method", "mean", "--nodata", "-9999", "--odir", "ok", cwd=tmp_path).ok()
