@@ -262,8 +262,8 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         units.stage("interpolate")
         values = interpolate(x, y, z, spec, method=params.method, **interpolation_options(params))
     if np.isnan(values).all():
-        raise DataError(f"every node is blank: none of the {count} points lies near the grid range "
-                        f"{spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g}", path=source)
+        raise DataError(f"every node of the grid {spec.xmin:g}..{spec.xmax:g} x {spec.ymin:g}..{spec.ymax:g} is blank: "
+                        f"no node lies where its {count} points reach ({_why_blank(params.method)})", path=source)
     write_grid(out, values, spec, params, reader.crs, ctx, count)
     log.info("%s: %d points -> %d x %d nodes", source, count, spec.nx, spec.ny)
 
@@ -346,6 +346,15 @@ def grid_over_tiles(tile: TileJob, params: GridParams, ctx: JobContext) -> None:
 #: edge. Ten cells alone (2.5 m at 0.25 m cells over points 2.6 m apart) gave nodes metres from the
 #: whole grid's and blanked half of them.
 CHUNK_BUFFER_SPACINGS = 16
+
+
+def _why_blank(method: str) -> str:
+    """What makes every node of a grid blank, by method, for the one line that refuses it."""
+    if method == "linear":
+        return "inside their triangles; with cells wider than the points' extent, a smaller --cell"
+    if method in BINNING:
+        return "in their cells; the points may lie off the --bounds"
+    return "within --radius or --max-distance, or the points lie off the --bounds"
 
 
 def chunk_buffer_for(params: GridParams, spacing: float | None = None) -> float:

@@ -197,7 +197,7 @@ def test_errors_name_the_file(tmp_path, runner, cli):
     assert res.exit_code != 0 and "not both" in res.output
     res = runner.invoke(cli, ["grid", str(other), "--bounds", "100", "100", "110", "110", "--method", "nearest",
                               "--max-distance", "2", "--odir", str(tmp_path / "out3")])
-    assert res.exit_code == 1 and "every node is blank" in res.output
+    assert res.exit_code == 1 and "is blank: no node lies where its" in res.output and "--max-distance" in res.output
 
 
 def test_tiles_of_a_real_sample_grid_seamlessly(tmp_path, samp24):
@@ -323,3 +323,16 @@ def test_a_surfer7_node_holding_the_nodata_value_is_refused_as_in_a_geotiff(tmp_
         assert done.returncode == 1 and "a node holds the nodata value 5 itself" in done.stderr, done.stderr
         assert not any(p.suffix in (".grd", ".tif") for p in (tmp_path / fmt).glob("*"))
     aldpat("grid", "bin.txt", "--cell", "1", "--method", "mean", "--nodata", "-9999", "--odir", "ok", cwd=tmp_path).ok()
+
+
+def test_a_cell_wider_than_the_points_says_so(tmp_path):
+    """``--cell 100`` over 20 m of points: the one node lies outside the points' triangles, and the
+    refusal said "none of the 300 points lies near the grid range" of points all inside it."""
+    from tests.cli.fresh import aldpat
+
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 20, 300), rng.uniform(0, 20, 300)
+    write_points(tmp_path / "plane.txt", x, y, 2 * x + 3 * y + 1, fmt="%.6f")
+    done = aldpat("grid", "plane.txt", "--cell", "100", "--method", "linear", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "inside their triangles; with cells wider than the points' extent, a smaller --cell" in done.stderr
