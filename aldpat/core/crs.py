@@ -80,6 +80,21 @@ def without_crs(out: Any) -> str:
     return f"{name}{WITHOUT_CRS}"
 
 
+def cell_in_degrees(given: Any, source: Any, cell: float, name: str) -> str | None:
+    """The warning line of a cell given in metres (``--cell``, as every command documents it) over
+    coordinates in degrees: the output's CRS (``given``, else the input's ``source``) is geographic,
+    so a cell of 1 is a degree, about 111 km -- a grid of 2 x 2 nodes over points 0.02 degrees
+    apart, without a word. None for a projected CRS, or none known."""
+    try:
+        crs = parse_crs(given if given is not None else source) if (given or source) is not None else None
+    except Exception:  # noqa: BLE001  (a CRS that does not parse is said where it is used)
+        return None
+    if crs is None or not crs.is_geographic:
+        return None
+    return (f"{name}: the coordinates are in degrees ({crs_label(crs)}): --cell {cell:g} is {cell:g} degrees "
+            f"(about {cell * 111.32:.3g} km), not metres; re-project first (ortho-height --to-crs) for cells in metres")
+
+
 def horizontal_part(crs: Any) -> Any:
     """The 2D horizontal CRS of ``crs``: itself when horizontal, the horizontal component of a
     compound CRS, the 2D form of a 3D one (EPSG:4979 -> EPSG:4326); None for a vertical CRS."""

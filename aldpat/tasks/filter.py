@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import output_crs
+from aldpat.core.crs import cell_in_degrees, output_crs
 from aldpat.errors import ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.marks import MARK_LOW_OUTLIER
@@ -187,6 +187,9 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
         filter_chunked(source, params, ctx, algorithm=algorithm)
         return
     reader = ctx.open_input(source)
+    cell = getattr(params, "cell", None)  # a filter without a cell of its own has none to misread
+    if cell is not None and (degrees := cell_in_degrees(params.crs, reader.crs, cell, source.name)) is not None:
+        ctx.warn(degrees)
     params = with_result(params, source, ctx, reader)
     if (reader.format == "las" and params.data_mode == "real" and streamable(algorithm, params)
             and filter_streamed(source, reader, params, ctx, algorithm=algorithm)):

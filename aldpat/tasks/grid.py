@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import output_crs
+from aldpat.core.crs import cell_in_degrees, output_crs
 from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
@@ -225,6 +225,8 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         grid_over_tiles(tile, params, ctx)
         return
     reader = ctx.open_input(source)
+    if (degrees := cell_in_degrees(params.crs, reader.crs, params.cell, source.name)) is not None:
+        ctx.warn(degrees)
     out = ctx.outputs_for(source)[0].path
     spec = grid_spec_for(params)
     keep = class_selection(params, reader, ctx)
