@@ -72,7 +72,8 @@ log = logging.getLogger(__name__)
 class GridParams(OriginOption, CrsOption, ChunkOption):
     cell: float = param(1.0, "grid cell size: spacing of the nodes", unit="m", gt=0)
     method: str = param("linear", "interpolation: nearest point, Delaunay TIN, inverse distance, ordinary "
-                        "kriging, or the min/max/mean of the points in each node's cell", choices=METHODS)
+                        "kriging, or the min/max/mean of the points in each node's cell (the square of one cell centred on "
+                        "the node: nodes lie on whole multiples of the cell, Surfer's grid)", choices=METHODS)
     tile_params: str | None = param(None, "tile_parameter.txt written by 'aldpat tile' (default: the one beside "
                                     "the inputs, when it lists them): each grid covers its tile's core on one "
                                     "lattice, and adjacent tile grids share their edge nodes", path=True,
