@@ -98,7 +98,11 @@ def make_command(task: Task) -> click.Command:
             for w in result.outputs:
                 log.info("wrote %s%s", w.path, f" ({w.count} points)" if w.count is not None else "")
         if report.failed and report.exit_code != 2:  # a usage error is the command's, not its inputs'
-            log.warning("%d of %d inputs failed", report.failed, len(report.results) + len(report.input_errors))
+            if task.run_all is not None:  # one job of every input (merge, tile...): it failed whole
+                named = sum(len(r.inputs) for r in report.results) + len(report.input_errors)
+                log.warning("%s of %d %s failed", task.key, named, "input" if named == 1 else "inputs")
+            else:
+                log.warning("%d of %d inputs failed", report.failed, len(report.results) + len(report.input_errors))
         sys.exit(report.exit_code)
 
     params: list[click.Parameter] = []

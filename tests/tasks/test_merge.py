@@ -132,6 +132,7 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
         done = aldpat("merge", *order, "-o", "m.txt", cwd=tmp_path)
         assert done.returncode == 1, done.stderr
         assert "xyz.txt: has no intensity column and xyzi.txt has one; use --fields xyz" in done.stderr
+        assert done.stderr.splitlines()[-1] == "aldpat: merge of 2 inputs failed"  # one job of both, failed whole
         assert not (tmp_path / "m.txt").exists()
     aldpat("merge", "xyzi.txt", "xyz.txt", "-o", "m.txt", "--fields", "xyz", cwd=tmp_path).ok()
     assert np.loadtxt(tmp_path / "m.txt").shape == (4, 3)
