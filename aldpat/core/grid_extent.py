@@ -113,7 +113,7 @@ def _count(lo: float, hi: float, cell: float, what: str) -> int:
     steps = steps_between(lo, hi, cell, what)
     if whole_cells(lo, hi, cell):
         return round(steps) + 1
-    log.warning("%s range %g..%g is not a whole number of %g cells; grid extended to %g",
+    log.warning("%s range %g..%g is not a whole number of %g-unit cells; the grid is extended to %g to cover it",
                 what, lo, hi, cell, lo + math.ceil(steps) * cell)
     return math.ceil(steps) + 1
 

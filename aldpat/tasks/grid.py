@@ -33,7 +33,6 @@ from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
     from_data,
-    whole_cells,
 )
 from aldpat.core.interpolate import BINNING, BYTES_PER_NODE, METHODS, Binner, interpolate
 from aldpat.core.kriging import DRIFTS, MODELS
@@ -126,10 +125,7 @@ def grid_spec_for(params, xy: tuple[np.ndarray, np.ndarray] | None = None) -> Gr
     bounds = getattr(params, "bounds", None)
     if bounds:
         minx, miny, maxx, maxy = bounds
-        if not (whole_cells(minx, maxx, params.cell) and whole_cells(miny, maxy, params.cell)):
-            log.warning("range %g..%g x %g..%g is not a whole number of %g m cells; the grid is extended "
-                        "east/north to cover it", minx, maxx, miny, maxy, params.cell)
-        return from_bounds(minx, miny, maxx, maxy, params.cell)
+        return from_bounds(minx, miny, maxx, maxy, params.cell)  # it says which range is extended, once
     if xy is not None:
         return from_data(*xy, params.cell, origin=params.origin or (0.0, 0.0))
     return None

@@ -336,3 +336,17 @@ def test_a_cell_wider_than_the_points_says_so(tmp_path):
     done = aldpat("grid", "plane.txt", "--cell", "100", "--method", "linear", cwd=tmp_path)
     assert done.returncode == 1
     assert "inside their triangles; with cells wider than the points' extent, a smaller --cell" in done.stderr
+
+
+def test_bounds_off_the_cell_lattice_are_said_once(tmp_path):
+    """``--bounds`` that are not a whole number of cells were warned twice (once "of 1 m cells",
+    once "of 1 cells"); once now, naming the range and where the grid ends."""
+    from tests.cli.fresh import aldpat
+
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 10, 200), rng.uniform(0, 10, 200)
+    write_points(tmp_path / "p.txt", x, y, x + y)
+    done = aldpat("grid", "p.txt", "--cell", "1", "--bounds", "0", "0", "10.5", "10", cwd=tmp_path).ok()
+    said = [ln for ln in done.stderr.splitlines() if "not a whole number" in ln]
+    assert said == ["aldpat: x range 0..10.5 is not a whole number of 1-unit cells; the grid is extended to 11 to "
+                    "cover it"]
