@@ -348,5 +348,5 @@ def test_bounds_off_the_cell_lattice_are_said_once(tmp_path):
     write_points(tmp_path / "p.txt", x, y, x + y)
     done = aldpat("grid", "p.txt", "--cell", "1", "--bounds", "0", "0", "10.5", "10", cwd=tmp_path).ok()
     said = [ln for ln in done.stderr.splitlines() if "not a whole number" in ln]
-    assert said == ["aldpat: x range 0..10.5 is not a whole number of 1-unit cells; the grid is extended to 11 to "
-                    "cover it"]
+    assert said == [("aldpat: x range 0..10.5 is not a whole number of 1-unit cells; the grid is extended to 11 to "
+                    "cover it")]
