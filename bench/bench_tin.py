@@ -14,7 +14,7 @@ TIN covers that aldpat leaves blank. Cases:
   every point (``grid``), and the ground points of gapm's defaults (``dtm``'s TIN: the ground
   under buildings and trees removed, holes the TIN bridges);
 * ``holes``: a curved terrain of 200,000 points over 600 m with 60 rectangular holes of 20-70 m
-  (building footprints), made here.
+  (building footprints): ``ground_with_building_holes`` of ``tests/filters/terrain_scenes.py``.
 
 Differences left where aldpat's blocks reach the limit of the points they take (a sliver
 bridging a bay of the data's outline) or where equally valid triangulations tie (points on one
@@ -66,15 +66,7 @@ def compare(x, y, z):
 
 case, source = sys.argv[2], sys.argv[3]
 if case == "holes":
-    rng = np.random.default_rng(1)
-    n = 200_000
-    x, y = rng.uniform(0, 600, n), rng.uniform(0, 600, n)
-    z = 100 + 0.3 * x + 20 * np.sin(y / 40.0) + 5 * np.cos(x / 23.0)
-    keep = np.ones(n, bool)
-    for _ in range(60):
-        cx, cy, w, h = rng.uniform(0, 600), rng.uniform(0, 600), rng.uniform(20, 70), rng.uniform(20, 70)
-        keep &= ~((np.abs(x - cx) < w / 2) & (np.abs(y - cy) < h / 2))
-    x, y, z = x[keep], y[keep], z[keep]
+    x, y, z = np.load(source)
 else:
     import laspy
     las = laspy.read(source)
@@ -84,6 +76,21 @@ else:
         x, y, z = x[keep], y[keep], z[keep]
 print(json.dumps(compare(x, y, z)))
 """
+
+
+def holes_scene() -> Path:
+    """The made scene's points (x, y, z rows), written once from this checkout's
+    ``tests/filters/terrain_scenes.py`` (one scene for every revision compared)."""
+    import numpy as np
+
+    path = WORK / "tin_holes.npy"
+    if not path.exists():
+        sys.path.insert(0, str(REPO / "tests" / "filters"))
+        from terrain_scenes import ground_with_building_holes
+
+        WORK.mkdir(parents=True, exist_ok=True)
+        np.save(path, np.stack(ground_with_building_holes(200_000, 600.0, 60)))
+    return path
 
 
 def ground_mask(site: str) -> Path:
@@ -125,7 +132,7 @@ def main() -> None:
     roots = [("this checkout", REPO)]
     if args.against:
         roots.append((args.against, checkout(args.against)))
-    cases = [("holes", "holes", "", "")]
+    cases = [("holes", "holes", str(holes_scene()), "")]
     for site in SITES:
         source = str(ISPRS_SITES / f"{site}.laz")
         if not Path(source).exists():

@@ -61,18 +61,13 @@ def test_linear_is_the_tin_of_every_point_across_building_sized_holes():
     of the TIN triangulates: a block took triangles across a hole at its edge that the TIN of
     every point does not hold (7.2 m off, 7,032 of 361,201 nodes more than 1 mm; 800 nodes left
     blank), so a DTM depended on where its blocks, or its tiles, fell. Against scipy's Delaunay
-    TIN of every point (qhull), a curved terrain with 60 such holes: every node the same."""
+    TIN of every point (qhull), a curved terrain with 20 such holes: every node the same (the
+    figures above: ``bench/bench_tin.py``'s scene of 60 holes)."""
     from scipy.interpolate import LinearNDInterpolator
 
-    rng = np.random.default_rng(1)
-    n = 60_000
-    x, y = rng.uniform(0, 330, n), rng.uniform(0, 330, n)
-    z = 100 + 0.3 * x + 20 * np.sin(y / 40.0) + 5 * np.cos(x / 23.0)
-    keep = np.ones(n, bool)
-    for _ in range(20):
-        cx, cy, w, h = rng.uniform(0, 330), rng.uniform(0, 330), rng.uniform(20, 70), rng.uniform(20, 70)
-        keep &= ~((np.abs(x - cx) < w / 2) & (np.abs(y - cy) < h / 2))
-    x, y, z = x[keep], y[keep], z[keep]
+    from tests.filters.terrain_scenes import ground_with_building_holes
+
+    x, y, z = ground_with_building_holes(60_000, 330.0, 20)
     spec = from_bounds(0, 0, 330, 330, 1.0)
     ours = linear(x, y, z, spec, block_points=2_000)  # blocks of about 60 m: many edges cross holes
     gx, gy = np.meshgrid(spec.xmin + np.arange(spec.nx) * spec.dx, spec.ymin + np.arange(spec.ny) * spec.dy)

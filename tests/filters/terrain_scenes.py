@@ -262,3 +262,18 @@ SCENE_SHARES = {
     "large building with gaps": (99.0, 99.0),
     "walled terraces": (99.0, 99.0),
 }
+
+
+def ground_with_building_holes(n: int, side: float, holes: int, seed: int = 1
+                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ground points of a curved terrain over ``side`` x ``side`` m (``n`` drawn, uniform) with
+    ``holes`` rectangular holes of 20-70 m where buildings stood: a TIN bridges each hole, with
+    triangles whose circumcircles reach far past a block of nodes. x, y, z of the points kept."""
+    rng = np.random.default_rng(seed)
+    x, y = rng.uniform(0, side, n), rng.uniform(0, side, n)
+    z = 100 + 0.3 * x + 20 * np.sin(y / 40.0) + 5 * np.cos(x / 23.0)
+    keep = np.ones(n, bool)
+    for _ in range(holes):
+        cx, cy, w, h = rng.uniform(0, side), rng.uniform(0, side), rng.uniform(20, 70), rng.uniform(20, 70)
+        keep &= ~((np.abs(x - cx) < w / 2) & (np.abs(y - cy) < h / 2))
+    return x[keep], y[keep], z[keep]
