@@ -543,14 +543,11 @@ def _names_crs(header: laspy.LasHeader, crs: Any) -> bool:
 _LAS_CODES = (-(2 ** 31), 2 ** 31 - 1)
 
 
-def _check_storable(values: np.ndarray, axis: str, scale: float, offset: float) -> None:
-    """Refuse (:class:`DataError`, one line) coordinates a LAS file cannot store at its scale and
-    offset: its integers reach about 2,147 km either side of the offset at millimetres. One stray
-    point far from the others, or a file of another coordinate system appended, made laspy's
-    OverflowError an internal error."""
-    if not len(values):
-        return
-    lo, hi = (float(v) for v in (np.min(values), np.max(values)))
+def _check_storable(lo: float, hi: float, axis: str, scale: float, offset: float) -> None:
+    """Refuse (:class:`DataError`, one line) coordinates from ``lo`` to ``hi`` a LAS file cannot
+    store at its scale and offset: its integers reach about 2,147 km either side of the offset at
+    millimetres. One stray point far from the others, or a file of another coordinate system
+    appended, made laspy's OverflowError an internal error."""
     first, last = (offset + scale * c for c in _LAS_CODES)
     if first <= lo and hi <= last:
         return
@@ -616,7 +613,7 @@ class LasWriter:
         self._rescaled: Path | None = None
         self._coarse: set[int] = set()  # the axes whose scale keeps fewer decimals than asked, said once
         self._evlrs: list[Any] = []  # the template's extended VLRs, written once the points are
-        self._reach: list[tuple[float, float]] = []  # lowest and highest x and y written
+        self._reach: list[tuple[float, float]] = []  # lowest and highest x, y, z written, this chunk's too
 
     def _open(self, table: PointTable) -> None:
         import laspy
@@ -658,8 +655,11 @@ class LasWriter:
 
         if "decoded_only" in table.meta:  # its record's other fields were never decoded
             raise AssertionError("a table read with only= is for reading, not for writing")
-        if len(table):
-            self._check_extent(table)
+        # each coordinate's lowest and highest of this chunk, found once for every check of them
+        extent = [(float(np.min(table.columns[a])), float(np.max(table.columns[a]))) for a in "xyz"] \
+            if len(table) else []
+        if extent:
+            self._check_extent(extent)
         if self._fh is None:
             self._open(table)
         n = len(table)
@@ -701,8 +701,7 @@ class LasWriter:
                     points[dim] = np.ones(n, np.uint8)
         for k, name in enumerate("xyz"):
             if name not in same:
-                _check_storable(table.columns[name], name, float(self._header.scales[k]),
-                                float(self._header.offsets[k]))
+                _check_storable(*extent[k], name, float(self._header.scales[k]), float(self._header.offsets[k]))
                 setattr(points, name, table.columns[name])
         for name, values in table.columns.items():
             dim = LAS_DIMENSIONS.get(name)
@@ -715,19 +714,15 @@ class LasWriter:
         self._fh.write_points(points)
         self.count += n
 
-    def _check_extent(self, table: PointTable) -> None:
-        """Refuse (:class:`DataError`, one line) x or y spreading, with the points written before,
-        over more than :data:`MOST_EXTENT`: the file could not be read back (:class:`LasReader`
-        refuses such bounds). One stray point with a lost decimal point (51386646 among
-        513866.46) made such a file, and every x of it a decimal coarser."""
-        for k, name in enumerate("xy"):
-            values = table.columns[name]
-            lo, hi = float(np.min(values)), float(np.max(values))
-            if len(self._reach) > k:
-                lo, hi = min(lo, self._reach[k][0]), max(hi, self._reach[k][1])
-                self._reach[k] = (lo, hi)
-            else:
-                self._reach.append((lo, hi))
+    def _check_extent(self, extent: list[tuple[float, float]]) -> None:
+        """Take a chunk's ``extent`` (lowest and highest x, y, z) into the file's, and refuse
+        (:class:`DataError`, one line) x or y spreading over more than :data:`MOST_EXTENT`: the
+        file could not be read back (:class:`LasReader` refuses such bounds). One stray point
+        with a lost decimal point (51386646 among 513866.46) made such a file, and every x of it a
+        decimal coarser."""
+        self._reach = [(min(lo, held[0]), max(hi, held[1])) for (lo, hi), held in zip(extent, self._reach, strict=True)] \
+            if self._reach else list(extent)
+        for name, (lo, hi) in zip("xy", self._reach, strict=False):
             if hi - lo > MOST_EXTENT:
                 raise DataError(f"{name} reaches from {lo:.10g} to {hi:.10g}, more than the Earth's circumference: a "
                                 "LAS file of these points could not be read back (a stray point far from the others? "
@@ -776,12 +771,8 @@ class LasWriter:
         if all(a <= b for a, b in zip(asked, self._asked, strict=True)):
             return
         self._asked = [max(a, b) for a, b in zip(asked, self._asked, strict=True)]
-        written = self._fh.header  # its bounds grow with every chunk written
         scales = self._header.scales.copy()
-        for k, n in enumerate("xyz"):
-            lowest, highest = float(np.min(table.columns[n])), float(np.max(table.columns[n]))
-            if written.point_count:
-                lowest, highest = min(lowest, float(written.mins[k])), max(highest, float(written.maxs[k]))
+        for k, (lowest, highest) in enumerate(self._reach):  # every point written, and this chunk's
             places = places_held(self._asked[k], lowest, highest, float(self._header.offsets[k]))
             scales[k] = min(float(scales[k]), 10.0 ** -places)
         self._say_coarse(scales)
