@@ -38,6 +38,7 @@ from aldpat.filters.grid_stage import cell_classes
 from aldpat.filters.marks import MARK_GROUND
 from aldpat.filters.options import GroundParams
 from aldpat.filters.registry import get_filter
+from aldpat.io.bounds import scanned_bounds
 from aldpat.io.table import PointTable
 
 if TYPE_CHECKING:
@@ -77,17 +78,12 @@ def grid_bounds(reader: LasReader, params: GroundParams, chunk: int) -> Extent:
             return bounds
     except DataError:
         pass
-    lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]
-    for table in reader.chunks(chunk, only=(), ahead=True):
-        if len(table):
-            x, y = table.x, table.y
-            lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
-            hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
-    if not np.isfinite(lo[0]):
+    own = scanned_bounds(reader.chunks(chunk, only=(), ahead=True))
+    if own is None:
         return bounds
     log.info("%s: the header's bounds %s ask for a grid far larger than the points' own %s: gridding those",
-             reader.path.name, bounds, (lo[0], lo[1], hi[0], hi[1]))
-    return (lo[0], lo[1], hi[0], hi[1])
+             reader.path.name, bounds, own)
+    return (own.minx, own.miny, own.maxx, own.maxy)
 
 
 def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHeights, cell: float,

@@ -3,12 +3,14 @@ says it; a text file is read once, in chunks, keeping only the running minimum a
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from aldpat.io.registry import open_points
+from aldpat.io.table import PointTable
 
 
 @dataclass(frozen=True)
@@ -38,10 +40,16 @@ def point_bounds(path: str | Path, *, format: str | None = None) -> Bounds:
         header = reader.header  # type: ignore[attr-defined]
         (minx, miny), (maxx, maxy) = header.mins[:2], header.maxs[:2]
         return Bounds(float(minx), float(miny), float(maxx), float(maxy))
+    return scanned_bounds(reader.chunks()) or Bounds(np.inf, np.inf, -np.inf, -np.inf)
+
+
+def scanned_bounds(chunks: Iterable[PointTable]) -> Bounds | None:
+    """The x/y extent of the points of ``chunks``, read through once keeping only the running
+    minimum and maximum; None when they hold no point."""
     lo = np.array([np.inf, np.inf])
     hi = -lo
-    for chunk in reader.chunks():
+    for chunk in chunks:
         if len(chunk):
             lo = np.minimum(lo, [chunk.x.min(), chunk.y.min()])
             hi = np.maximum(hi, [chunk.x.max(), chunk.y.max()])
-    return Bounds(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    return Bounds(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])) if np.isfinite(lo[0]) else None
