@@ -61,6 +61,8 @@ _TIN_POINTS = 12_000
 #: (a sliver bridging a bay of the data's outline, blank in a DTM as a data gap) is kept as found.
 TIN_WIDEST_BUFFER = 8
 TIN_ATTEMPTS = 3
+#: (triangle, node) candidate pairs rasterised at once
+_PAIR_BATCH = 4_000_000
 
 
 def _block_of(v: float, start: float, step: float, nodes: int, count: int) -> int:
@@ -75,8 +77,6 @@ def _open_past(extent: tuple[float, float, float, float], rect: tuple[float, flo
     point lies there for a circumcircle to hold."""
     return (-math.inf if rect[0] <= extent[0] else rect[0], -math.inf if rect[1] <= extent[1] else rect[1],
             math.inf if rect[2] >= extent[2] else rect[2], math.inf if rect[3] >= extent[3] else rect[3])
-#: (triangle, node) candidate pairs rasterised at once
-_PAIR_BATCH = 4_000_000
 
 
 def _tree(x: np.ndarray, y: np.ndarray) -> tuple[spatial.cKDTree, tuple[float, float]]:
