@@ -199,7 +199,7 @@ def open_raster(path: str | Path) -> Iterator[Any]:
 def geotiff_header(path: str | Path) -> tuple[GridSpec, float | None, str | None]:
     """The nodes, the nodata value and the CRS (WKT) of a GeoTIFF, without reading its values."""
     with open_raster(path) as ds:
-        return _spec_of(ds), ds.nodata, (ds.crs.to_wkt() if ds.crs else None)
+        return _placement(ds, path)[0], ds.nodata, (ds.crs.to_wkt() if ds.crs else None)
 
 
 def read_geotiff(path: str | Path, longest: int | None = None) -> tuple[np.ndarray, GridSpec]:
@@ -217,27 +217,38 @@ def read_geotiff(path: str | Path, longest: int | None = None) -> tuple[np.ndarr
             shape = (max(1, ds.height // step), max(1, ds.width // step))
             window = Window(0, 0, min(shape[1] * step, ds.width), min(shape[0] * step, ds.height))
             band = ds.read(1, window=window, out_shape=shape)
-            spec = _spec_of(_Decimated(ds.transform @ ds.transform.scale(step, step), shape[1], shape[0]))
+            spec, north_first = _placement(_Decimated(ds.transform @ ds.transform.scale(step, step), shape[1],
+                                                      shape[0]), path)
         else:
-            spec = _spec_of(ds)
+            spec, north_first = _placement(ds, path)
             band = ds.read(1)
         values = band.astype(np.float64)
         if ds.nodata is not None:  # compared as the band stores it (a float32 band's 1.70141e38)
             values[(band == np.asarray(ds.nodata, dtype=band.dtype)) | np.isnan(values)] = np.nan
-        return values[::-1], spec
+        return (values[::-1] if north_first else values), spec
 
 
 @dataclass(frozen=True)
 class _Decimated:
-    """The placement of a raster read at a coarser size (what :func:`_spec_of` reads of one)."""
+    """The placement of a raster read at a coarser size (what :func:`_placement` reads of one)."""
 
     transform: Any
     width: int
     height: int
 
 
-def _spec_of(ds: Any) -> GridSpec:
-    """The nodes of a north-up raster whose pixels are centred on them (the inverse of
-    :meth:`GridSpec.corner_transform`)."""
+def _placement(ds: Any, path: str | Path) -> tuple[GridSpec, bool]:
+    """The nodes of a raster whose pixels are centred on them (the inverse of
+    :meth:`GridSpec.corner_transform`), and whether its first row is the northern one.
+
+    aldpat writes north-up rasters (first row north, a negative y pixel size); GDAL also writes and
+    reads south-up ones (first row south, a positive y pixel size), which hold the same grid with
+    their rows the other way round. A rotated or sheared raster, or one whose columns run west, is
+    refused: its nodes do not lie on a lattice of x and y."""
     t = ds.transform
-    return GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height)
+    if t.b != 0 or t.d != 0 or not t.a > 0 or t.e == 0:
+        raise InputFormatError(f"not a grid of x and y: the raster's pixels are rotated, sheared or run west "
+                               f"(geotransform {t.c:g}, {t.a:g}, {t.b:g}, {t.f:g}, {t.d:g}, {t.e:g})", path=path)
+    if t.e < 0:
+        return GridSpec(t.c + t.a / 2, t.f + t.e * (ds.height - 0.5), t.a, -t.e, ds.width, ds.height), True
+    return GridSpec(t.c + t.a / 2, t.f + t.e / 2, t.a, t.e, ds.width, ds.height), False

@@ -60,6 +60,32 @@ def test_every_grid_format_gives_the_same_picture_and_blanks_are_transparent(tmp
     assert np.array_equal(alpha == 0, np.isnan(z)[::-1])  # north up: row 0 is the northern row
 
 
+def test_a_south_up_geotiff_gives_the_north_up_picture_and_a_rotated_one_is_refused(tmp_path):
+    """GDAL writes and reads rasters whose first row is the southern one (a positive y pixel
+    size): the same grid with its rows the other way round, so the same picture and world file
+    as the north-up file. A rotated raster has no lattice of x and y: refused by name."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    z = plane()
+    z[10:14, 20:25] = np.nan
+    write_geotiff(tmp_path / "north.tif", z, SPEC)
+    with rasterio.open(tmp_path / "north.tif") as ds:
+        profile, band = ds.profile, ds.read(1)
+    south_first = Affine(SPEC.dx, 0.0, SPEC.xmin - SPEC.dx / 2, 0.0, SPEC.dy, SPEC.ymin - SPEC.dy / 2)
+    with rasterio.open(tmp_path / "south.tif", "w", **{**profile, "transform": south_first}) as ds:
+        ds.write(band[::-1], 1)
+    rotated = Affine(SPEC.dx, 0.5, SPEC.xmin, 0.5, -SPEC.dy, SPEC.ymax)
+    with rasterio.open(tmp_path / "turned.tif", "w", **{**profile, "transform": rotated}) as ds:
+        ds.write(band, 1)
+    report = get_task("preview")([tmp_path / "north.tif", tmp_path / "south.tif", tmp_path / "turned.tif"])
+    assert [r.ok for r in report.results] == [True, True, False]
+    assert "rotated, sheared or run west" in str(report.results[2].error)
+    north, south = (np.asarray(Image.open(tmp_path / f"{n}_hillshade.png")) for n in ("north", "south"))
+    assert np.array_equal(north, south) and (north[..., 3] == 0).sum() == 20
+    assert (tmp_path / "north_hillshade.pgw").read_text() == (tmp_path / "south_hillshade.pgw").read_text()
+
+
 def test_a_grid_longer_than_the_picture_is_read_at_every_kth_node(tmp_path, monkeypatch):
     """A county's mosaic is tens of thousands of nodes a side: past GRID_LONGEST its hillshade
     is made of every k-th node, placed where those nodes lie, blanks kept blank."""
