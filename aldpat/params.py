@@ -357,6 +357,10 @@ def convert(spec: Spec, value: Any, where: str = "") -> Any:
             items = [v for v in value.replace(";", ",").replace(" ", ",").split(",") if v != ""]
         elif isinstance(value, (list, tuple)):
             items = list(value)
+        elif getattr(value, "ndim", None) == 1 and callable(getattr(value, "tolist", None)):
+            # a numpy array (or another array library's), as a notebook holds its windows: its
+            # values as Python's numbers, each then checked as a list's would be
+            items = value.tolist()
         else:
             items = [value]
         if len(items) > MOST_ITEMS:

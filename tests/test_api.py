@@ -133,6 +133,19 @@ def test_a_bad_parameter_is_refused_at_the_call_by_name(call, words):
     assert words in str(caught.value)
 
 
+def test_numpy_arrays_for_list_parameters_are_their_values():
+    """A notebook holds its windows and thresholds as numpy arrays: a 1-D array is the list of its
+    values (each checked as a list's would be), a 2-D one is refused by name."""
+    as_lists = {"window_series": [1, 2, 4, 8], "cluster_thresholds": [0.3, 0.5, 1.0, 1.0],
+                "row_windows": [1, 2, 4, 8], "column_windows": [1, 2, 4]}
+    as_arrays = {k: np.asarray(v) for k, v in as_lists.items()}
+    np.testing.assert_array_equal(aldpat.ground(STRIP, cell=1.5, **as_arrays), aldpat.ground(STRIP, cell=1.5, **as_lists))
+    with pytest.raises(aldpat.ParamError, match=r"row_windows: \[16\] not in window_series"):
+        aldpat.ground(STRIP, **{**as_arrays, "row_windows": np.array([4, 16], np.int64)})
+    with pytest.raises(aldpat.ParamError, match="window_series: expected a whole number"):
+        aldpat.ground(STRIP, window_series=np.array([[1, 2], [4, 8]]))
+
+
 def test_a_missing_file_is_an_aldpat_error_naming_it():
     with pytest.raises(FileNotFoundError) as caught:
         aldpat.ground("no/such/file.laz")
