@@ -98,3 +98,23 @@ def product_points(table: PointTable, classes: tuple[int, ...] | None) -> np.nda
     keep = in_classes(table, classes)
     held = withheld(table) if classes is not None else None
     return keep if held is None else keep & ~held
+
+
+def held_classes(reader: PointReader) -> str:
+    """What classes the points of ``reader`` hold, with their counts, for a message saying why a
+    choice of classes left no point (``--classes 9`` of a file without water): "it holds class 0
+    (131,622 points)", "classes 1 (20), 2 (180)", or that it holds none (text without a class
+    column). Read in full, which such a message can afford."""
+    counts = np.zeros(256, np.int64)
+    for table in reader.chunks():
+        held = classes_of_table(table)
+        if held is None:
+            return "it holds no classes"
+        counts += np.bincount(np.asarray(held).astype(np.int64) & 255, minlength=256)[:256]
+    found = [(c, int(n)) for c, n in enumerate(counts) if n]
+    if not found:
+        return "it holds no points"
+    if len(found) == 1:
+        return f"it holds class {found[0][0]} ({found[0][1]:,} points)"
+    return "it holds classes " + ", ".join(f"{c} ({n:,})" for c, n in found)
+

@@ -56,7 +56,7 @@ from aldpat.filters.options import LowOutlierOption
 from aldpat.filters.streamed import grid_bounds, stream_ground, streamable
 from aldpat.filters.survey import TAKING_PART_FIELDS, ExistingClassesOption, taking_part
 from aldpat.io.bounds import Bounds, point_bounds
-from aldpat.io.classified import parse_classes, product_points
+from aldpat.io.classified import held_classes, parse_classes, product_points
 from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.registry import open_points
@@ -258,6 +258,9 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
         made = _ground_in_memory(source, reader, params, ctx)
     x, y, z, spec, count, own_ground, occupancy = made
     del made  # the points go with x, y, z below, before the raster is written
+    if len(x) == 0 and params.classes is not None:
+        raise DataError(f"no ground point found by class {params.classes}: no terrain to grid; "
+                        f"{held_classes(reader)}", path=source)
     ctx.note(f"{own_ground} ground ({_how(params)})")
     if params.classes is None:
         ctx.note(_low_outlier_test(params.ground_params()))

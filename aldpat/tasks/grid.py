@@ -49,7 +49,16 @@ from aldpat.io.chunks import (
     spill_chunks,
     too_many_chunks,
 )
-from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, in_classes, parse_classes, product_points, withheld
+from aldpat.io.classified import (
+    GROUND,
+    HIGH_NOISE,
+    LOW_NOISE,
+    held_classes,
+    in_classes,
+    parse_classes,
+    product_points,
+    withheld,
+)
 from aldpat.io.geotiff import DEFAULT_NODATA, FLOAT32_MAX, geotiff_header, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.surfer import BLANK as SURFER_BLANK
@@ -190,6 +199,13 @@ def class_selection(params: GridParams, reader, ctx: JobContext) -> Keep:
     return _default_points
 
 
+def _none_chosen(params: GridParams, reader) -> str:
+    """Why no point was gridded when ``--classes`` chose them: the classes the file holds."""
+    if params.classes is None or parse_classes(params.classes) is None:
+        return ""
+    return f": none of class {params.classes} (--classes); {held_classes(reader)}"
+
+
 def selected(chunks, keep: Keep):
     """The chunks with only the points ``keep`` selects."""
     for chunk in chunks:
@@ -251,7 +267,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         x, y, z = (np.concatenate(a) if a else np.zeros(0) for a in (xs, ys, zs))
         count = len(x)
         if count == 0:
-            raise DataError("no points to grid", path=source)
+            raise DataError(f"no points to grid{_none_chosen(params, reader)}", path=source)
         if spec is None:
             spec = grid_spec_for(params, xy=(x, y))
         assert spec is not None  # from the points when no bounds give it
@@ -402,7 +418,7 @@ def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, pl
     ctx.note(f"--chunk: {len(jobs)} chunks of {k * params.cell:g} m ({k} nodes a side) with {buffer:g} m "
              f"buffers, {count} points")
     if count == 0:
-        raise DataError("no points to grid", path=reader.path)
+        raise DataError(f"no points to grid{_none_chosen(params, reader)}", path=reader.path)
     return values, count
 
 

@@ -161,6 +161,18 @@ def test_dtm_from_the_files_own_classes_without_filtering(vendor, tmp_path):
         assert ds.read(1, masked=True).count() > 1000
 
 
+def test_classes_the_file_lacks_fail_naming_the_classes_it_holds(vendor, tmp_path):
+    """`--classes 3` of a file without class 3 (low vegetation) grids nothing: the one line says
+    which classes the file holds, with their counts, so the user sees what to ask for."""
+    path, _low, _held, classes, _version = vendor
+    counts = np.bincount(classes, minlength=256)
+    held = ", ".join(f"{c} ({n:,})" for c, n in enumerate(counts) if n)
+    for command in (["grid", path, "--classes", "3"], ["grid", path, "--classes", "3,4", "--chunk", "100"],
+                    ["dtm", path, "--classes", "3"]):
+        done = aldpat(*command, "--odir", tmp_path / command[0], "--cell", "2")
+        assert done.returncode == 1 and f"it holds classes {held}" in done.stderr, done.stderr
+
+
 def test_dtm_of_a_vendor_file_has_no_pit_at_the_planted_noise(vendor, tmp_path):
     """The planted class-7 points, 15 m under the points they copy, are no ground of the DTM (the
     low-outlier test off, so that the classes alone keep them out); with every class taking part
