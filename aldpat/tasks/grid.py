@@ -39,7 +39,7 @@ from aldpat.core.kriging import DRIFTS, MODELS
 from aldpat.core.resources import check_disk
 from aldpat.core.tile_edges import core_nodes, grid_tile
 from aldpat.errors import DataError, ParamError
-from aldpat.io.bounds import point_bounds
+from aldpat.io.bounds import Bounds, scanned_bounds
 from aldpat.io.chunks import (
     MOST_CHUNKS,
     ChunkLattice,
@@ -206,6 +206,20 @@ def _none_chosen(params: GridParams, reader) -> str:
     return f": none of class {params.classes} (--classes); {held_classes(reader)}"
 
 
+def _gridded_extent(reader, keep: Keep) -> tuple[Bounds | None, int]:
+    """The x/y extent of the points ``keep`` grids (None: none) and their count, read through once."""
+    count = 0
+
+    def counted():
+        nonlocal count
+        for chunk in selected(reader.chunks(), keep):
+            count += len(chunk)
+            yield chunk
+
+    extent = scanned_bounds(counted())
+    return extent, count
+
+
 def selected(chunks, keep: Keep):
     """The chunks with only the points ``keep`` selects."""
     for chunk in chunks:
@@ -244,12 +258,18 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     spec = grid_spec_for(params)
     keep = class_selection(params, reader, ctx)
     if params.chunk is not None and params.method not in BINNING:
-        if spec is None:
-            b = point_bounds(source, format=ctx.input.format if ctx.input is not None else None)
-            spec = from_data(np.array([b.minx, b.maxx]), np.array([b.miny, b.maxy]), params.cell,
-                             origin=params.origin or (0.0, 0.0))
+        gridded = None  # how many points are gridded, when known before the chunks are cut
+        if spec is None or keep is not None or reader.count is None:
+            # the points gridded, read through once: their extent is the whole grid's, and their
+            # count (not the file's, when --classes leaves some out) sets the buffer
+            extent, gridded = _gridded_extent(reader, keep)
+            if spec is None:
+                if extent is None:
+                    raise DataError(f"no points to grid{_none_chosen(params, reader)}", path=source)
+                spec = from_data(np.array([extent.minx, extent.maxx]), np.array([extent.miny, extent.maxy]),
+                                 params.cell, origin=params.origin or (0.0, 0.0))
         check_grid_fits(spec, "mean", params.grid_format, out.parent, source)  # the whole grid, filled by chunks
-        values, count = grid_chunked(reader, spec, params, ctx, out.parent, keep)
+        values, count = grid_chunked(reader, spec, params, ctx, out.parent, keep, gridded)
     elif spec is not None and params.method in BINNING:
         check_grid_fits(spec, params.method, params.grid_format, out.parent, source)
         binner = Binner(spec, params.method)  # streams: memory is the grid's, not the points'
@@ -384,14 +404,17 @@ def chunk_buffer_for(params: GridParams, spacing: float | None = None) -> float:
                CHUNK_BUFFER_SPACINGS * (spacing or 0.0))
 
 
-def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None
-                 ) -> tuple[np.ndarray, int]:
+def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None,
+                 gridded: int | None = None) -> tuple[np.ndarray, int]:
     """``--chunk``: the nodes in squares of ``chunk`` (whole cells), each interpolated from the
     points of its square and its buffer only (:mod:`aldpat.io.chunks`); memory is a chunk's points
-    and the grid. Returns the grid and the number of points."""
+    and the grid. ``gridded``: how many points ``keep`` grids, when the caller counted them.
+    Returns the grid and the number of points."""
     assert params.chunk is not None  # grid_one calls this only with --chunk
     k = params.chunk_cells(params.cell)
-    count = reader.count if reader.count is not None else sum(len(c) for c in selected(reader.chunks(), keep))
+    count = gridded
+    if count is None:
+        count = reader.count if keep is None and reader.count is not None else _gridded_extent(reader, keep)[1]
     area = max((spec.xmax - spec.xmin) * (spec.ymax - spec.ymin), params.cell * params.cell)
     buffer = chunk_buffer_for(params, math.sqrt(area / count) if count else None)
     # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1

@@ -311,6 +311,35 @@ def test_chunks_take_a_buffer_of_point_spacings_not_only_of_cells(tmp_path):
     assert np.isnan(chunks).mean() - np.isnan(whole).mean() < 0.01  # measured: 3.37 % against 3.31 %
 
 
+def test_chunks_of_a_classified_las_grid_its_ground_on_the_whole_grids_nodes(tmp_path):
+    """A classified LAS grids its ground (class 2). With ``--chunk`` the grid's extent came from the
+    header (every point's, one node wider where objects reach past the ground) and the buffer from
+    the count of every point (too small for the sparser ground); both come from the ground now, so
+    the chunked grid has the whole grid's nodes, and its log says the ground's count."""
+    import laspy
+
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(0, 60, 4000), rng.uniform(0, 60, 4000)
+    las = laspy.LasData(laspy.LasHeader(point_format=1, version="1.2"))
+    las.header.scales, las.header.offsets = np.array([0.001] * 3), np.zeros(3)
+    las.x, las.y, las.z = x, y, 0.2 * x + 0.1 * y + 50
+    las.classification = np.where((x > 1.5) & (y > 1.5) & (rng.random(4000) < 0.25), 2, 1).astype(np.uint8)
+    las.write(tmp_path / "site.las")
+    grids = []
+    for odir, options in (("whole", {}), ("chunks", {"chunk": 15.0})):
+        report = get_task("grid")([tmp_path / "site.las"], cell=1.0, grid_format="geotiff", odir=str(tmp_path / odir),
+                                  **options)
+        assert report.exit_code == 0, [r.error for r in report.results]
+        with rasterio.open(tmp_path / odir / "site_linear.tif") as ds:
+            grids.append((ds.bounds, ds.read(1, masked=True).filled(np.nan)))
+    (whole_bounds, whole), (chunk_bounds, chunks) = grids
+    assert whole_bounds == chunk_bounds and whole_bounds.left == 0.5  # the ground's extent: from node 1
+    assert np.array_equal(np.isnan(whole), np.isnan(chunks))
+    assert np.nanmax(np.abs(whole - chunks)) < 1e-4
+    ground = int((las.classification == 2).sum())
+    assert f"buffers, {ground} points" in (tmp_path / "chunks" / "site_linear.log").read_text()
+
+
 def test_a_surfer7_node_holding_the_nodata_value_is_refused_as_in_a_geotiff(tmp_path):
     """``--nodata 5`` and a node whose mean is 5: the GeoTIFF was refused, the Surfer 7 grid written,
     and GDAL and grd2bin then read that node as blank. Both refuse it now, in fresh processes."""
