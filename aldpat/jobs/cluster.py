@@ -104,6 +104,11 @@ def client_for(scheduler: str) -> Any:
             return client
         distributed = _distributed()
         logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL)
+        # Dask closes its clusters at exit too, with its logging as it was: ours must run first
+        # (exit functions run last registered first), lest an interrupted run's workers, busy in
+        # compiled code, be killed with a line each ("still alive after 4.0 seconds, killing")
+        atexit.unregister(_close_clients)
+        atexit.register(_close_clients)
         m = LOCAL_SCHEDULER.match(scheduler)
         if m:
             workers = int(m.group(1) or os.cpu_count() or 1)
@@ -169,16 +174,21 @@ def _worker_environment() -> None:
 def _close_clients() -> None:
     # the run is over: what the scheduler says of workers leaving is not news to the user
     logging.getLogger("distributed").setLevel(logging.ERROR)
-    for client in list(_clients.values()):
-        with contextlib.suppress(Exception):
-            cluster = client.cluster
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    try:
+        for client in list(_clients.values()):
+            with contextlib.suppress(Exception):
+                cluster = client.cluster
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+    except interrupt.Interrupted:
+        # a signal while the cluster closes, the run's own lines said: no traceback of the closing;
+        # the local workers, this process's daemonic children, end with it
+        pass
     _clients.clear()
     # the local workers are gone now, with them any writer an interruption left mid-write
     for folder in _output_folders:
-        with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError, interrupt.Interrupted):
             remove_stale_temporaries_in(folder)
 
 

@@ -224,25 +224,30 @@ def test_local_workers_start_with_dask_logging_at_warnings_and_the_c_librarys_tr
     assert got == {"here": 30, "workers": [[30, None]]}
 
 
-def test_local_workers_drop_only_the_record_of_a_heartbeat_that_met_a_closed_scheduler():
+def test_local_workers_drop_only_the_records_of_the_runs_own_ending():
     """Dask logs a heartbeat meeting the closing scheduler of a local cluster as an ERROR with a
-    traceback, after the run's own lines: aldpat's local workers drop that record and no other;
-    a local cluster's workers have the filter installed."""
+    traceback, after the run's own lines, and each job an interrupted run cancels as a WARNING:
+    aldpat's local workers drop those records and no other; a local cluster's workers have the
+    filter installed on both loggers."""
     import logging
 
     from aldpat.jobs.cluster import client_for
-    from aldpat.jobs.worker_logging import NoHeartbeatLostRecord
+    from aldpat.jobs.worker_logging import LOGGERS, RunEndingRecords
 
     def record(message: str) -> logging.LogRecord:
         return logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1, message, None, None)
 
-    quiet = NoHeartbeatLostRecord()
+    quiet = RunEndingRecords()
     assert not quiet.filter(record("Failed to communicate with scheduler during heartbeat."))
+    assert not quiet.filter(record("Async instruction for <Task cancelled name=\"execute('aldpat-filter-gapm-5')\" "
+                                   "coro=<Worker.execute() done>> ended with CancelledError"))
     assert quiet.filter(record("Unexpected exception during heartbeat. Closing worker."))
     assert quiet.filter(record("Worker is at 95% memory usage."))
+    assert quiet.filter(record("Async instruction for <Task finished coro=<Worker.gather_dep()>> ended with OSError"))
     client = client_for("local:1")
 
     def installed() -> bool:
-        return any(type(f).__name__ == "NoHeartbeatLostRecord" for f in logging.getLogger("distributed.worker").filters)
+        return all(any(type(f).__name__ == "RunEndingRecords" for f in logging.getLogger(name).filters)
+                   for name in LOGGERS)
 
     assert all(client.run(installed).values())
