@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import sys
+import types
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -166,14 +169,44 @@ def _table(points: Points) -> tuple[PointTable, Any]:
     return PointTable({"x": x, "y": y, "z": z}), None
 
 
+#: A coordinate's step, in metres, past which narrow floats are said to have lost the survey's
+#: precision: a millimetre, what LAS files of airborne surveys keep.
+FINEST_STEP = 0.001
+
+
 def _numbers(values: Any, points: Points) -> np.ndarray:
     """``values`` (``points`` or one of its x, y, z) as float64: numpy's own error for text or a
-    mapping names no argument, so the one raised names ``points``, as every other bad input does."""
+    mapping names no argument, so the one raised names ``points``, as every other bad input does.
+
+    Coordinates held in float32 (or float16) arrive rounded: at UTM northings (5.4e6 m) float32
+    keeps steps of 0.5 m, and the filter then grids points that are not where the survey put
+    them. Nothing can bring the digits back, so a warning says so and the points are filtered as
+    given."""
+    given = getattr(values, "dtype", None)
     try:
-        return np.asarray(values, dtype=np.float64)
+        out = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise ParamError(f"points: expected a path, a laspy LasData, an (N, 3) array or an (x, y, z) tuple of "
                          f"numbers; got {type(points).__name__}: {err}") from None
+    if given is not None and np.dtype(given).kind == "f" and np.dtype(given).itemsize < 8 and out.size:
+        largest = float(np.nanmax(np.abs(out))) if np.isfinite(out).any() else 0.0
+        step = float(np.spacing(np.asarray(largest, dtype=given)))
+        if step > FINEST_STEP:
+            warnings.warn(f"points: {np.dtype(given).name} coordinates as large as {largest:.6g} hold steps of "
+                          f"{step:g} m; they are filtered as given (pass float64 to keep the survey's precision)",
+                          UserWarning, stacklevel=_callers_level())
+    return out
+
+
+def _callers_level() -> int:
+    """The ``stacklevel`` of the first frame outside aldpat, seen from the function calling this
+    one: where a warning about a call's arguments belongs."""
+    package = os.path.dirname(os.path.abspath(__file__))
+    level = 1
+    frame: types.FrameType | None = sys._getframe(1)
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package + os.sep):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def _las_crs(las: Any) -> Any:

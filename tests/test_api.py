@@ -8,6 +8,7 @@ import doctest
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import laspy
@@ -144,6 +145,21 @@ def test_numpy_arrays_for_list_parameters_are_their_values():
         aldpat.ground(STRIP, **{**as_arrays, "row_windows": np.array([4, 16], np.int64)})
     with pytest.raises(aldpat.ParamError, match="window_series: expected a whole number"):
         aldpat.ground(STRIP, window_series=np.array([[1, 2], [4, 8]]))
+
+
+def test_float32_coordinates_of_a_survey_are_filtered_with_a_warning_of_their_steps():
+    """At UTM northings float32 keeps steps of 0.5 m: the points arrive rounded, and the warning
+    says so where the call is made; the same points moved near the origin keep millimetres and
+    pass without one."""
+    las = laspy.read(STRIP)
+    xyz = np.c_[las.x, las.y, las.z]
+    with pytest.warns(UserWarning, match=r"float32 coordinates as large as 5\.42\d*e\+06 hold steps of 0\.5 m") as got:
+        aldpat.ground(xyz.astype(np.float32), cell=1.5)
+    assert got[0].filename == __file__
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        local = (xyz - xyz.min(axis=0)).astype(np.float32)
+        assert aldpat.ground(local, cell=1.5).shape == (len(xyz),)
 
 
 def test_a_missing_file_is_an_aldpat_error_naming_it():
