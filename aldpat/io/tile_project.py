@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.tiles import MAX_BUFFER_TILES
-from aldpat.errors import AldpatError, DataError
+from aldpat.errors import AldpatError, DataError, UsageError
 from aldpat.io.registry import open_points
 from aldpat.io.tile_parameters import PARAMETER_FILE, TileRow, read_tile_parameters, row_for
 
@@ -146,18 +146,39 @@ def owned_points(path: Path, cores: list[TileRow], region: tuple[float, float, f
                        start)
 
 
+def too_far(job: TileJob, reach: float) -> str | None:
+    """Why a buffer of ``reach`` around the job's tile is refused, or None: as ``tile`` refuses
+    such buffers, beyond :data:`MAX_BUFFER_TILES` tiles every tile's job would read its
+    neighbours' points out to many tiles away, the project's points again and again."""
+    x0, x1, y0, y1 = job.core
+    side = min(x1 - x0, y1 - y0)
+    if reach <= MAX_BUFFER_TILES * side:
+        return None
+    return (f"a buffer of {reach:g} m reaches more than {MAX_BUFFER_TILES:g} tiles of {side:g} m beyond the tile "
+            f"({len(job.near(reach))} neighbouring tiles); use a --buffer of at most {MAX_BUFFER_TILES * side:g}")
+
+
+def refuse_far_buffers(sources: list[Path], params_path: str | Path | None, reach: float) -> None:
+    """Refuse a run over tiles (a :class:`UsageError`, before anything runs) whose ``--buffer``
+    reaches too far beyond a tile (:func:`too_far`): one line for the run, naming the first such
+    tile, not one failed job for each. An input that is not a tile, or whose tile cannot be
+    read, is left to its job."""
+    for source in sources:
+        try:
+            job = find_tile_job(source, params_path)
+        except AldpatError:
+            continue
+        if job is not None and (why := too_far(job, reach)) is not None:
+            raise UsageError(f"{Path(source).name}: {why}")
+
+
 def tile_points(job: TileJob, reach: float, *, fmt: str | None = None, keep: Keep = None,
                 warn: Callable[[str], None] | None = None) -> list[OwnedPoints]:
     """The points within ``reach`` of the job's core, each from the file of the tile owning it:
     the job's own file first, then each neighbour's."""
     x0, x1, y0, y1 = job.core
-    side = min(x1 - x0, y1 - y0)
-    if reach > MAX_BUFFER_TILES * side:
-        # as ``tile`` refuses such buffers: every tile's job would read its neighbours' points
-        # out to many tiles away, the project's points again and again
-        raise DataError(f"a buffer of {reach:g} m reaches more than {MAX_BUFFER_TILES:g} tiles of {side:g} m beyond "
-                        f"the tile ({len(job.near(reach))} neighbouring tiles); use a --buffer of at most "
-                        f"{MAX_BUFFER_TILES * side:g}", path=job.source)
+    if (why := too_far(job, reach)) is not None:  # a run refused it already; a caller of its own
+        raise DataError(why, path=job.source)
     region = (x0 - reach, x1 + reach, y0 - reach, y1 + reach)
     near = job.near(reach)
     present = [(row, job.file_of(row)) for row in near]

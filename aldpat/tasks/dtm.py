@@ -61,7 +61,7 @@ from aldpat.io.geotiff import FLOAT32_MAX, Raster, write_geotiff
 from aldpat.io.geotiff import FORMATS as GEOTIFF_FORMATS
 from aldpat.io.registry import open_points
 from aldpat.io.table import PointTable
-from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, tile_points
+from aldpat.io.tile_project import OwnedPoints, TileJob, find_tile_job, refuse_far_buffers, tile_points
 from aldpat.io.toml import load_toml
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -167,7 +167,8 @@ class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption
 def plan_neighbours(sources: list[Path], params: DtmParams, input_params) -> list[list[str]]:
     """Each job's inputs: its own file, then every other input whose extent comes within
     ``buffer`` of it. An input whose extent cannot be read gets a job of its own, which reports
-    why."""
+    why. Over tiles, a ``--buffer`` reaching too far beyond them is refused first."""
+    refuse_far_buffers(sources, params.tile_params, params.buffer)
     if params.buffer == 0 or len(sources) < 2:
         return [[str(s)] for s in sources]
     tiles = {s for s in sources if _tile_or_none(s, params) is not None}  # their jobs find their neighbours

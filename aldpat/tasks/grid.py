@@ -65,7 +65,7 @@ from aldpat.io.surfer import BLANK as SURFER_BLANK
 from aldpat.io.surfer import FORMATS as SURFER_FORMATS
 from aldpat.io.surfer import check_holds, read_surfer, write_surfer
 from aldpat.io.table import PointTable
-from aldpat.io.tile_project import Keep, TileJob, find_tile_job, tile_points
+from aldpat.io.tile_project import Keep, TileJob, find_tile_job, refuse_far_buffers, tile_points
 from aldpat.io.vrt import TileGrid, write_mosaic
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.registry import register_task
@@ -504,12 +504,21 @@ def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -
     log.info("%s: mosaic of %d grids", out, len(tiles))
 
 
+def plan_grids(sources: list[Path], params: GridParams, _input_params) -> list[list[str]]:
+    """One job an input; over tiles (without ``--bounds``) a ``--buffer`` reaching too far beyond
+    them is refused first, once for the run."""
+    if not params.bounds:
+        refuse_far_buffers(sources, params.tile_params, params.buffer)
+    return [[str(s)] for s in sources]
+
+
 register_task(Task(
     name="grid",
     summary="Interpolate points to a Surfer grid or a GeoTIFF/COG: nearest, TIN, IDW, kriging or binning "
             "(manual task 9, Surfer's job).",
     params=GridParams,
     run_one=grid_one,
+    plan=plan_grids,
     finish=grid_mosaic,
     writes_points=False,
     examples=(

@@ -146,18 +146,21 @@ def test_a_tile_that_cannot_be_read_fails_with_the_tiles_that_need_it_and_no_oth
     assert leftovers(tmp_path) == []
 
 
-def test_a_buffer_of_many_tiles_is_refused_for_each_tile_before_reading_its_neighbours(tmp_path):
+def test_a_buffer_of_many_tiles_is_refused_once_before_anything_runs(tmp_path):
     """As ``tile`` refuses such buffers: with 40 m tiles a 200 m buffer would make every tile's DTM
-    or grid read the points of the tiles five tiles around it, the project again for every tile."""
+    or grid read the points of the tiles five tiles around it, the project again for every tile.
+    The run is refused in one line (a usage error, as ``--dry-run`` refuses it), not in one
+    failed job a tile."""
     sample = REPO / "jobs" / "data" / "samp24.txt"
     aldpat("tile", sample, "--width", "40", "--height", "40", "--buffer", "5", "--odir", "tiles", cwd=tmp_path).ok()
     tiles = sorted((tmp_path / "tiles").glob("tile_*_*.txt"))  # not tile_parameter.txt
-    for command in (["dtm", "tiles", "--cell", "1"], ["grid", "tiles", "--cell", "1"]):
+    for command in (["dtm", "tiles", "--cell", "1"], ["grid", "tiles", "--cell", "1"],
+                    ["grid", "tiles", "--cell", "1", "--dry-run"]):
         done = aldpat(*command, "--buffer", "200", "--odir", "out", cwd=tmp_path)
-        assert done.returncode == 1, done.stderr
+        assert done.returncode == 2, done.stderr
         refused = [ln for ln in done.stderr.splitlines() if "reaches more than 4.5 tiles of 40 m" in ln]
-        assert len(refused) == len(tiles) and all("use a --buffer of at most 180" in ln for ln in refused)
-        assert not any(p.suffix in (".tif", ".grd") for p in (tmp_path / "out").glob("*"))
+        assert len(refused) == 1 and "use a --buffer of at most 180" in refused[0], done.stderr
+        assert not (tmp_path / "out").exists()
     aldpat("grid", "tiles", "--cell", "1", "--buffer", "180", "--odir", "out", cwd=tmp_path).ok()
     assert len(list((tmp_path / "out").glob("*.grd"))) == len(tiles)
 
