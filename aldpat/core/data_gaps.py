@@ -73,14 +73,14 @@ class Occupancy:
         """The occupied nodes as a bool grid of ``spec``'s shape (a new array each time)."""
         return np.unpackbits(self.bits, count=self.spec.nx * self.spec.ny).view(bool).reshape(self.spec.shape)
 
-    def on(self, spec: GridSpec, cells: np.ndarray | None = None) -> np.ndarray:
+    def on(self, spec: GridSpec, cells: np.ndarray | None = None, outside: bool = False) -> np.ndarray:
         """``cells`` (default: the occupancy) at the nodes of ``spec``, a window of the same
-        lattice (nodes outside this grid are False)."""
+        lattice (nodes outside this grid are ``outside``)."""
         cells = self.cells if cells is None else cells
         s = self.spec
         c0 = round((spec.xmin - s.xmin) / s.dx)
         r0 = round((spec.ymin - s.ymin) / s.dy)
-        out = np.zeros(spec.shape, bool)
+        out = np.full(spec.shape, outside, bool)
         rs, re = max(r0, 0), min(r0 + spec.ny, s.ny)
         cs, ce = max(c0, 0), min(c0 + spec.nx, s.nx)
         if rs < re and cs < ce:
@@ -208,8 +208,8 @@ def blank_gaps(values: np.ndarray, spec: GridSpec, occupancy: Occupancy, gap: fl
     farther than ``gap`` from every point of ``occupancy`` -- the distances taken over the whole
     occupancy grid, so that points beyond the window's edge count; the count of nodes it blanked
     that had a value."""
-    far = occupancy.on(spec, gap_nodes(occupancy.cells, gap, occupancy.spec.dx))
-    far |= ~occupancy.on(spec, np.ones(occupancy.spec.shape, bool))  # nodes outside the occupancy's grid
+    # nodes outside the occupancy's grid are far too
+    far = occupancy.on(spec, gap_nodes(occupancy.cells, gap, occupancy.spec.dx), outside=True)
     blanked = int((far & ~np.isnan(values)).sum())
     values[far] = np.nan
     return blanked

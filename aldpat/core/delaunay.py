@@ -36,27 +36,28 @@ DUPLICATE = -2
 OUTSIDE = -1
 
 
+@compiled(nogil=True)
 def new_tin(n_points: int, x0: float, y0: float, x1: float, y1: float
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Arrays of a TIN over the rectangle ``x0..x1`` x ``y0..y1`` with room for ``n_points``
     more vertices (numbered from 4); corners 0-3 are (x0, y0), (x1, y0), (x0, y1), (x1, y1), at
-    height 0 until the caller sets them."""
+    height 0 until the caller sets them. Compiled, so that compiled code can start a TIN too."""
     nv = n_points + 4
     cap = 2 * nv
     px = np.zeros(nv)
     py = np.zeros(nv)
     pz = np.zeros(nv)
-    px[:4] = [x0, x1, x0, x1]
-    py[:4] = [y0, y0, y1, y1]
+    px[0], px[1], px[2], px[3] = x0, x1, x0, x1
+    py[0], py[1], py[2], py[3] = y0, y0, y1, y1
     tv = np.zeros((cap, 3), np.int64)
     tn = np.full((cap, 3), -1, np.int64)
     # (0, 1, 3) and (0, 3, 2), both counter-clockwise, share the diagonal 0-3
-    tv[0] = (0, 1, 3)
-    tv[1] = (0, 3, 2)
-    tn[0] = (-1, 1, -1)  # opposite 1 is edge 3-0: triangle 1
-    tn[1] = (-1, -1, 0)  # opposite 2 is edge 0-3: triangle 0
+    tv[0, 0], tv[0, 1], tv[0, 2] = 0, 1, 3
+    tv[1, 0], tv[1, 1], tv[1, 2] = 0, 3, 2
+    tn[0, 1] = 1  # opposite 1 is edge 3-0: triangle 1
+    tn[1, 2] = 0  # opposite 2 is edge 0-3: triangle 0
     stamp = np.zeros(cap, np.int64)
-    count = np.array([2], np.int64)
+    count = np.full(1, 2, np.int64)
     return px, py, pz, tv, tn, stamp, count
 
 

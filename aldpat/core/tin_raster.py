@@ -165,13 +165,39 @@ def _counting_order(key: np.ndarray, size: int) -> np.ndarray:
     return order
 
 
+@compiled(nogil=True)
 def insertion_order(x: np.ndarray, y: np.ndarray, square: float) -> np.ndarray:
     """A serpentine order of ``square``-sized squares (rows of squares south to north, every
     other row east to west): consecutive points lie close together."""
     key, size = _square_keys(x, y, square)
     if size <= 4 * len(x) + 1024:
         return _counting_order(key, size)
-    return np.argsort(key, kind="stable")
+    return np.argsort(key, kind="mergesort")  # stable: the order of numpy's stable sort
+
+
+@compiled(nogil=True)
+def _triangulated(x: np.ndarray, y: np.ndarray, pz: np.ndarray, dx: float, dy: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """The TIN of points ``x``, ``y`` (heights ``pz``) from a rectangle :data:`CORNER_REACH`
+    times their extent beyond them, inserted in :func:`insertion_order` of squares of
+    :data:`ORDER_SQUARE` spacings (cells ``dx`` x ``dy`` at least): vertex x, y and heights
+    (the corners first), the triangles' vertices and neighbours, and how many there are. One
+    compiled call, where each step in Python copied the block's points again."""
+    n = len(x)
+    x_lo, x_hi, y_lo, y_hi = x.min(), x.max(), y.min(), y.max()
+    width = max(x_hi - x_lo, y_hi - y_lo, dx, dy)
+    reach = CORNER_REACH * width
+    spacing = math.sqrt(max(width * width / n, dx * dy))
+    order = insertion_order(x, y, ORDER_SQUARE * spacing)
+    px, py, vz, tv, tn, stamp, count = delaunay.new_tin(n, x_lo - reach, y_lo - reach, x_hi + reach, y_hi + reach)
+    for i in range(n):
+        k = order[i]
+        px[i + 4] = x[k]
+        py[i + 4] = y[k]
+        vz[i + 4] = pz[k]
+    stack = np.zeros(len(tv) + 8, np.int64)
+    _insert_all(px, py, vz, tv, tn, stamp, count, stack, n)
+    return px, py, vz, tv, tn, count[0]
 
 
 def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float, dy: float, cols: tuple[int, int], rows: tuple[int, int],
@@ -191,25 +217,13 @@ def tin_block(pts: np.ndarray, pz: np.ndarray, gx0: float, gy0: float, dx: float
     """
     from scipy import spatial
 
-    n = len(pts)
-    x = np.ascontiguousarray(pts[:, 0])
-    y = np.ascontiguousarray(pts[:, 1])
-    width = max(float(x.max() - x.min()), float(y.max() - y.min()), dx, dy)
-    reach = CORNER_REACH * width
-    spacing = math.sqrt(max(width * width / n, dx * dy))
-    order = insertion_order(x, y, ORDER_SQUARE * spacing)
-    px, py, vz, tv, tn, stamp, count = delaunay.new_tin(n, float(x.min()) - reach, float(y.min()) - reach,
-                                                        float(x.max()) + reach, float(y.max()) + reach)
-    px[4:] = x[order]
-    py[4:] = y[order]
-    vz[4:] = pz[order]
-    stack = np.zeros(len(tv) + 8, np.int64)
-    _insert_all(px, py, vz, tv, tn, stamp, count, stack, n)
+    px, py, vz, tv, _, n_tri = _triangulated(np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
+                                             np.ascontiguousarray(pz, np.float64), float(dx), float(dy))
     covered = np.zeros((rows[1] - rows[0], cols[1] - cols[0]), np.bool_)
     bound = np.array([-np.inf, -np.inf, np.inf, np.inf]) if known is None else np.asarray(known, np.float64)
     if grow is None:
         grow = np.array([np.inf, np.inf, -np.inf, -np.inf, 0.0, 0.0, 0.0, 0.0])
-    unsure = _rasterise(px, py, vz, tv, int(count[0]), gx0, gy0, dx, dy, cols[0], cols[1], rows[0], rows[1],
+    unsure = _rasterise(px, py, vz, tv, int(n_tri), gx0, gy0, dx, dy, cols[0], cols[1], rows[0], rows[1],
                         -1.0 if max_distance is None else float(max_distance), out, covered, bound, grow)
     sure = None if unsure else True
     blank_r, blank_c = np.nonzero(~covered)

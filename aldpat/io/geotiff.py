@@ -35,6 +35,10 @@ from aldpat.io.atomic import atomic_output
 FORMATS = {"geotiff": ".tif", "cog": ".tif"}
 #: nodata of GeoTIFF grids unless the user gives one
 DEFAULT_NODATA = -9999.0
+#: deflate's level for every GeoTIFF and COG written (GDAL's default is 6): on a DTM of 33 M
+#: float32 nodes with the floating-point predictor, 4 compresses in about three quarters of the
+#: CPU time of 6 (the COG's overviews included), into a file 1.3 % larger
+DEFLATE_LEVEL = 4
 #: the largest float32 (a band's values and its nodata value)
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
@@ -135,10 +139,10 @@ def _write_band(path: Path, raster: Raster, *, cog: bool, overwrite: bool) -> No
         "num_threads": thread_budget(),
     }
     band = raster.array.astype(np.float32, copy=False)
-    if cog:
-        profile.update(driver="COG", blocksize=256, overview_resampling="average")
+    if cog:  # the COG driver names deflate's level LEVEL, the GTiff driver ZLEVEL
+        profile.update(driver="COG", blocksize=256, overview_resampling="average", level=DEFLATE_LEVEL)
     else:
-        profile.update(driver="GTiff", tiled=True, blockxsize=256, blockysize=256)
+        profile.update(driver="GTiff", tiled=True, blockxsize=256, blockysize=256, zlevel=DEFLATE_LEVEL)
     with atomic_output(path, overwrite=overwrite) as tmp:
         if cog:
             # the COG driver writes by copying a finished dataset: build it in memory first
