@@ -112,9 +112,17 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
     graph = _segment_graph(z, step, decode, spacing, cell, strip_rows)
     raised = _decide(graph, step, down_share, levels, max_cells=MAX_OBJECT_AREA / (cell * cell))
     out = np.empty((rows, cols), bool)
-    for a, b in _strips(rows, strip_rows):
-        out[a:b] = raised[graph.segment[a:b]]
+    on_threads(lambda strip: _raised_rows(raised, graph.segment, *strip, out), _strips(rows, strip_rows))
     return out
+
+
+@compiled(nogil=True)
+def _raised_rows(raised: np.ndarray, segment: np.ndarray, a: int, b: int,
+                 out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Rows ``a:b`` of the cells of raised segments (``raised`` of each cell's segment)."""
+    for i in range(a, b):
+        for j in range(segment.shape[1]):
+            out[i, j] = raised[segment[i, j]]
 
 
 def step_limits(apart: np.ndarray | None, step: float, cell: float) -> np.ndarray | float:
@@ -565,49 +573,78 @@ def _decide(g: _Graph, step: float, down_share: float, levels: bool, max_cells: 
         raised = (perimeter > g.open) & (down >= down_share * perimeter)
         raised[terrain] = False
         return raised
-    between = g.high != g.low  # a step between two of a segment's own cells is no part of its perimeter
-    high, low = g.high[between], g.low[between]
-    high_cells, low_cells, low_sum = g.high_cells[between], g.low_cells[between], g.low_sum[between]
-    down = np.bincount(high, weights=high_cells, minlength=n)
-    up = np.bincount(low, weights=low_cells, minlength=n)
-    perimeter = down + up + g.open
-    raised = (perimeter > g.open) & (down >= down_share * perimeter)
-    raised[terrain] = False
-    # the ground each segment stands on: the cells its steps down fall to, and their heights
-    under_cells = np.bincount(high, weights=low_cells, minlength=n)
-    under_sum = np.bincount(high, weights=low_sum, minlength=n)
-    for _ in range(LEVEL_ROUNDS):
-        into_raised = np.bincount(low, weights=low_cells * raised[high], minlength=n)
-        loose = up - into_raised + g.open  # steps up into what is not raised, and open edge
-        enclosed = loose <= LOOSE_SHARE * perimeter
-        # a lower level: its steps down are the share of what is left of its perimeter
-        now = enclosed & (down > 0) & (down >= down_share * (down + loose))
-        # a sunken level: only steps up, into raised segments standing lower elsewhere
-        sunken = enclosed & (down == 0) & (up > 0)
-        now |= _sunken(sunken, raised, g.height, high, low, low_cells, low_sum, under_cells, under_sum, step)
-        now |= raised
-        now[terrain] = False
-        if np.array_equal(now, raised):
+    return _levels(terrain, g.open, g.height, g.high, g.low, g.high_cells, g.low_cells, g.low_sum,
+                   float(down_share), float(step), LOOSE_SHARE, LEVEL_ROUNDS)
+
+
+@compiled(nogil=True)
+def _levels(terrain: np.ndarray, open_: np.ndarray, height: np.ndarray, high: np.ndarray, low: np.ndarray,
+            high_cells: np.ndarray, low_cells: np.ndarray, low_sum: np.ndarray, down_share: float, step: float,
+            loose_share: float, rounds: int) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`_decide` with ``levels``: the segments raised by their own steps, then the rounds
+    that peel a building's levels, each a few loops over the pairs and the segments. A step
+    between two of a segment's own cells is no part of its perimeter: those pairs are skipped.
+    Every sum runs over the pairs in their order from 0.0, as ``np.bincount`` over the pairs kept
+    sums (the numpy form this replaces), so a segment's level is the same to the last bit.
+
+    A sunken level (a candidate: enclosed, only steps up) is raised when it stands more than
+    ``step`` above the ground its raised neighbours step down to elsewhere: the mean height of
+    the cells under those neighbours' other steps down, weighted by the cells the candidate has
+    against each."""
+    n = len(open_)
+    down = np.zeros(n)
+    up = np.zeros(n)
+    under_cells = np.zeros(n)  # the ground each segment stands on: the cells its steps down fall to
+    under_sum = np.zeros(n)  # ... and their heights
+    for p in range(len(high)):
+        if high[p] != low[p]:
+            down[high[p]] += high_cells[p]
+            up[low[p]] += low_cells[p]
+            under_cells[high[p]] += low_cells[p]
+            under_sum[high[p]] += low_sum[p]
+    perimeter = np.empty(n)
+    raised = np.empty(n, np.bool_)
+    for s in range(n):
+        perimeter[s] = down[s] + up[s] + open_[s]
+        raised[s] = perimeter[s] > open_[s] and down[s] >= down_share * perimeter[s] and not terrain[s]
+    pairs = len(high)
+    into_raised = np.empty(n)
+    weights = np.empty(n)
+    level = np.empty(n)
+    now = np.empty(n, np.bool_)
+    candidates = np.empty(n, np.bool_)
+    for _ in range(rounds):
+        into_raised[:] = 0.0
+        for p in range(pairs):
+            if high[p] != low[p]:
+                into_raised[low[p]] += low_cells[p] * (1.0 if raised[high[p]] else 0.0)
+        for s in range(n):
+            loose = up[s] - into_raised[s] + open_[s]  # steps up into what is not raised, and open edge
+            enclosed = loose <= loose_share * perimeter[s]
+            # a lower level: its steps down are the share of what is left of its perimeter
+            now[s] = enclosed and down[s] > 0 and down[s] >= down_share * (down[s] + loose)
+            # a sunken level: only steps up, into raised segments standing lower elsewhere
+            candidates[s] = enclosed and down[s] == 0 and up[s] > 0
+        # the ground the candidates' raised neighbours step down to elsewhere
+        weights[:] = 0.0
+        level[:] = 0.0
+        for p in range(pairs):
+            around, inner = high[p], low[p]
+            if around != inner and candidates[inner] and raised[around]:
+                shared = np.float64(low_cells[p])
+                elsewhere = under_cells[around] - shared
+                weight = shared if elsewhere > 0 else 0.0
+                ground = (under_sum[around] - low_sum[p]) / max(elsewhere, 1.0)
+                weights[inner] += weight
+                level[inner] += weight * ground
+        changed = False
+        for s in range(n):
+            if candidates[s] and weights[s] > 0 and height[s] > level[s] / max(weights[s], 1e-12) + step:
+                now[s] = True
+            now[s] = (now[s] or raised[s]) and not terrain[s]
+            changed = changed or now[s] != raised[s]
+        if not changed:
             break
-        raised = now
+        raised[:] = now
     return raised
 
-
-def _sunken(candidates: np.ndarray, raised: np.ndarray, height: np.ndarray, high: np.ndarray, low: np.ndarray,
-            low_cells: np.ndarray, low_sum: np.ndarray, under_cells: np.ndarray, under_sum: np.ndarray,
-            step: float) -> np.ndarray:
-    """Of the ``candidates`` (segments stepping only up into raised ones), those standing more
-    than ``step`` above the ground their raised neighbours step down to elsewhere (the mean height
-    of the cells under those neighbours' other steps down, weighted by the cells each candidate
-    has against each)."""
-    n = len(candidates)
-    pick = candidates[low] & raised[high]
-    if not pick.any():
-        return np.zeros(n, bool)
-    around, inner, shared, shared_sum = high[pick], low[pick], low_cells[pick], low_sum[pick]
-    elsewhere = under_cells[around] - shared
-    weight = np.where(elsewhere > 0, shared, 0.0)
-    ground = (under_sum[around] - shared_sum) / np.maximum(elsewhere, 1)
-    weights = np.bincount(inner, weights=weight, minlength=n)
-    level = np.bincount(inner, weights=weight * ground, minlength=n) / np.maximum(weights, 1e-12)
-    return candidates & (weights > 0) & (height > level + step)
