@@ -58,6 +58,7 @@ def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
     below = np.full(cols, -1, np.int64)  # its first filled row from this one on (rows: none)
     nearest = np.empty(cols, np.int64)  # the row of each column's filled cell nearest this row
     kept = np.empty(cols, np.int64)  # the columns on the row's lower envelope
+    apart = _distances() if with_spacing else np.zeros((1, 1), np.uint8)
     if first > 0:  # the state the rows above would have left: each column's filled cells around ``first``
         for c in range(cols):
             k = first - 1
@@ -105,10 +106,23 @@ def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
                 fr, fc = nearest[kept[k]], kept[k]
                 values[r, c] = values[fr, fc]
                 if with_spacing:
-                    d = math.ceil(math.hypot(np.float32(fr - r), np.float32(fc - c)))
-                    spacing[r, c] = min(d, 255)
+                    spacing[r, c] = apart[min(abs(fr - r), 255), min(abs(fc - c), 255)]
             elif with_spacing:
                 spacing[r, c] = 0
+
+
+@compiled(nogil=True)
+def _distances() -> np.ndarray:  # pragma: no cover - compiled
+    """The distance of a cell ``dr`` rows and ``dc`` columns from another, ``ceil(hypot(dr, dc))``
+    of their float32 offsets and at most 255, at ``[min(|dr|, 255), min(|dc|, 255)]``: a look-up
+    in place of a root and a rounding up per filled cell. hypot is even in each offset and grows
+    with either, so an offset beyond 255 is 255 away or more, as its row and column of the table
+    say."""
+    out = np.empty((256, 256), np.uint8)
+    for dr in range(256):
+        for dc in range(256):
+            out[dr, dc] = min(math.ceil(math.hypot(np.float32(dr), np.float32(dc))), 255)
+    return out
 
 
 @compiled(nogil=True)
