@@ -57,7 +57,7 @@ import numpy as np
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.rise import scale_and_offset
-from aldpat.core.threads import on_threads
+from aldpat.core.threads import on_threads, thread_budget
 
 #: Grid rows labelled at a time: bounds the labelling's scratch to a strip.
 STRIP_ROWS = 256
@@ -182,9 +182,11 @@ def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: n
        threads), summed per segment in the strips' order -- the order of the float sums is kept
        so that a mean height is the same to the last bit whatever the scans and the threads;
     4. the pairs of segments with steps between them and their steps, from each higher
-       segment's list of lower ones (a cell has at most four neighbours, so no sort of the grid);
+       segment's list of lower ones (a cell has at most four neighbours, so no sort of the grid;
+       bands of rows on threads);
     5. per cell the distinct segments above and below it across its steps, adding the cell
-       (and, on the lower side, its height, in row order) to each pair's counts.
+       (and, on the lower side, its height, in row order) to each pair's counts (bands of rows
+       on threads, the heights of all but the first band's added after, in row order).
 
     Memory: the segments (4 bytes a cell), the step flags (1 byte a cell) and per segment and
     pair a few numbers.
@@ -448,25 +450,73 @@ def _higher_and_lower(flags: np.ndarray, segment: np.ndarray, i: int, j: int,
     return (there, here) if up else (here, there)
 
 
-@compiled(nogil=True)
-def _pairs(flags: np.ndarray, segment: np.ndarray,
-           n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+def _bands(rows: int) -> list[tuple[int, int]]:
+    """The rows of each of the process's threads' bands, top to bottom."""
+    count = max(1, min(thread_budget(), rows))
+    bounds = [rows * k // count for k in range(count + 1)]
+    return list(itertools.pairwise(bounds))
+
+
+def _pairs(flags: np.ndarray, segment: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The pairs of segments with steps between them, ordered by higher then lower segment, the
-    steps of each, and where each higher segment's pairs start (``n + 1`` offsets)."""
-    rows, cols = flags.shape
-    start = np.zeros(n + 1, np.int64)
-    for i in range(rows):
-        for j in range(cols):
-            if flags[i, j] & EAST_STEP:
-                start[1 + _higher_and_lower(flags, segment, i, j, False)[0]] += 1
-            if flags[i, j] & NORTH_STEP:
-                start[1 + _higher_and_lower(flags, segment, i, j, True)[0]] += 1
-    for s in range(n):
-        start[s + 1] += start[s]
+    steps of each, and where each higher segment's pairs start (``n + 1`` offsets).
+
+    Each step goes into its higher segment's list of lower ones; the grid is read in bands of
+    rows on the process's threads, each band's steps counted and then written into its own part
+    of every list (the bands' parts in their order: each list in row order, as one scan makes
+    it); each list is then sorted and its runs counted, ranges of segments on threads."""
+    bands = _bands(flags.shape[0])
+    counts = np.zeros((len(bands), n), np.int64)
+    on_threads(lambda t: _count_steps(flags, segment, *bands[t], counts[t]), range(len(bands)))
+    start, fill = _list_starts(counts)
     lows = np.empty(start[n], np.int64)
-    fill = start[:n].copy()
-    for i in range(rows):
-        for j in range(cols):
+    on_threads(lambda t: _write_steps(flags, segment, *bands[t], fill[t], lows), range(len(bands)))
+    ranges = [(n * k // len(bands), n * (k + 1) // len(bands)) for k in range(len(bands))]
+    distinct = np.zeros(n + 1, np.int64)
+    on_threads(lambda r: _sort_lists(lows, start, *r, distinct), ranges)
+    pair_start = np.cumsum(distinct)  # distinct[s + 1]: segment s's pairs
+    pairs = int(pair_start[n])
+    high_of, low_of, edges = (np.empty(pairs, np.int64) for _ in range(3))
+    on_threads(lambda r: _list_pairs(lows, start, pair_start, *r, high_of, low_of, edges), ranges)
+    return high_of, low_of, edges, pair_start
+
+
+@compiled(nogil=True)
+def _count_steps(flags: np.ndarray, segment: np.ndarray, a: int, b: int,
+                 count: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The steps of rows ``a:b`` (a cell's to its east and north neighbours) per higher segment."""
+    for i in range(a, b):
+        for j in range(flags.shape[1]):
+            if flags[i, j] & EAST_STEP:
+                count[_higher_and_lower(flags, segment, i, j, False)[0]] += 1
+            if flags[i, j] & NORTH_STEP:
+                count[_higher_and_lower(flags, segment, i, j, True)[0]] += 1
+
+
+@compiled(nogil=True)
+def _list_starts(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Where each higher segment's list starts (``n + 1`` offsets) and where each band's part of
+    it does (the bands' parts in their order)."""
+    bands, n = counts.shape
+    start = np.zeros(n + 1, np.int64)
+    fill = np.empty((bands, n), np.int64)
+    at = 0
+    for s in range(n):
+        start[s] = at
+        for t in range(bands):
+            fill[t, s] = at
+            at += counts[t, s]
+    start[n] = at
+    return start, fill
+
+
+@compiled(nogil=True)
+def _write_steps(flags: np.ndarray, segment: np.ndarray, a: int, b: int, fill: np.ndarray,
+                 lows: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The lower segment of every step of rows ``a:b`` into its higher segment's list, at the
+    band's next place in it (``fill``)."""
+    for i in range(a, b):
+        for j in range(flags.shape[1]):
             if flags[i, j] & EAST_STEP:
                 high, low = _higher_and_lower(flags, segment, i, j, False)
                 lows[fill[high]] = low
@@ -475,24 +525,37 @@ def _pairs(flags: np.ndarray, segment: np.ndarray,
                 high, low = _higher_and_lower(flags, segment, i, j, True)
                 lows[fill[high]] = low
                 fill[high] += 1
-    high_of = np.empty(len(lows), np.int64)
-    low_of = np.empty(len(lows), np.int64)
-    edges = np.empty(len(lows), np.int64)
-    pair_start = np.zeros(n + 1, np.int64)
-    pairs = 0
-    for s in range(n):
+
+
+@compiled(nogil=True)
+def _sort_lists(lows: np.ndarray, start: np.ndarray, first: int, stop: int,
+                distinct: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Segments ``first:stop``'s lists sorted in place, and the distinct lower segments of each
+    (into ``distinct[s + 1]``)."""
+    for s in range(first, stop):
         a, b = start[s], start[s + 1]
         if b > a:
             lows[a:b].sort()
-            for k in range(a, b):
-                if k == a or lows[k] != lows[k - 1]:
-                    high_of[pairs] = s
-                    low_of[pairs] = lows[k]
-                    edges[pairs] = 0
-                    pairs += 1
-                edges[pairs - 1] += 1
-        pair_start[s + 1] = pairs
-    return high_of[:pairs].copy(), low_of[:pairs].copy(), edges[:pairs].copy(), pair_start
+            runs = 1
+            for k in range(a + 1, b):
+                if lows[k] != lows[k - 1]:
+                    runs += 1
+            distinct[s + 1] = runs
+
+
+@compiled(nogil=True)
+def _list_pairs(lows: np.ndarray, start: np.ndarray, pair_start: np.ndarray, first: int, stop: int,
+                high_of: np.ndarray, low_of: np.ndarray, edges: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The pairs of segments ``first:stop`` (from their sorted lists) and the steps of each."""
+    for s in range(first, stop):
+        pairs = pair_start[s] - 1
+        for k in range(start[s], start[s + 1]):
+            if k == start[s] or lows[k] != lows[k - 1]:
+                pairs += 1
+                high_of[pairs] = s
+                low_of[pairs] = lows[k]
+                edges[pairs] = 0
+            edges[pairs] += 1
 
 
 @compiled(nogil=True)
@@ -511,21 +574,72 @@ def _add_once(seen: np.ndarray, count: int, segment: int) -> int:  # pragma: no 
     return count + 1
 
 
-@compiled(nogil=True)
 def _pair_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: bool, scale: float, offset: float,
-                low: np.ndarray, pair_start: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+                low: np.ndarray, pair_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per pair: the higher side's cells with a step down to the lower segment, the lower side's
     cells with a step up to the higher one, and the sum of the lower cells' heights (in row
-    order). A cell counts once per segment across, however many of its sides step to it."""
-    rows, cols = flags.shape
+    order). A cell counts once per segment across, however many of its sides step to it.
+
+    The grid is read in bands of rows on the process's threads: the first band adds into the
+    totals, every other counts into its own and lists its lower cells' pairs and heights, which
+    are added after, band after band -- each pair's heights summed in row order from 0.0, as one
+    scan of the grid sums them."""
+    bands = _bands(flags.shape[0])
     pairs = len(low)
-    high_cells = np.zeros(pairs, np.int64)
-    low_cells = np.zeros(pairs, np.int64)
-    low_sum = np.zeros(pairs)
+    totals = (np.zeros(pairs, np.int64), np.zeros(pairs, np.int64), np.zeros(pairs))
+
+    def band(t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        a, b = bands[t]
+        if t == 0:
+            own, room = totals, 0
+        else:  # a lower cell's pair and height for each step into the band at most
+            own, room = (np.zeros(pairs, np.int64), np.zeros(pairs, np.int64), np.zeros(0)), _steps_into(flags, a, b)
+        at, heights = np.empty(room, np.int64), np.empty(room)
+        held = _band_cells(flags, segment, z, scaled, scale, offset, low, pair_start, a, b, *own, t > 0, at, heights)
+        return own[0], own[1], at[:held], heights[:held]
+
+    high_cells, low_cells, low_sum = totals
+    for t, (high_part, low_part, at, heights) in enumerate(on_threads(band, range(len(bands)))):
+        if t > 0:
+            high_cells += high_part
+            low_cells += low_part
+            _add_in_order(low_sum, at, heights)
+    return high_cells, low_cells, low_sum
+
+
+@compiled(nogil=True)
+def _steps_into(flags: np.ndarray, a: int, b: int) -> int:  # pragma: no cover - compiled
+    """The steps of the cells of rows ``a:b`` and those into row ``a`` from the row before it:
+    every step with a cell of the band on its lower side, and more."""
+    count = 0
+    for i in range(max(a - 1, 0), b):
+        for j in range(flags.shape[1]):
+            f = flags[i, j]
+            count += (f & NORTH_STEP) != 0
+            if i >= a:
+                count += (f & EAST_STEP) != 0
+    return count
+
+
+@compiled(nogil=True)
+def _add_in_order(total: np.ndarray, at: np.ndarray, values: np.ndarray) -> None:  # pragma: no cover - compiled
+    for k in range(len(at)):
+        total[at[k]] += values[k]
+
+
+@compiled(nogil=True)
+def _band_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: bool, scale: float, offset: float,
+                low: np.ndarray, pair_start: np.ndarray, first: int, stop: int, high_cells: np.ndarray,
+                low_cells: np.ndarray, low_sum: np.ndarray, listed: bool, at: np.ndarray,
+                heights: np.ndarray) -> int:  # pragma: no cover - compiled
+    """:func:`_pair_cells` of rows ``first:stop`` into ``high_cells`` and ``low_cells``, and the
+    lower cells' heights into ``low_sum`` or, ``listed``, their pairs and heights in row order
+    into ``at`` and ``heights`` (returns how many)."""
+    cols = flags.shape[1]
+    held = 0
     above = np.empty(4, np.int64)  # the segments across a cell's steps up
     below = np.empty(4, np.int64)  # ... and down
-    for i in range(rows):
+    for i in range(first, stop):
         for j in range(cols):
             ups = downs = 0
             f = flags[i, j]
@@ -557,8 +671,13 @@ def _pair_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: b
                 for k in range(ups):
                     p = _pair_of(low, pair_start, above[k], s)
                     low_cells[p] += 1
-                    low_sum[p] += h
-    return high_cells, low_cells, low_sum
+                    if listed:
+                        at[held] = p
+                        heights[held] = h
+                        held += 1
+                    else:
+                        low_sum[p] += h
+    return held
 
 
 def _decide(g: _Graph, step: float, down_share: float, levels: bool, max_cells: float) -> np.ndarray:
