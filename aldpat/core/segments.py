@@ -587,14 +587,16 @@ def _pair_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: b
     bands = _bands(flags.shape[0])
     pairs = len(low)
     totals = (np.zeros(pairs, np.int64), np.zeros(pairs, np.int64), np.zeros(pairs))
+    # a band's own counts and listed pairs in 4 bytes where they fit (a cell has at most 4 steps)
+    small = np.int32 if max(pairs, 4 * flags.size) < 2 ** 31 else np.int64
 
     def band(t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         a, b = bands[t]
         if t == 0:
             own, room = totals, 0
         else:  # a lower cell's pair and height for each step into the band at most
-            own, room = (np.zeros(pairs, np.int64), np.zeros(pairs, np.int64), np.zeros(0)), _steps_into(flags, a, b)
-        at, heights = np.empty(room, np.int64), np.empty(room)
+            own, room = (np.zeros(pairs, small), np.zeros(pairs, small), np.zeros(0)), _steps_into(flags, a, b)
+        at, heights = np.empty(room, small), np.empty(room)
         held = _band_cells(flags, segment, z, scaled, scale, offset, low, pair_start, a, b, *own, t > 0, at, heights)
         return own[0], own[1], at[:held], heights[:held]
 
