@@ -73,19 +73,32 @@ def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
     # rows found (``enclosed``) or add to it
     row_mode, column_mode = (_SET if within is None else _AND), (_AND if enclosed else _OR)
 
+    limits = _limits(np.float32(step), np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH))
+
     def lines(piece: tuple[bool, int]) -> None:
         columns, a = piece
         b = min(cols if columns else rows, a + BLOCK_LINES)
         scan = _column_spans if columns else _line_spans
-        scan(z, sp, spacing is not None, linear is not None, scale, offset, a, b, float(step), np.float32(step),
-             np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH), int(max_cells), float(level),
-             column_mode if columns else row_mode, out)
+        scan(z, sp, spacing is not None, linear is not None, scale, offset, a, b, float(step), limits,
+             int(max_cells), float(level), column_mode if columns else row_mode, out)
 
     # the blocks of each direction write their own lines of ``out``: on threads at once, the rows
     # before the columns (``enclosed`` keeps what both directions found)
     workers = max(1, min(thread_budget(), rows // BLOCK_LINES, cols // BLOCK_LINES))
     on_threads(lines, [(False, a) for a in range(0, rows, BLOCK_LINES)], workers)
     on_threads(lines, [(True, a) for a in range(0, cols, BLOCK_LINES)], workers)
+    return out
+
+
+@compiled(nogil=True)
+def _limits(step: np.float32, cell: np.float32, slope: np.float32,
+            reach: np.float32) -> np.ndarray:  # pragma: no cover - compiled
+    """The step limit of two neighbouring cells (:func:`aldpat.core.segments.step_limit`, in
+    float32, widened) at each sum of their distances from the cells they were filled from (two
+    bytes: 0 to 510), looked up by the scans in place of working it out per cell."""
+    out = np.empty(511)
+    for apart in range(511):
+        out[apart] = np.float64(step_limit(apart, step, cell, slope, reach))
     return out
 
 
@@ -96,12 +109,11 @@ _SET, _AND, _OR = 0, 1, 2
 
 @compiled(nogil=True)
 def _line_spans(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float, offset: float,
-                first: int, stop: int, step: float, step32: np.float32, cell: np.float32, slope: np.float32,
-                reach: np.float32, max_cells: int, level: float, mode: int,
+                first: int, stop: int, step: float, limits: np.ndarray, max_cells: int, level: float, mode: int,
                 out: np.ndarray) -> None:  # pragma: no cover - compiled
     """The runs between steps of rows ``first:stop`` of ``z`` -- ``|rise| > step``, or the float32
-    limit of :func:`aldpat.core.segments.step_limits` where ``spacing`` is given, compared in
-    float64 -- marked where both neighbours outside the run are lower, it is at most
+    limit of :func:`aldpat.core.segments.step_limits` where ``spacing`` is given (``limits``),
+    compared in float64 -- marked where both neighbours outside the run are lower, it is at most
     ``max_cells`` long and its heights lie within ``level``; written into the same rows of
     ``out`` by ``mode``. The heights are those of :func:`aldpat.core.segments._height` (``code *
     scale + offset`` unfused, as the codes' decoding gives them, with ``scaled``)."""
@@ -115,8 +127,7 @@ def _line_spans(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: b
                 there = _height(z[i, b + 1], scaled, scale, offset)
                 limit = step
                 if has_spacing:
-                    limit = np.float64(step_limit(np.int64(spacing[i, b + 1]) + np.int64(spacing[i, b]), step32, cell,
-                                                  slope, reach))
+                    limit = limits[np.int64(spacing[i, b + 1]) + np.int64(spacing[i, b])]
                 if abs(there - here) > limit:
                     break
                 b += 1
@@ -148,9 +159,8 @@ def _written(held: bool, keep: bool, mode: int) -> bool:  # pragma: no cover - c
 
 @compiled(nogil=True)
 def _column_spans(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float,
-                  offset: float, first: int, stop: int, step: float, step32: np.float32, cell: np.float32,
-                  slope: np.float32, reach: np.float32, max_cells: int, level: float, mode: int,
-                  out: np.ndarray) -> None:  # pragma: no cover - compiled
+                  offset: float, first: int, stop: int, step: float, limits: np.ndarray, max_cells: int,
+                  level: float, mode: int, out: np.ndarray) -> None:  # pragma: no cover - compiled
     """:func:`_line_spans` of columns ``first:stop``, taken side by side a row at a time (each
     row's cells of the block read where they lie, in one run of memory: walking each column down
     alone reads a cache line a cell). Each column keeps its run so far: where it starts, its last
@@ -176,8 +186,7 @@ def _column_spans(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled:
             there = _height(z[i, c], scaled, scale, offset)
             limit = step
             if has_spacing:
-                limit = np.float64(step_limit(np.int64(spacing[i, c]) + np.int64(spacing[i - 1, c]), step32, cell,
-                                              slope, reach))
+                limit = limits[np.int64(spacing[i, c]) + np.int64(spacing[i - 1, c])]
             if abs(there - here[j]) > limit:  # the run ends at row i - 1: a step to this row
                 if alive[j]:
                     keep = there < here[j]

@@ -95,14 +95,14 @@ def test_compiled_line_scans_equal_the_vectorised_form():
     the former vectorised form exactly, along rows (a line at a time) and along columns (a block
     of them side by side, a row at a time)."""
     from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE
-    from aldpat.core.spans import _SET, _column_spans, _line_spans
+    from aldpat.core.spans import _SET, _column_spans, _limits, _line_spans
 
     def scan(fn, z, spacing, step, max_cells, cell, level):
         out = np.ones(z.shape, bool)
         lines = z.shape[1] if fn is _column_spans else z.shape[0]
+        limits = _limits(np.float32(step), np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH))
         fn(z, np.zeros((1, 1), np.uint8) if spacing is None else spacing, spacing is not None, False, 1.0, 0.0, 0,
-           lines, step, np.float32(step), np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH),
-           max_cells, level, _SET, out)
+           lines, step, limits, max_cells, level, _SET, out)
         return out
 
     rng = np.random.default_rng(4)
