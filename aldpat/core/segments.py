@@ -200,8 +200,7 @@ def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: n
     scaled = linear is not None
     sp = np.ascontiguousarray(spacing) if spacing is not None else np.zeros((1, 1), np.uint8)
     flags = np.empty((rows, cols), np.uint8)
-    _step_flags(z, sp, spacing is not None, scaled, scale, offset, np.float32(step), np.float32(cell),
-                np.float32(SPACING_SLOPE), np.float32(SPACING_REACH), flags)
+    _flags_on_threads(z, sp, spacing is not None, scaled, scale, offset, step, cell, flags)
     label = np.empty((rows, cols), np.int32)
     count, joins = _label_strips(flags, strip_rows, label)
     segment, first = _join_labels(joins, joins.shape[1], count)
@@ -255,12 +254,21 @@ def _cut(first: float, second: float, apart: int, has_spacing: bool, step: np.fl
     return 0
 
 
+def _flags_on_threads(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float,
+                      offset: float, step: float, cell: float, flags: np.ndarray) -> None:
+    """:func:`_step_flags` in bands of rows on the process's threads (each band its own rows)."""
+    on_threads(lambda band: _step_flags(z, spacing, has_spacing, scaled, scale, offset, np.float32(step),
+                                        np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH),
+                                        *band, flags), _bands(z.shape[0]))
+
+
 @compiled(nogil=True)
 def _step_flags(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float, offset: float,
-                step: np.float32, cell: np.float32, slope: np.float32, reach: np.float32,
+                step: np.float32, cell: np.float32, slope: np.float32, reach: np.float32, first: int, stop: int,
                 flags: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Rows ``first:stop`` of every cell's step flags (the bits above)."""
     rows, cols = z.shape
-    for i in range(rows):
+    for i in range(first, stop):
         for j in range(cols):
             h = _height(z[i, j], scaled, scale, offset)
             f = 0
