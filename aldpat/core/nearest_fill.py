@@ -149,3 +149,20 @@ def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray) -> int:  # pragma: 
         top += 1
         kept[top] = c
     return top
+
+
+@compiled(nogil=True)
+def flat_cells(x: np.ndarray, y: np.ndarray, ox: float, oy: float, cell: float, c0: int, r0: int, rows: int,
+               cols: int) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`aldpat.core.lowest_grid.flat_cell_indices` point by point: ``floor((v - origin) /
+    cell)`` of either coordinate, less the grid's first column or row, clipped into the grid,
+    ``row * cols + col``. Here, with the grid's fill, so that :mod:`aldpat.core.lowest_grid` loads
+    the compiler only once it runs a compiled loop."""
+    out = np.empty(len(x), np.int64)
+    for k in range(len(x)):
+        col = np.int64(math.floor((x[k] - ox) / cell)) - c0
+        row = np.int64(math.floor((y[k] - oy) / cell)) - r0
+        col = min(max(col, 0), cols - 1)
+        row = min(max(row, 0), rows - 1)
+        out[k] = row * cols + col
+    return out
