@@ -160,8 +160,8 @@ def flat_cells(x: np.ndarray, y: np.ndarray, ox: float, oy: float, cell: float, 
     the compiler only once it runs a compiled loop."""
     out = np.empty(len(x), np.int64)
     for k in range(len(x)):
-        col = np.int64(math.floor((x[k] - ox) / cell)) - c0
-        row = np.int64(math.floor((y[k] - oy) / cell)) - r0
+        col = math.floor((x[k] - ox) / cell) - c0
+        row = math.floor((y[k] - oy) / cell) - r0
         col = min(max(col, 0), cols - 1)
         row = min(max(row, 0), rows - 1)
         out[k] = row * cols + col
