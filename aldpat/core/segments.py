@@ -535,6 +535,24 @@ def _write_steps(flags: np.ndarray, segment: np.ndarray, a: int, b: int, fill: n
                 fill[high] += 1
 
 
+#: Lists of lower segments at most this long are sorted in place by insertion (most are: a
+#: segment has a dozen steps on average; a sort call per list cost more than the sorting). Whole
+#: numbers come out in the one sorted order whichever way they are sorted.
+_SHORT_LIST = 32
+
+
+@compiled(nogil=True)
+def _insertion_sort(values: np.ndarray, a: int, b: int) -> None:  # pragma: no cover - compiled
+    """``values[a:b]`` sorted in place, ascending."""
+    for k in range(a + 1, b):
+        v = values[k]
+        m = k - 1
+        while m >= a and values[m] > v:
+            values[m + 1] = values[m]
+            m -= 1
+        values[m + 1] = v
+
+
 @compiled(nogil=True)
 def _sort_lists(lows: np.ndarray, start: np.ndarray, first: int, stop: int,
                 distinct: np.ndarray) -> None:  # pragma: no cover - compiled
@@ -543,7 +561,10 @@ def _sort_lists(lows: np.ndarray, start: np.ndarray, first: int, stop: int,
     for s in range(first, stop):
         a, b = start[s], start[s + 1]
         if b > a:
-            lows[a:b].sort()
+            if b - a <= _SHORT_LIST:
+                _insertion_sort(lows, a, b)
+            else:
+                lows[a:b].sort()
             runs = 1
             for k in range(a + 1, b):
                 if lows[k] != lows[k - 1]:
