@@ -326,15 +326,22 @@ def _label_strip(flags: np.ndarray, a: int, b: int, label: np.ndarray, parent: n
                 parent[k] = _find(parent, k - cols)
             else:
                 parent[k] = k
+    # a cell joined to its west or north neighbour takes that one's label (the same set, whose
+    # root, its least cell, has neither: it is numbered before any other cell of the set)
     count = 0
     for i in range(a, b):
         for j in range(cols):
-            k = (i - a) * cols + j
-            r = _find(parent, k)
-            if r == k:  # a segment's first cell: the next label
-                own[k] = count
-                count += 1
-            label[i, j] = own[r]
+            if j > 0 and not flags[i, j - 1] & EAST_STEP:
+                label[i, j] = label[i, j - 1]
+            elif i > a and not flags[i - 1, j] & NORTH_STEP:
+                label[i, j] = label[i - 1, j]
+            else:
+                k = (i - a) * cols + j
+                r = _find(parent, k)
+                if r == k:  # a segment's first cell: the next label
+                    own[k] = count
+                    count += 1
+                label[i, j] = own[r]
     return count
 
 
