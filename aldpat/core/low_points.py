@@ -248,6 +248,11 @@ def band_minimum(z: np.ndarray, d: int, top: float) -> np.ndarray:
     return out
 
 
+#: Windows at most this many cells long are taken cell by cell, not by prefix and suffix minima
+#: (the single pits' band: windows of one and two cells, where those cost more than the reads).
+_NARROW = 2
+
+
 @compiled(nogil=True)
 def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out: np.ndarray,
                       lower: bool) -> None:  # pragma: no cover - compiled
@@ -258,6 +263,14 @@ def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out
     rows, cols = z.shape
     first, last = _within(first, cols), _within(last, cols)
     w = last - first + 1
+    if w <= _NARROW:  # a window of a cell or two: its cells read as they are
+        for i in range(rows):
+            for j in range(cols):
+                v = top
+                for at in range(max(j + first, 0), min(j + last + 1, cols)):
+                    v = min(v, z[i, at])
+                out[i, j] = min(out[i, j], v) if lower else v
+        return
     size = cols + w  # the row's positions first .. cols - 1 + last, in blocks of w
     g = np.empty(size, z.dtype)
     h = np.empty(size, z.dtype)
@@ -297,6 +310,14 @@ def _running_min_columns(z: np.ndarray, first: int, last: int, top: np.generic, 
     rows, cols = z.shape
     first, last = _within(first, rows), _within(last, rows)
     w = last - first + 1
+    if w <= _NARROW:  # as in :func:`_running_min_rows`, a row at a time
+        for i in range(rows):
+            for j in range(cols):
+                v = top
+                for at in range(max(i + first, 0), min(i + last + 1, rows)):
+                    v = min(v, z[at, j])
+                out[i, j] = min(out[i, j], v) if lower else v
+        return
     size = rows + w
     g = np.empty((size, COLUMN_GROUP), z.dtype)
     h = np.empty((size, COLUMN_GROUP), z.dtype)
