@@ -58,6 +58,8 @@ def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
     below = np.full(cols, -1, np.int64)  # its first filled row from this one on (rows: none)
     nearest = np.empty(cols, np.int64)  # the row of each column's filled cell nearest this row
     kept = np.empty(cols, np.int64)  # the columns on the row's lower envelope
+    source = np.empty(cols, np.int64)  # ... the rows of their filled cells
+    rise = np.empty(cols)  # ... and those rows' squared distance from this one
     apart = _distances() if with_spacing else np.zeros((1, 1), np.uint8)
     if first > 0:  # the state the rows above would have left: each column's filled cells around ``first``
         for c in range(cols):
@@ -88,22 +90,22 @@ def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
                 nearest[c] = b
             else:
                 nearest[c] = -1
-        top = _envelope(nearest, r, kept)
+        top = _envelope(nearest, r, kept, source, rise)
         if top < 0:
             continue
         k = 0
         for c in range(cols):
-            t0, t1 = float(nearest[kept[k]] - r), float(kept[k] - c)
-            near = t0 * t0 + t1 * t1
+            t1 = float(kept[k] - c)
+            near = rise[k] + t1 * t1
             while k < top:
-                t0, t1 = float(nearest[kept[k + 1]] - r), float(kept[k + 1] - c)
-                after = t0 * t0 + t1 * t1
+                t1 = float(kept[k + 1] - c)
+                after = rise[k + 1] + t1 * t1
                 if near <= after:
                     break
                 near = after
                 k += 1
             if empty[r, c]:
-                fr, fc = nearest[kept[k]], kept[k]
+                fr, fc = source[k], kept[k]
                 values[r, c] = values[fr, fc]
                 if with_spacing:
                     spacing[r, c] = apart[min(abs(fr - r), 255), min(abs(fc - c), 255)]
@@ -126,9 +128,12 @@ def _distances() -> np.ndarray:  # pragma: no cover - compiled
 
 
 @compiled(nogil=True)
-def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray) -> int:  # pragma: no cover - compiled
+def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray, source: np.ndarray,
+              rise: np.ndarray) -> int:  # pragma: no cover - compiled
     """The columns whose nearest filled cells lie on the lower envelope along row ``r`` (Maurer
-    et al.'s ``RemoveFT`` test, in float64), into ``kept``; the index of the last (-1: none)."""
+    et al.'s ``RemoveFT`` test, in float64), into ``kept``, with the rows of those filled cells
+    (``source``) and their squared distances from row ``r`` (``rise``: each worked out once, as
+    its column is kept); the index of the last (-1: none)."""
     top = -1
     for c in range(len(nearest)):
         if nearest[c] < 0:
@@ -141,13 +146,13 @@ def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray) -> int:  # pragma: 
             a = f1 - float(kept[top - 1])
             b = fd - f1
             span = a + b
-            u = float(nearest[kept[top - 1]] - r)
-            v = float(nearest[kept[top]] - r)
-            if span * (v * v) - b * (u * u) - a * w_r - a * b * span <= 0.0:
+            if span * rise[top] - b * rise[top - 1] - a * w_r - a * b * span <= 0.0:
                 break
             top -= 1
         top += 1
         kept[top] = c
+        source[top] = nearest[c]
+        rise[top] = w_r
     return top
 
 
