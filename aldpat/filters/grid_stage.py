@@ -160,8 +160,8 @@ def remnants(cells: CellHeights, marks: np.ndarray, params: RaisedSegmentOption,
     """
     from aldpat.core.spans import raised_spans
 
-    ground = marks == MARK_GROUND
-    if not ground.any():
+    ground, others, held, grounds = _ground_and_held(marks)
+    if not grounds:
         return ground
     in_place = cells.owned and cells.codes.flags.c_contiguous
     if in_place:
@@ -171,18 +171,44 @@ def remnants(cells: CellHeights, marks: np.ndarray, params: RaisedSegmentOption,
         # empty (the surface test reads the ground cells', the classes compare a point with its
         # cell's lowest height only where the cell is not marked empty).
         surface = cells.codes
-        held = np.flatnonzero((marks != MARK_GROUND) & (marks != MARK_INTERPOLATED))
         saved = surface.reshape(-1)[held]
     else:
         surface = cells.codes.copy()
     filled_from = np.empty(surface.shape, np.uint8)
-    fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
+    fill_nearest(surface, others, out=surface, spacing=filled_from)
+    del others
     # the flats are made in ``ground`` itself, not in a grid of their own
     flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
                          spacing=filled_from, cell=cell, enclosed=True, level=params.object_step, within=ground)
     if in_place:
         surface.reshape(-1)[held] = saved
     return flats
+
+
+@compiled(nogil=True)
+def _ground_and_held(marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:  # pragma: no cover
+    """From one pass over the marks: the ground cells, every other cell, the cells holding a
+    point that are not ground (flat indices, ascending: those whose codes :func:`remnants` puts
+    back) and how many cells are ground."""
+    rows, cols = marks.shape
+    ground = np.empty((rows, cols), np.bool_)
+    others = np.empty((rows, cols), np.bool_)
+    grounds = held_count = 0
+    for i in range(rows):
+        for j in range(cols):
+            on = marks[i, j] == MARK_GROUND
+            ground[i, j] = on
+            others[i, j] = not on
+            grounds += on
+            held_count += not on and marks[i, j] != MARK_INTERPOLATED
+    held = np.empty(held_count, np.int64)
+    at = 0
+    for i in range(rows):
+        for j in range(cols):
+            if marks[i, j] != MARK_GROUND and marks[i, j] != MARK_INTERPOLATED:
+                held[at] = i * cols + j
+                at += 1
+    return ground, others, held, grounds
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params: LowOutlierOption,
