@@ -158,19 +158,30 @@ def block_lowest(codes: np.ndarray, real: np.ndarray, m: int, offset: tuple[int,
     rows, cols = codes.shape
     r_off, c_off = offset
     brows, bcols = -(-(rows + r_off) // m), -(-(cols + c_off) // m)
-    top = _top(codes)
-    out = np.full((brows, bcols), top, codes.dtype)
-    step = max(1, rows_per_block(cols, 1 << 20) // m) * m
-
-    def strip(a: int) -> None:  # main rows a .. a+step-1 (the first block starts before the grid)
-        lo, hi = max(0, a), min(rows, a + step)
-        part = np.full((step, bcols * m), top, codes.dtype)
-        part[lo - a:hi - a, c_off:c_off + cols] = np.where(real[lo:hi], codes[lo:hi], top)
-        b0 = (a + r_off) // m
-        out[b0:b0 + step // m] = part.reshape(step // m, m, bcols, m).min(axis=(1, 3))[:brows - b0]
-
-    on_threads(strip, range(-r_off, rows, step))  # each strip writes its own rows of blocks
+    top = codes.dtype.type(_top(codes))
+    out = np.empty((brows, bcols), codes.dtype)
+    step = max(1, rows_per_block(cols, 1 << 20) // m)  # rows of blocks a piece
+    # each piece writes its own rows of blocks; a minimum only picks a value: exact in any order
+    on_threads(lambda b0: _block_rows_lowest(codes, real, m, r_off, c_off, top, b0, min(brows, b0 + step), out),
+               range(0, brows, step))
     return out, out != top
+
+
+@compiled(nogil=True)
+def _block_rows_lowest(codes: np.ndarray, real: np.ndarray, m: int, r_off: int, c_off: int, top: np.generic,
+                       b0: int, b1: int, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Rows ``b0:b1`` of :func:`block_lowest`'s blocks: the lowest code of each block's cells
+    holding a point (``top`` where none does; cells beyond the grid hold none), the grid read a
+    row at a time."""
+    rows, cols = codes.shape
+    for bi in range(b0, b1):
+        for bj in range(out.shape[1]):
+            out[bi, bj] = top
+        for i in range(max(0, bi * m - r_off), min(rows, (bi + 1) * m - r_off)):
+            for j in range(cols):
+                if real[i, j]:
+                    bj = (j + c_off) // m
+                    out[bi, bj] = min(out[bi, bj], codes[i, j])
 
 
 def _cells_below(codes: np.ndarray, decode: Decode, real: np.ndarray, blocks: np.ndarray, limit: np.ndarray, m: int,
@@ -237,6 +248,11 @@ def band_minimum(z: np.ndarray, d: int, top: float) -> np.ndarray:
     return out
 
 
+#: Windows at most this many cells long are taken cell by cell, not by prefix and suffix minima
+#: (the single pits' band: windows of one and two cells, where those cost more than the reads).
+_NARROW = 2
+
+
 @compiled(nogil=True)
 def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out: np.ndarray,
                       lower: bool) -> None:  # pragma: no cover - compiled
@@ -247,6 +263,14 @@ def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out
     rows, cols = z.shape
     first, last = _within(first, cols), _within(last, cols)
     w = last - first + 1
+    if w <= _NARROW:  # a window of a cell or two: its cells read as they are
+        for i in range(rows):
+            for j in range(cols):
+                v = top
+                for at in range(max(j + first, 0), min(j + last + 1, cols)):
+                    v = min(v, z[i, at])
+                out[i, j] = min(out[i, j], v) if lower else v
+        return
     size = cols + w  # the row's positions first .. cols - 1 + last, in blocks of w
     g = np.empty(size, z.dtype)
     h = np.empty(size, z.dtype)
@@ -286,6 +310,14 @@ def _running_min_columns(z: np.ndarray, first: int, last: int, top: np.generic, 
     rows, cols = z.shape
     first, last = _within(first, rows), _within(last, rows)
     w = last - first + 1
+    if w <= _NARROW:  # as in :func:`_running_min_rows`, a row at a time
+        for i in range(rows):
+            for j in range(cols):
+                v = top
+                for at in range(max(i + first, 0), min(i + last + 1, rows)):
+                    v = min(v, z[at, j])
+                out[i, j] = min(out[i, j], v) if lower else v
+        return
     size = rows + w
     g = np.empty((size, COLUMN_GROUP), z.dtype)
     h = np.empty((size, COLUMN_GROUP), z.dtype)

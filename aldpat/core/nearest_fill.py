@@ -58,6 +58,9 @@ def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
     below = np.full(cols, -1, np.int64)  # its first filled row from this one on (rows: none)
     nearest = np.empty(cols, np.int64)  # the row of each column's filled cell nearest this row
     kept = np.empty(cols, np.int64)  # the columns on the row's lower envelope
+    source = np.empty(cols, np.int64)  # ... the rows of their filled cells
+    rise = np.empty(cols)  # ... and those rows' squared distance from this one
+    apart = _distances() if with_spacing else np.zeros((1, 1), np.uint8)
     if first > 0:  # the state the rows above would have left: each column's filled cells around ``first``
         for c in range(cols):
             k = first - 1
@@ -87,34 +90,50 @@ def fill_rows(values: np.ndarray, empty: np.ndarray, spacing: np.ndarray, with_s
                 nearest[c] = b
             else:
                 nearest[c] = -1
-        top = _envelope(nearest, r, kept)
+        top = _envelope(nearest, r, kept, source, rise)
         if top < 0:
             continue
         k = 0
         for c in range(cols):
-            t0, t1 = float(nearest[kept[k]] - r), float(kept[k] - c)
-            near = t0 * t0 + t1 * t1
+            t1 = float(kept[k] - c)
+            near = rise[k] + t1 * t1
             while k < top:
-                t0, t1 = float(nearest[kept[k + 1]] - r), float(kept[k + 1] - c)
-                after = t0 * t0 + t1 * t1
+                t1 = float(kept[k + 1] - c)
+                after = rise[k + 1] + t1 * t1
                 if near <= after:
                     break
                 near = after
                 k += 1
             if empty[r, c]:
-                fr, fc = nearest[kept[k]], kept[k]
+                fr, fc = source[k], kept[k]
                 values[r, c] = values[fr, fc]
                 if with_spacing:
-                    d = math.ceil(math.hypot(np.float32(fr - r), np.float32(fc - c)))
-                    spacing[r, c] = min(d, 255)
+                    spacing[r, c] = apart[min(abs(fr - r), 255), min(abs(fc - c), 255)]
             elif with_spacing:
                 spacing[r, c] = 0
 
 
 @compiled(nogil=True)
-def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray) -> int:  # pragma: no cover - compiled
+def _distances() -> np.ndarray:  # pragma: no cover - compiled
+    """The distance of a cell ``dr`` rows and ``dc`` columns from another, ``ceil(hypot(dr, dc))``
+    of their float32 offsets and at most 255, at ``[min(|dr|, 255), min(|dc|, 255)]``: a look-up
+    in place of a root and a rounding up per filled cell. hypot is even in each offset and grows
+    with either, so an offset beyond 255 is 255 away or more, as its row and column of the table
+    say."""
+    out = np.empty((256, 256), np.uint8)
+    for dr in range(256):
+        for dc in range(256):
+            out[dr, dc] = min(math.ceil(math.hypot(np.float32(dr), np.float32(dc))), 255)
+    return out
+
+
+@compiled(nogil=True)
+def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray, source: np.ndarray,
+              rise: np.ndarray) -> int:  # pragma: no cover - compiled
     """The columns whose nearest filled cells lie on the lower envelope along row ``r`` (Maurer
-    et al.'s ``RemoveFT`` test, in float64), into ``kept``; the index of the last (-1: none)."""
+    et al.'s ``RemoveFT`` test, in float64), into ``kept``, with the rows of those filled cells
+    (``source``) and their squared distances from row ``r`` (``rise``: each worked out once, as
+    its column is kept); the index of the last (-1: none)."""
     top = -1
     for c in range(len(nearest)):
         if nearest[c] < 0:
@@ -127,11 +146,28 @@ def _envelope(nearest: np.ndarray, r: int, kept: np.ndarray) -> int:  # pragma: 
             a = f1 - float(kept[top - 1])
             b = fd - f1
             span = a + b
-            u = float(nearest[kept[top - 1]] - r)
-            v = float(nearest[kept[top]] - r)
-            if span * (v * v) - b * (u * u) - a * w_r - a * b * span <= 0.0:
+            if span * rise[top] - b * rise[top - 1] - a * w_r - a * b * span <= 0.0:
                 break
             top -= 1
         top += 1
         kept[top] = c
+        source[top] = nearest[c]
+        rise[top] = w_r
     return top
+
+
+@compiled(nogil=True)
+def flat_cells(x: np.ndarray, y: np.ndarray, ox: float, oy: float, cell: float, c0: int, r0: int, rows: int,
+               cols: int) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`aldpat.core.lowest_grid.flat_cell_indices` point by point: ``floor((v - origin) /
+    cell)`` of either coordinate, less the grid's first column or row, clipped into the grid,
+    ``row * cols + col``. Here, with the grid's fill, so that :mod:`aldpat.core.lowest_grid` loads
+    the compiler only once it runs a compiled loop."""
+    out = np.empty(len(x), np.int64)
+    for k in range(len(x)):
+        col = math.floor((x[k] - ox) / cell) - c0
+        row = math.floor((y[k] - oy) / cell) - r0
+        col = min(max(col, 0), cols - 1)
+        row = min(max(row, 0), rows - 1)
+        out[k] = row * cols + col
+    return out

@@ -57,7 +57,7 @@ import numpy as np
 from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.rise import scale_and_offset
-from aldpat.core.threads import on_threads
+from aldpat.core.threads import on_threads, thread_budget
 
 #: Grid rows labelled at a time: bounds the labelling's scratch to a strip.
 STRIP_ROWS = 256
@@ -112,9 +112,17 @@ def raised_segments(z: np.ndarray, step: float, down_share: float, *,
     graph = _segment_graph(z, step, decode, spacing, cell, strip_rows)
     raised = _decide(graph, step, down_share, levels, max_cells=MAX_OBJECT_AREA / (cell * cell))
     out = np.empty((rows, cols), bool)
-    for a, b in _strips(rows, strip_rows):
-        out[a:b] = raised[graph.segment[a:b]]
+    on_threads(lambda strip: _raised_rows(raised, graph.segment, *strip, out), _strips(rows, strip_rows))
     return out
+
+
+@compiled(nogil=True)
+def _raised_rows(raised: np.ndarray, segment: np.ndarray, a: int, b: int,
+                 out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Rows ``a:b`` of the cells of raised segments (``raised`` of each cell's segment)."""
+    for i in range(a, b):
+        for j in range(segment.shape[1]):
+            out[i, j] = raised[segment[i, j]]
 
 
 def step_limits(apart: np.ndarray | None, step: float, cell: float) -> np.ndarray | float:
@@ -174,9 +182,11 @@ def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: n
        threads), summed per segment in the strips' order -- the order of the float sums is kept
        so that a mean height is the same to the last bit whatever the scans and the threads;
     4. the pairs of segments with steps between them and their steps, from each higher
-       segment's list of lower ones (a cell has at most four neighbours, so no sort of the grid);
+       segment's list of lower ones (a cell has at most four neighbours, so no sort of the grid;
+       bands of rows on threads);
     5. per cell the distinct segments above and below it across its steps, adding the cell
-       (and, on the lower side, its height, in row order) to each pair's counts.
+       (and, on the lower side, its height, in row order) to each pair's counts (bands of rows
+       on threads, the heights of all but the first band's added after, in row order).
 
     Memory: the segments (4 bytes a cell), the step flags (1 byte a cell) and per segment and
     pair a few numbers.
@@ -190,8 +200,7 @@ def _segment_graph(z: np.ndarray, step: float, decode: Decode | None, spacing: n
     scaled = linear is not None
     sp = np.ascontiguousarray(spacing) if spacing is not None else np.zeros((1, 1), np.uint8)
     flags = np.empty((rows, cols), np.uint8)
-    _step_flags(z, sp, spacing is not None, scaled, scale, offset, np.float32(step), np.float32(cell),
-                np.float32(SPACING_SLOPE), np.float32(SPACING_REACH), flags)
+    _flags_on_threads(z, sp, spacing is not None, scaled, scale, offset, step, cell, flags)
     label = np.empty((rows, cols), np.int32)
     count, joins = _label_strips(flags, strip_rows, label)
     segment, first = _join_labels(joins, joins.shape[1], count)
@@ -245,12 +254,21 @@ def _cut(first: float, second: float, apart: int, has_spacing: bool, step: np.fl
     return 0
 
 
+def _flags_on_threads(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float,
+                      offset: float, step: float, cell: float, flags: np.ndarray) -> None:
+    """:func:`_step_flags` in bands of rows on the process's threads (each band its own rows)."""
+    on_threads(lambda band: _step_flags(z, spacing, has_spacing, scaled, scale, offset, np.float32(step),
+                                        np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH),
+                                        *band, flags), _bands(z.shape[0]))
+
+
 @compiled(nogil=True)
 def _step_flags(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled: bool, scale: float, offset: float,
-                step: np.float32, cell: np.float32, slope: np.float32, reach: np.float32,
+                step: np.float32, cell: np.float32, slope: np.float32, reach: np.float32, first: int, stop: int,
                 flags: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Rows ``first:stop`` of every cell's step flags (the bits above)."""
     rows, cols = z.shape
-    for i in range(rows):
+    for i in range(first, stop):
         for j in range(cols):
             h = _height(z[i, j], scaled, scale, offset)
             f = 0
@@ -308,15 +326,22 @@ def _label_strip(flags: np.ndarray, a: int, b: int, label: np.ndarray, parent: n
                 parent[k] = _find(parent, k - cols)
             else:
                 parent[k] = k
+    # a cell joined to its west or north neighbour takes that one's label (the same set, whose
+    # root, its least cell, has neither: it is numbered before any other cell of the set)
     count = 0
     for i in range(a, b):
         for j in range(cols):
-            k = (i - a) * cols + j
-            r = _find(parent, k)
-            if r == k:  # a segment's first cell: the next label
-                own[k] = count
-                count += 1
-            label[i, j] = own[r]
+            if j > 0 and not flags[i, j - 1] & EAST_STEP:
+                label[i, j] = label[i, j - 1]
+            elif i > a and not flags[i - 1, j] & NORTH_STEP:
+                label[i, j] = label[i - 1, j]
+            else:
+                k = (i - a) * cols + j
+                r = _find(parent, k)
+                if r == k:  # a segment's first cell: the next label
+                    own[k] = count
+                    count += 1
+                label[i, j] = own[r]
     return count
 
 
@@ -440,25 +465,73 @@ def _higher_and_lower(flags: np.ndarray, segment: np.ndarray, i: int, j: int,
     return (there, here) if up else (here, there)
 
 
-@compiled(nogil=True)
-def _pairs(flags: np.ndarray, segment: np.ndarray,
-           n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+def _bands(rows: int) -> list[tuple[int, int]]:
+    """The rows of each of the process's threads' bands, top to bottom."""
+    count = max(1, min(thread_budget(), rows))
+    bounds = [rows * k // count for k in range(count + 1)]
+    return list(itertools.pairwise(bounds))
+
+
+def _pairs(flags: np.ndarray, segment: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The pairs of segments with steps between them, ordered by higher then lower segment, the
-    steps of each, and where each higher segment's pairs start (``n + 1`` offsets)."""
-    rows, cols = flags.shape
-    start = np.zeros(n + 1, np.int64)
-    for i in range(rows):
-        for j in range(cols):
-            if flags[i, j] & EAST_STEP:
-                start[1 + _higher_and_lower(flags, segment, i, j, False)[0]] += 1
-            if flags[i, j] & NORTH_STEP:
-                start[1 + _higher_and_lower(flags, segment, i, j, True)[0]] += 1
-    for s in range(n):
-        start[s + 1] += start[s]
+    steps of each, and where each higher segment's pairs start (``n + 1`` offsets).
+
+    Each step goes into its higher segment's list of lower ones; the grid is read in bands of
+    rows on the process's threads, each band's steps counted and then written into its own part
+    of every list (the bands' parts in their order: each list in row order, as one scan makes
+    it); each list is then sorted and its runs counted, ranges of segments on threads."""
+    bands = _bands(flags.shape[0])
+    counts = np.zeros((len(bands), n), np.int64)
+    on_threads(lambda t: _count_steps(flags, segment, *bands[t], counts[t]), range(len(bands)))
+    start, fill = _list_starts(counts)
     lows = np.empty(start[n], np.int64)
-    fill = start[:n].copy()
-    for i in range(rows):
-        for j in range(cols):
+    on_threads(lambda t: _write_steps(flags, segment, *bands[t], fill[t], lows), range(len(bands)))
+    ranges = [(n * k // len(bands), n * (k + 1) // len(bands)) for k in range(len(bands))]
+    distinct = np.zeros(n + 1, np.int64)
+    on_threads(lambda r: _sort_lists(lows, start, *r, distinct), ranges)
+    pair_start = np.cumsum(distinct)  # distinct[s + 1]: segment s's pairs
+    pairs = int(pair_start[n])
+    high_of, low_of, edges = (np.empty(pairs, np.int64) for _ in range(3))
+    on_threads(lambda r: _list_pairs(lows, start, pair_start, *r, high_of, low_of, edges), ranges)
+    return high_of, low_of, edges, pair_start
+
+
+@compiled(nogil=True)
+def _count_steps(flags: np.ndarray, segment: np.ndarray, a: int, b: int,
+                 count: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The steps of rows ``a:b`` (a cell's to its east and north neighbours) per higher segment."""
+    for i in range(a, b):
+        for j in range(flags.shape[1]):
+            if flags[i, j] & EAST_STEP:
+                count[_higher_and_lower(flags, segment, i, j, False)[0]] += 1
+            if flags[i, j] & NORTH_STEP:
+                count[_higher_and_lower(flags, segment, i, j, True)[0]] += 1
+
+
+@compiled(nogil=True)
+def _list_starts(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Where each higher segment's list starts (``n + 1`` offsets) and where each band's part of
+    it does (the bands' parts in their order)."""
+    bands, n = counts.shape
+    start = np.zeros(n + 1, np.int64)
+    fill = np.empty((bands, n), np.int64)
+    at = 0
+    for s in range(n):
+        start[s] = at
+        for t in range(bands):
+            fill[t, s] = at
+            at += counts[t, s]
+    start[n] = at
+    return start, fill
+
+
+@compiled(nogil=True)
+def _write_steps(flags: np.ndarray, segment: np.ndarray, a: int, b: int, fill: np.ndarray,
+                 lows: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The lower segment of every step of rows ``a:b`` into its higher segment's list, at the
+    band's next place in it (``fill``)."""
+    for i in range(a, b):
+        for j in range(flags.shape[1]):
             if flags[i, j] & EAST_STEP:
                 high, low = _higher_and_lower(flags, segment, i, j, False)
                 lows[fill[high]] = low
@@ -467,24 +540,58 @@ def _pairs(flags: np.ndarray, segment: np.ndarray,
                 high, low = _higher_and_lower(flags, segment, i, j, True)
                 lows[fill[high]] = low
                 fill[high] += 1
-    high_of = np.empty(len(lows), np.int64)
-    low_of = np.empty(len(lows), np.int64)
-    edges = np.empty(len(lows), np.int64)
-    pair_start = np.zeros(n + 1, np.int64)
-    pairs = 0
-    for s in range(n):
+
+
+#: Lists of lower segments at most this long are sorted in place by insertion (most are: a
+#: segment has a dozen steps on average; a sort call per list cost more than the sorting). Whole
+#: numbers come out in the one sorted order whichever way they are sorted.
+_SHORT_LIST = 32
+
+
+@compiled(nogil=True)
+def _insertion_sort(values: np.ndarray, a: int, b: int) -> None:  # pragma: no cover - compiled
+    """``values[a:b]`` sorted in place, ascending."""
+    for k in range(a + 1, b):
+        v = values[k]
+        m = k - 1
+        while m >= a and values[m] > v:
+            values[m + 1] = values[m]
+            m -= 1
+        values[m + 1] = v
+
+
+@compiled(nogil=True)
+def _sort_lists(lows: np.ndarray, start: np.ndarray, first: int, stop: int,
+                distinct: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Segments ``first:stop``'s lists sorted in place, and the distinct lower segments of each
+    (into ``distinct[s + 1]``)."""
+    for s in range(first, stop):
         a, b = start[s], start[s + 1]
         if b > a:
-            lows[a:b].sort()
-            for k in range(a, b):
-                if k == a or lows[k] != lows[k - 1]:
-                    high_of[pairs] = s
-                    low_of[pairs] = lows[k]
-                    edges[pairs] = 0
-                    pairs += 1
-                edges[pairs - 1] += 1
-        pair_start[s + 1] = pairs
-    return high_of[:pairs].copy(), low_of[:pairs].copy(), edges[:pairs].copy(), pair_start
+            if b - a <= _SHORT_LIST:
+                _insertion_sort(lows, a, b)
+            else:
+                lows[a:b].sort()
+            runs = 1
+            for k in range(a + 1, b):
+                if lows[k] != lows[k - 1]:
+                    runs += 1
+            distinct[s + 1] = runs
+
+
+@compiled(nogil=True)
+def _list_pairs(lows: np.ndarray, start: np.ndarray, pair_start: np.ndarray, first: int, stop: int,
+                high_of: np.ndarray, low_of: np.ndarray, edges: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The pairs of segments ``first:stop`` (from their sorted lists) and the steps of each."""
+    for s in range(first, stop):
+        pairs = pair_start[s] - 1
+        for k in range(start[s], start[s + 1]):
+            if k == start[s] or lows[k] != lows[k - 1]:
+                pairs += 1
+                high_of[pairs] = s
+                low_of[pairs] = lows[k]
+                edges[pairs] = 0
+            edges[pairs] += 1
 
 
 @compiled(nogil=True)
@@ -503,21 +610,74 @@ def _add_once(seen: np.ndarray, count: int, segment: int) -> int:  # pragma: no 
     return count + 1
 
 
-@compiled(nogil=True)
 def _pair_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: bool, scale: float, offset: float,
-                low: np.ndarray, pair_start: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+                low: np.ndarray, pair_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per pair: the higher side's cells with a step down to the lower segment, the lower side's
     cells with a step up to the higher one, and the sum of the lower cells' heights (in row
-    order). A cell counts once per segment across, however many of its sides step to it."""
-    rows, cols = flags.shape
+    order). A cell counts once per segment across, however many of its sides step to it.
+
+    The grid is read in bands of rows on the process's threads: the first band adds into the
+    totals, every other counts into its own and lists its lower cells' pairs and heights, which
+    are added after, band after band -- each pair's heights summed in row order from 0.0, as one
+    scan of the grid sums them."""
+    bands = _bands(flags.shape[0])
     pairs = len(low)
-    high_cells = np.zeros(pairs, np.int64)
-    low_cells = np.zeros(pairs, np.int64)
-    low_sum = np.zeros(pairs)
+    totals = (np.zeros(pairs, np.int64), np.zeros(pairs, np.int64), np.zeros(pairs))
+    # a band's own counts and listed pairs in 4 bytes where they fit (a cell has at most 4 steps)
+    small = np.int32 if max(pairs, 4 * flags.size) < 2 ** 31 else np.int64
+
+    def band(t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        a, b = bands[t]
+        if t == 0:
+            own, room = totals, 0
+        else:  # a lower cell's pair and height for each step into the band at most
+            own, room = (np.zeros(pairs, small), np.zeros(pairs, small), np.zeros(0)), _steps_into(flags, a, b)
+        at, heights = np.empty(room, small), np.empty(room)
+        held = _band_cells(flags, segment, z, scaled, scale, offset, low, pair_start, a, b, *own, t > 0, at, heights)
+        return own[0], own[1], at[:held], heights[:held]
+
+    high_cells, low_cells, low_sum = totals
+    for t, (high_part, low_part, at, heights) in enumerate(on_threads(band, range(len(bands)))):
+        if t > 0:
+            high_cells += high_part
+            low_cells += low_part
+            _add_in_order(low_sum, at, heights)
+    return high_cells, low_cells, low_sum
+
+
+@compiled(nogil=True)
+def _steps_into(flags: np.ndarray, a: int, b: int) -> int:  # pragma: no cover - compiled
+    """The steps of the cells of rows ``a:b`` and those into row ``a`` from the row before it:
+    every step with a cell of the band on its lower side, and more."""
+    count = 0
+    for i in range(max(a - 1, 0), b):
+        for j in range(flags.shape[1]):
+            f = flags[i, j]
+            count += (f & NORTH_STEP) != 0
+            if i >= a:
+                count += (f & EAST_STEP) != 0
+    return count
+
+
+@compiled(nogil=True)
+def _add_in_order(total: np.ndarray, at: np.ndarray, values: np.ndarray) -> None:  # pragma: no cover - compiled
+    for k in range(len(at)):
+        total[at[k]] += values[k]
+
+
+@compiled(nogil=True)
+def _band_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: bool, scale: float, offset: float,
+                low: np.ndarray, pair_start: np.ndarray, first: int, stop: int, high_cells: np.ndarray,
+                low_cells: np.ndarray, low_sum: np.ndarray, listed: bool, at: np.ndarray,
+                heights: np.ndarray) -> int:  # pragma: no cover - compiled
+    """:func:`_pair_cells` of rows ``first:stop`` into ``high_cells`` and ``low_cells``, and the
+    lower cells' heights into ``low_sum`` or, ``listed``, their pairs and heights in row order
+    into ``at`` and ``heights`` (returns how many)."""
+    cols = flags.shape[1]
+    held = 0
     above = np.empty(4, np.int64)  # the segments across a cell's steps up
     below = np.empty(4, np.int64)  # ... and down
-    for i in range(rows):
+    for i in range(first, stop):
         for j in range(cols):
             ups = downs = 0
             f = flags[i, j]
@@ -549,8 +709,13 @@ def _pair_cells(flags: np.ndarray, segment: np.ndarray, z: np.ndarray, scaled: b
                 for k in range(ups):
                     p = _pair_of(low, pair_start, above[k], s)
                     low_cells[p] += 1
-                    low_sum[p] += h
-    return high_cells, low_cells, low_sum
+                    if listed:
+                        at[held] = p
+                        heights[held] = h
+                        held += 1
+                    else:
+                        low_sum[p] += h
+    return held
 
 
 def _decide(g: _Graph, step: float, down_share: float, levels: bool, max_cells: float) -> np.ndarray:
@@ -565,49 +730,78 @@ def _decide(g: _Graph, step: float, down_share: float, levels: bool, max_cells: 
         raised = (perimeter > g.open) & (down >= down_share * perimeter)
         raised[terrain] = False
         return raised
-    between = g.high != g.low  # a step between two of a segment's own cells is no part of its perimeter
-    high, low = g.high[between], g.low[between]
-    high_cells, low_cells, low_sum = g.high_cells[between], g.low_cells[between], g.low_sum[between]
-    down = np.bincount(high, weights=high_cells, minlength=n)
-    up = np.bincount(low, weights=low_cells, minlength=n)
-    perimeter = down + up + g.open
-    raised = (perimeter > g.open) & (down >= down_share * perimeter)
-    raised[terrain] = False
-    # the ground each segment stands on: the cells its steps down fall to, and their heights
-    under_cells = np.bincount(high, weights=low_cells, minlength=n)
-    under_sum = np.bincount(high, weights=low_sum, minlength=n)
-    for _ in range(LEVEL_ROUNDS):
-        into_raised = np.bincount(low, weights=low_cells * raised[high], minlength=n)
-        loose = up - into_raised + g.open  # steps up into what is not raised, and open edge
-        enclosed = loose <= LOOSE_SHARE * perimeter
-        # a lower level: its steps down are the share of what is left of its perimeter
-        now = enclosed & (down > 0) & (down >= down_share * (down + loose))
-        # a sunken level: only steps up, into raised segments standing lower elsewhere
-        sunken = enclosed & (down == 0) & (up > 0)
-        now |= _sunken(sunken, raised, g.height, high, low, low_cells, low_sum, under_cells, under_sum, step)
-        now |= raised
-        now[terrain] = False
-        if np.array_equal(now, raised):
+    return _levels(terrain, g.open, g.height, g.high, g.low, g.high_cells, g.low_cells, g.low_sum,
+                   float(down_share), float(step), LOOSE_SHARE, LEVEL_ROUNDS)
+
+
+@compiled(nogil=True)
+def _levels(terrain: np.ndarray, open_: np.ndarray, height: np.ndarray, high: np.ndarray, low: np.ndarray,
+            high_cells: np.ndarray, low_cells: np.ndarray, low_sum: np.ndarray, down_share: float, step: float,
+            loose_share: float, rounds: int) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`_decide` with ``levels``: the segments raised by their own steps, then the rounds
+    that peel a building's levels, each a few loops over the pairs and the segments. A step
+    between two of a segment's own cells is no part of its perimeter: those pairs are skipped.
+    Every sum runs over the pairs in their order from 0.0, as ``np.bincount`` over the pairs kept
+    sums (the numpy form this replaces), so a segment's level is the same to the last bit.
+
+    A sunken level (a candidate: enclosed, only steps up) is raised when it stands more than
+    ``step`` above the ground its raised neighbours step down to elsewhere: the mean height of
+    the cells under those neighbours' other steps down, weighted by the cells the candidate has
+    against each."""
+    n = len(open_)
+    down = np.zeros(n)
+    up = np.zeros(n)
+    under_cells = np.zeros(n)  # the ground each segment stands on: the cells its steps down fall to
+    under_sum = np.zeros(n)  # ... and their heights
+    for p in range(len(high)):
+        if high[p] != low[p]:
+            down[high[p]] += high_cells[p]
+            up[low[p]] += low_cells[p]
+            under_cells[high[p]] += low_cells[p]
+            under_sum[high[p]] += low_sum[p]
+    perimeter = np.empty(n)
+    raised = np.empty(n, np.bool_)
+    for s in range(n):
+        perimeter[s] = down[s] + up[s] + open_[s]
+        raised[s] = perimeter[s] > open_[s] and down[s] >= down_share * perimeter[s] and not terrain[s]
+    pairs = len(high)
+    into_raised = np.empty(n)
+    weights = np.empty(n)
+    level = np.empty(n)
+    now = np.empty(n, np.bool_)
+    candidates = np.empty(n, np.bool_)
+    for _ in range(rounds):
+        into_raised[:] = 0.0
+        for p in range(pairs):
+            if high[p] != low[p]:
+                into_raised[low[p]] += low_cells[p] * (1.0 if raised[high[p]] else 0.0)
+        for s in range(n):
+            loose = up[s] - into_raised[s] + open_[s]  # steps up into what is not raised, and open edge
+            enclosed = loose <= loose_share * perimeter[s]
+            # a lower level: its steps down are the share of what is left of its perimeter
+            now[s] = enclosed and down[s] > 0 and down[s] >= down_share * (down[s] + loose)
+            # a sunken level: only steps up, into raised segments standing lower elsewhere
+            candidates[s] = enclosed and down[s] == 0 and up[s] > 0
+        # the ground the candidates' raised neighbours step down to elsewhere
+        weights[:] = 0.0
+        level[:] = 0.0
+        for p in range(pairs):
+            around, inner = high[p], low[p]
+            if around != inner and candidates[inner] and raised[around]:
+                shared = np.float64(low_cells[p])
+                elsewhere = under_cells[around] - shared
+                weight = shared if elsewhere > 0 else 0.0
+                ground = (under_sum[around] - low_sum[p]) / max(elsewhere, 1.0)
+                weights[inner] += weight
+                level[inner] += weight * ground
+        changed = False
+        for s in range(n):
+            if candidates[s] and weights[s] > 0 and height[s] > level[s] / max(weights[s], 1e-12) + step:
+                now[s] = True
+            now[s] = (now[s] or raised[s]) and not terrain[s]
+            changed = changed or now[s] != raised[s]
+        if not changed:
             break
-        raised = now
+        raised[:] = now
     return raised
 
-
-def _sunken(candidates: np.ndarray, raised: np.ndarray, height: np.ndarray, high: np.ndarray, low: np.ndarray,
-            low_cells: np.ndarray, low_sum: np.ndarray, under_cells: np.ndarray, under_sum: np.ndarray,
-            step: float) -> np.ndarray:
-    """Of the ``candidates`` (segments stepping only up into raised ones), those standing more
-    than ``step`` above the ground their raised neighbours step down to elsewhere (the mean height
-    of the cells under those neighbours' other steps down, weighted by the cells each candidate
-    has against each)."""
-    n = len(candidates)
-    pick = candidates[low] & raised[high]
-    if not pick.any():
-        return np.zeros(n, bool)
-    around, inner, shared, shared_sum = high[pick], low[pick], low_cells[pick], low_sum[pick]
-    elsewhere = under_cells[around] - shared
-    weight = np.where(elsewhere > 0, shared, 0.0)
-    ground = (under_sum[around] - shared_sum) / np.maximum(elsewhere, 1)
-    weights = np.bincount(inner, weights=weight, minlength=n)
-    level = np.bincount(inner, weights=weight * ground, minlength=n) / np.maximum(weights, 1e-12)
-    return candidates & (weights > 0) & (height > level + step)

@@ -76,11 +76,14 @@ def provisional_surface(z: np.ndarray, ground: np.ndarray, spec: CellGridSpec) -
     return surface
 
 
-def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarray) -> np.ndarray:
+def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarray, *,
+                    codes: tuple[np.ndarray, float, float] | None = None) -> np.ndarray:
     """The pull-push fill of :func:`provisional_surface` as float32 (a tolerance test needs no
     finer than 0.1 mm), ground cells holding their heights rounded to float32;
     ``heights(a, b)`` gives rows ``a:b`` of the heights as float64, ``ground`` is the mask of
-    ground cells or any grid whose zero cells are the ground ones (a mark matrix).
+    ground cells or any grid whose zero cells are the ground ones (a mark matrix). ``codes``:
+    the grid of codes ``heights`` decodes and its scale and offset (``code * scale + offset``),
+    read by a compiled loop in its place (the same heights, without their float64 rows).
 
     The finest level -- all but a third of the pyramid's cells -- is made and relaxed a strip of
     rows at a time (each strip with ``SWEEPS`` rows of margin, the reach of its sweeps), so that
@@ -93,6 +96,8 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
         return ground[a:b] if ground.dtype == bool else ground[a:b] == 0
 
     def finest(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        if codes is not None:
+            return _finest_rows(codes[0], ground, ground.dtype == bool, a, min(rows, b), codes[1], codes[2])
         on = ground_rows(a, b)
         return np.where(on, heights(a, b), 0.0).astype(np.float32), on.astype(np.float32)
 
@@ -131,6 +136,28 @@ def relaxed_surface(heights: Callable[[int, int], np.ndarray], ground: np.ndarra
 
     on_threads(relax_strip, strips)
     return out
+
+
+@compiled(nogil=True)
+def _finest_rows(codes: np.ndarray, ground: np.ndarray, mask: bool, a: int, b: int, scale: float,
+                 offset: float) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Rows ``a:b`` of the finest level: the ground cells' heights (``code * scale + offset``
+    unfused, rounded to float32) and weights 1, every other cell 0 and 0. ``ground`` is the
+    mask of the ground cells (``mask``) or a grid whose zero cells are they."""
+    cols = codes.shape[1]
+    value = np.empty((b - a, cols), np.float32)
+    weight = np.empty((b - a, cols), np.float32)
+    for i in range(a, b):
+        for j in range(cols):
+            on = ground[i, j] if mask else ground[i, j] == 0
+            if on:
+                h = codes[i, j] * scale
+                value[i - a, j] = np.float32(h + offset)
+                weight[i - a, j] = np.float32(1.0)
+            else:
+                value[i - a, j] = np.float32(0.0)
+                weight[i - a, j] = np.float32(0.0)
+    return value, weight
 
 
 def _push_up(levels: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
@@ -218,10 +245,15 @@ def _relax(value: np.ndarray, fixed: np.ndarray, sweeps: int) -> np.ndarray:  # 
     for _ in range(sweeps):
         for i in range(rows):
             up, down = max(i - 1, 0), min(i + 1, rows - 1)
-            for j in range(cols):
-                if not fixed[i, j]:
+            for j in (0, cols - 1):  # the edges, mirrored (once where the grid is one column wide)
+                if not fixed[i, j] and (j == 0 or cols > 1):
                     left, right = max(j - 1, 0), min(j + 1, cols - 1)
                     after[i, j] = (((now[up, j] + now[down, j]) + now[i, left]) + now[i, right]) * quarter
+            # inside them every cell's mean is worked out and a fixed cell keeps its own (it holds
+            # the same value in both grids): a select, which the compiler runs several cells at once
+            for j in range(1, cols - 1):
+                mean = (((now[up, j] + now[down, j]) + now[i, j - 1]) + now[i, j + 1]) * quarter
+                after[i, j] = now[i, j] if fixed[i, j] else mean
         now, after = after, now
     return now
 
@@ -367,7 +399,9 @@ class SurfaceTest:
         if not (marks == 0).any():
             return cls(None, None, cells.spec, threshold, slope_scalar)
         codes, decode = cells.codes, cells.heights.decode
-        surface = relaxed_surface(lambda a, b: decode(codes[a:b]), marks)
+        linear = scale_and_offset(decode)
+        surface = relaxed_surface(lambda a, b: decode(codes[a:b]), marks,
+                                  codes=None if linear is None else (codes, *linear))
         release_free_memory()  # the pyramid's and the strips' scratch, before the points' pass
         return cls(surface, None, cells.spec, threshold, slope_scalar, marks, (codes, decode))
 

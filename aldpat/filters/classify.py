@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints
 from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, flat_cell_indices
@@ -88,6 +89,34 @@ class FilterResult:
             x=xc[cc], y=yc[rr] * self.y_stretch, z=g.z[real], index=index,
             is_ground=self.is_ground[index], marks=self.point_marks[index],
         )
+
+
+@compiled(nogil=True)
+def _surface_decides(marks: np.ndarray, ground: np.ndarray, cell: np.ndarray, z: np.ndarray, low_cells: np.ndarray,
+                     low_limits: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The marks of points the final surface test decided (``ground``): ground where it says so,
+    ``MARK_NON_GROUND`` for a point it does not take whose mark said ground; then a point below
+    its cell's limit (``low_cells``, ascending, and ``low_limits``: :class:`LowPoints`) a low
+    outlier, not ground -- :meth:`LowPoints.below`'s leftmost binary search, point by point."""
+    n = len(low_cells)
+    for k in range(len(marks)):
+        if ground[k]:
+            marks[k] = MARK_GROUND
+        elif marks[k] == MARK_GROUND:
+            marks[k] = MARK_NON_GROUND
+        if n:
+            a, b = 0, n  # the first of low_cells not below the point's cell (np.searchsorted, left)
+            while a < b:
+                m = (a + b) >> 1
+                if low_cells[m] < cell[k]:
+                    a = m + 1
+                else:
+                    b = m
+            if a == n:
+                a = 0
+            if low_cells[a] == cell[k] and z[k] < low_limits[a]:
+                marks[k] = MARK_LOW_OUTLIER
+                ground[k] = False
 
 
 def ground_surface(z: np.ndarray, ground: np.ndarray) -> np.ndarray:
@@ -169,15 +198,16 @@ class CellClasses:
                     ok = h <= self.tolerance  # NaN (no ground around) compares False
                     pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_NON_GROUND))
             if self.surface is not None:
+                # the test's answer and the low outliers, in one pass over the chunk's points
                 ig = self.surface.test(xs, ys, zs)
-                pm[ig] = MARK_GROUND
-                pm[~ig & (pm == MARK_GROUND)] = MARK_NON_GROUND
+                _surface_decides(pm, ig, ci, np.ascontiguousarray(zs, dtype=np.float64), self.low.cells,
+                                 self.low.limits)
             else:
                 ig = pm == MARK_GROUND
-            if len(self.low):
-                low = self.low.below(ci, zs)
-                pm[low] = MARK_LOW_OUTLIER
-                ig[low] = False
+                if len(self.low):
+                    low = self.low.below(ci, zs)
+                    pm[low] = MARK_LOW_OUTLIER
+                    ig[low] = False
             del ci
             point_marks[a:b] = pm
             is_ground[a:b] = ig

@@ -11,11 +11,13 @@ import math
 
 import numpy as np
 
+from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import Decode
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints, find_low_points, point_spacing
-from aldpat.core.lowest_grid import Extent, fill_nearest, lowest_grid
+from aldpat.core.lowest_grid import Extent, fill_nearest, lowest_grid, rows_per_block
 from aldpat.core.memory import one_arena, release_free_memory
 from aldpat.core.surface_check import SurfaceTest
+from aldpat.core.threads import on_threads
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_RAISED_SEGMENT
 from aldpat.filters.options import GroundParams, LowOutlierOption, PointFilterParams, RaisedSegmentOption
@@ -68,11 +70,12 @@ def _run_grid(spec: FilterSpec, cells: CellHeights, params: GroundParams, spacin
     if marks.dtype not in (np.int16, np.int32) or not marks.flags.writeable or marks is given:
         marks = marks.astype(np.int32)
     del given
-    marks[empty] = MARK_INTERPOLATED  # the marks say which cells were empty from here on
+    # the marks say which cells were empty from here on, and which ground cells are raised: in
+    # one pass, the raised cells read from their bits
+    _mark_cells(marks, empty, raised)
     del read_only, empty
     release_free_memory()  # the filter's scratch, before the surface and the points' pass
     if raised is not None:
-        marks[raised.unpacked() & (marks == MARK_GROUND)] = MARK_RAISED_SEGMENT
         del raised
         if getattr(params, "object_span", 0.0) > 0:
             marks[remnants(cells, marks, params, cells.spec.cell)] = MARK_RAISED_SEGMENT
@@ -87,6 +90,32 @@ class _Bits:
 
     def unpacked(self) -> np.ndarray:
         return np.unpackbits(self.bits, count=math.prod(self.shape)).view(bool).reshape(self.shape)
+
+
+def _mark_cells(marks: np.ndarray, empty: np.ndarray, raised: _Bits | None) -> None:
+    """``marks`` of the ``empty`` cells ``MARK_INTERPOLATED`` and, of the ``raised`` cells (if
+    any) marked ground, ``MARK_RAISED_SEGMENT``; strips of rows on the process's threads."""
+    rows, cols = marks.shape
+    bits = raised.bits if raised is not None else np.zeros(0, np.uint8)
+    step = max(1, rows_per_block(cols, 1 << 20))
+    on_threads(lambda a: _mark_rows(marks, empty, bits, raised is not None, a, min(rows, a + step)),
+               range(0, rows, step))
+
+
+@compiled(nogil=True)
+def _mark_rows(marks: np.ndarray, empty: np.ndarray, bits: np.ndarray, with_raised: bool, a: int,
+               b: int) -> None:  # pragma: no cover - compiled
+    """:func:`_mark_cells` of rows ``a:b``; ``bits``: ``np.packbits`` of the raised cells, the
+    first cell of each byte its highest bit."""
+    cols = marks.shape[1]
+    for i in range(a, b):
+        for j in range(cols):
+            if empty[i, j]:
+                marks[i, j] = MARK_INTERPOLATED
+            elif with_raised and marks[i, j] == MARK_GROUND:
+                k = i * cols + j
+                if (bits[k >> 3] >> (7 - (k & 7))) & 1:
+                    marks[i, j] = MARK_RAISED_SEGMENT
 
 
 def raised_cells(filled: np.ndarray, params: RaisedSegmentOption, cell: float, filled_from: np.ndarray | None = None,
@@ -131,8 +160,8 @@ def remnants(cells: CellHeights, marks: np.ndarray, params: RaisedSegmentOption,
     """
     from aldpat.core.spans import raised_spans
 
-    ground = marks == MARK_GROUND
-    if not ground.any():
+    ground, others, held, grounds = _ground_and_held(marks)
+    if not grounds:
         return ground
     in_place = cells.owned and cells.codes.flags.c_contiguous
     if in_place:
@@ -142,18 +171,44 @@ def remnants(cells: CellHeights, marks: np.ndarray, params: RaisedSegmentOption,
         # empty (the surface test reads the ground cells', the classes compare a point with its
         # cell's lowest height only where the cell is not marked empty).
         surface = cells.codes
-        held = np.flatnonzero((marks != MARK_GROUND) & (marks != MARK_INTERPOLATED))
         saved = surface.reshape(-1)[held]
     else:
         surface = cells.codes.copy()
     filled_from = np.empty(surface.shape, np.uint8)
-    fill_nearest(surface, ~ground, out=surface, spacing=filled_from)
+    fill_nearest(surface, others, out=surface, spacing=filled_from)
+    del others
     # the flats are made in ``ground`` itself, not in a grid of their own
     flats = raised_spans(surface, params.object_step, int(params.object_span / cell), decode=cells.heights.decode,
                          spacing=filled_from, cell=cell, enclosed=True, level=params.object_step, within=ground)
     if in_place:
         surface.reshape(-1)[held] = saved
     return flats
+
+
+@compiled(nogil=True)
+def _ground_and_held(marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:  # pragma: no cover
+    """From one pass over the marks: the ground cells, every other cell, the cells holding a
+    point that are not ground (flat indices, ascending: those whose codes :func:`remnants` puts
+    back) and how many cells are ground."""
+    rows, cols = marks.shape
+    ground = np.empty((rows, cols), np.bool_)
+    others = np.empty((rows, cols), np.bool_)
+    grounds = held_count = 0
+    for i in range(rows):
+        for j in range(cols):
+            on = marks[i, j] == MARK_GROUND
+            ground[i, j] = on
+            others[i, j] = not on
+            grounds += on
+            held_count += not on and marks[i, j] != MARK_INTERPOLATED
+    held = np.empty(held_count, np.int64)
+    at = 0
+    for i in range(rows):
+        for j in range(cols):
+            if marks[i, j] != MARK_GROUND and marks[i, j] != MARK_INTERPOLATED:
+                held[at] = i * cols + j
+                at += 1
+    return ground, others, held, grounds
 
 
 def find_low_outliers(cells: CellHeights, real: np.ndarray, params: LowOutlierOption,

@@ -90,10 +90,20 @@ def _reference_spans(z, spacing, step, max_cells, cell, level):
     return np.repeat(keep, length).reshape(lines, n)
 
 
-def test_compiled_line_scan_equals_the_vectorised_form():
+def test_compiled_line_scans_equal_the_vectorised_form():
     """Runs, their steps (with and without the points' spacing), ends and levelness: the cells of
-    the former vectorised form exactly."""
-    from aldpat.core.spans import _spans
+    the former vectorised form exactly, along rows (a line at a time) and along columns (a block
+    of them side by side, a row at a time)."""
+    from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE
+    from aldpat.core.spans import _SET, _column_spans, _limits, _line_spans
+
+    def scan(fn, z, spacing, step, max_cells, cell, level):
+        out = np.ones(z.shape, bool)
+        lines = z.shape[1] if fn is _column_spans else z.shape[0]
+        limits = _limits(np.float32(step), np.float32(cell), np.float32(SPACING_SLOPE), np.float32(SPACING_REACH))
+        fn(z, np.zeros((1, 1), np.uint8) if spacing is None else spacing, spacing is not None, False, 1.0, 0.0, 0,
+           lines, step, limits, max_cells, level, _SET, out)
+        return out
 
     rng = np.random.default_rng(4)
     for case in range(40):
@@ -102,8 +112,11 @@ def test_compiled_line_scan_equals_the_vectorised_form():
         spacing = rng.integers(0, 5, (lines, n)).astype(np.uint8) if case % 2 else None
         step, max_cells = float(rng.choice([0.3, 1.5, 2.0])), int(rng.integers(0, 12))
         level, cell = float(rng.choice([0.5, 2.0])), float(rng.choice([0.5, 1.0]))
-        assert np.array_equal(_spans(z, spacing, step, max_cells, cell, level),
-                              _reference_spans(z, spacing, step, max_cells, cell, level))
+        expected = _reference_spans(z, spacing, step, max_cells, cell, level)
+        assert np.array_equal(scan(_line_spans, z, spacing, step, max_cells, cell, level), expected)
+        transposed = None if spacing is None else np.ascontiguousarray(spacing.T)
+        along_columns = scan(_column_spans, np.ascontiguousarray(z.T), transposed, step, max_cells, cell, level)
+        assert np.array_equal(along_columns.T, expected)
 
 
 def test_enclosed_spans_made_within_a_mask_keep_only_its_cells():
