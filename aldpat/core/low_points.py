@@ -254,6 +254,22 @@ _NARROW = 2
 
 
 @compiled(nogil=True)
+def _narrow_min(z: np.ndarray, first: int, last: int, top: np.generic, out: np.ndarray, lower: bool,
+                along_rows: bool) -> None:  # pragma: no cover - compiled
+    """:func:`_running_min_rows` (``along_rows``) or :func:`_running_min_columns` for a window of a
+    cell or two, whose cells are read as they are, a grid row at a time."""
+    rows, cols = z.shape
+    n = cols if along_rows else rows
+    for i in range(rows):
+        for j in range(cols):
+            here = j if along_rows else i
+            v = top
+            for at in range(max(here + first, 0), min(here + last + 1, n)):
+                v = min(v, z[i, at] if along_rows else z[at, j])
+            out[i, j] = min(out[i, j], v) if lower else v
+
+
+@compiled(nogil=True)
 def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out: np.ndarray,
                       lower: bool) -> None:  # pragma: no cover - compiled
     """``out[i, j]``: the minimum of ``z[i, j + first:j + last + 1]`` (``first <= last``), ``top``
@@ -264,12 +280,7 @@ def _running_min_rows(z: np.ndarray, first: int, last: int, top: np.generic, out
     first, last = _within(first, cols), _within(last, cols)
     w = last - first + 1
     if w <= _NARROW:  # a window of a cell or two: its cells read as they are
-        for i in range(rows):
-            for j in range(cols):
-                v = top
-                for at in range(max(j + first, 0), min(j + last + 1, cols)):
-                    v = min(v, z[i, at])
-                out[i, j] = min(out[i, j], v) if lower else v
+        _narrow_min(z, first, last, top, out, lower, True)
         return
     size = cols + w  # the row's positions first .. cols - 1 + last, in blocks of w
     g = np.empty(size, z.dtype)
@@ -311,12 +322,7 @@ def _running_min_columns(z: np.ndarray, first: int, last: int, top: np.generic, 
     first, last = _within(first, rows), _within(last, rows)
     w = last - first + 1
     if w <= _NARROW:  # as in :func:`_running_min_rows`, a row at a time
-        for i in range(rows):
-            for j in range(cols):
-                v = top
-                for at in range(max(i + first, 0), min(i + last + 1, rows)):
-                    v = min(v, z[at, j])
-                out[i, j] = min(out[i, j], v) if lower else v
+        _narrow_min(z, first, last, top, out, lower, False)
         return
     size = rows + w
     g = np.empty((size, COLUMN_GROUP), z.dtype)
