@@ -26,6 +26,7 @@ given to the run (``in_place``).
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -69,6 +70,11 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     (heights of ``dtype``, C-ordered) is the run's to open in place instead of a copy.
     """
     given = in_place and decode is None and isinstance(z, np.ndarray) and z.dtype == dtype and z.flags.c_contiguous
+    recoveries = [recover(k) for k in windows] if recover is not None else []
+    if dtype == np.float64 and all(w == "line" for w, _ in passes) and not any(r is not None for r in recoveries):
+        compiled = _compiled_lines(z, windows, thresholds, [axis for _, axis in passes], skip, decode, given)
+        if compiled is not None:
+            return compiled
     surface: np.ndarray = z if given else heights_grid(z, dtype, decode)
     opened: np.ndarray | None = None  # whole-grid scratch, only for the openings that need it
     work: np.ndarray | None = None
@@ -94,6 +100,48 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
             candidates &= ~removed
             surface, opened = opened, surface
         log.debug("window %d (threshold %.3g): %d cells removed so far", k, dh, int((marks > 0).sum()))
+    return marks
+
+
+#: Lines a thread's block of the compiled line passes holds (:func:`_compiled_lines`).
+BLOCK_LINES = 32
+
+
+def _compiled_lines(z: np.ndarray, windows: Sequence[int], thresholds: Sequence[float], axes: Sequence[int],
+                    skip: np.ndarray | None, decode: Decode | None, given: bool) -> np.ndarray | None:
+    """The progressive opening along lines in float64 by gapm's compiled pass over blocks of lines
+    (:func:`aldpat.core.line_pass.filter_lines`: open, rise, mark, in place, on the process's
+    threads), or None where it does not apply -- codes of another decoding than a scale and an
+    offset, heights holding NaN.
+
+    The same marks as the numpy loop to the bit: an opening only picks values, so opening the
+    codes and decoding them gives the opening of the heights; the rise is the same subtraction
+    of the same float64 values and the threshold the same comparison. A cell of ``skip`` is held
+    marked (-1) while the passes run, so that no pass marks it, and is 0 again in the result."""
+    from aldpat.core import line_pass
+    from aldpat.core.rise import scale_and_offset
+
+    linear = scale_and_offset(decode)
+    if decode is not None and linear is None:
+        return None
+    grid = z if given and decode is None else np.array(z, copy=True)  # the caller's grid is not opened
+    if decode is None and (grid.dtype != np.float64 or np.isnan(grid).any()):
+        return None
+    marks = np.zeros(grid.shape, mark_dtype(max(windows, default=0)))
+    if skip is not None:
+        marks[skip] = -1
+    rows, cols = grid.shape
+    for k, dh in zip(windows, thresholds, strict=False):
+        for axis in axes:
+            lines = rows if axis == 1 else cols
+
+            def one(a: int, k: int = k, dh: float = float(dh), axis: int = axis, lines: int = lines) -> None:
+                line_pass.filter_lines(grid, marks, a, min(a + BLOCK_LINES, lines), axis, k, k, dh, math.inf, None,
+                                       False, linear)
+
+            on_threads(one, range(0, lines, BLOCK_LINES))
+    if skip is not None:
+        marks[skip] = 0
     return marks
 
 

@@ -1,11 +1,15 @@
 """The one progressive-opening engine every progressive filter runs (pm, pm2d, pmcircle,
 cluster-pm, multipass): first removal kept, skipped cells never marked, recovery after an opening,
-and the surface precision an argument."""
+and the surface precision an argument; along lines in float64 the compiled pass gives the numpy
+loop's marks, bit for bit."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from aldpat.core import progressive
+from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.progressive import progressive_opening
 
 
@@ -60,3 +64,43 @@ def test_precision_decides_a_height_equal_to_the_threshold():
     z[0, 4] = 290.25
     assert progressive_opening(z, (1,), (0.3,), (("line", 1),), dtype=np.float64)[0, 4] == 1
     assert progressive_opening(z, (1,), (0.3,), (("line", 1),), dtype=np.float32)[0, 4] == 0
+
+
+def _codes(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """Codes of a rough slope with buildings, pits and runs of equal cells (ties)."""
+    z = rng.normal(0, 40, shape).cumsum(axis=1) + rng.normal(0, 40, shape).cumsum(axis=0)
+    z[rng.random(shape) < 0.1] += rng.uniform(300, 1_500)
+    z[rng.random(shape) < 0.03] -= rng.uniform(100, 600)
+    z[:, 7:12] = z[:, 7:8]
+    return np.round(z).astype(np.int32)
+
+
+@pytest.mark.parametrize("axes", [(1, 0), (0,), (1,)])
+@pytest.mark.parametrize("codes", [True, False])
+@pytest.mark.parametrize("with_skip", [True, False])
+def test_compiled_line_passes_give_the_numpy_loops_marks(monkeypatch, axes, codes, with_skip):
+    rng = np.random.default_rng(3 + len(axes) + 2 * codes + 4 * with_skip)
+    heights = ScaledHeights(0.01, 250.0)
+    windows, thresholds = (1, 2, 4, 8, 16), (0.3, 0.5, 1.0, 2.0, 3.0)
+    passes = [("line", axis) for axis in axes]
+    for shape in ((37, 53), (70, 9), (5, 41)):
+        grid = _codes(rng, shape)
+        z = grid if codes else heights.decode(grid)
+        decode = heights.decode if codes else None
+        skip = rng.random(shape) < 0.2 if with_skip else None
+        before = z.copy()
+        got = progressive.progressive_opening(z, windows, thresholds, passes, dtype=np.float64, skip=skip,
+                                              decode=decode)
+        assert np.array_equal(z, before)  # the caller's grid is not opened
+        with monkeypatch.context() as m:
+            m.setattr(progressive, "_compiled_lines", lambda *args: None)
+            want = progressive.progressive_opening(z, windows, thresholds, passes, dtype=np.float64, skip=skip,
+                                                   decode=decode)
+        assert got.dtype == want.dtype and np.array_equal(got, want), shape
+        assert (got > 0).any() and (skip is None or not got[skip].any())
+
+
+def test_heights_with_nan_take_the_numpy_loop():
+    z = np.arange(60.0).reshape(6, 10)
+    z[2, 3] = np.nan
+    assert progressive._compiled_lines(z, (1,), (0.5,), (1,), None, None, False) is None
