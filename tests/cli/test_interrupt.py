@@ -175,7 +175,7 @@ def test_a_signal_to_the_whole_command_reaches_idle_workers_without_a_traceback(
     assert "Traceback" not in err and "ForkProcess" not in err, err
     assert sum("interrupted" in line for line in err.splitlines()) == 1, err
     # nor Dask's lines of the jobs it cancelled, or of workers killed as the cluster closed
-    assert "distributed." not in err, err
+    assert "CancelledError" not in err and "still alive after" not in err, err
     assert gone_within(family, 10) == [] and leftovers(out) == []
 
 
