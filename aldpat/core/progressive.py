@@ -70,8 +70,8 @@ def progressive_opening(z: np.ndarray, windows: Sequence[int], thresholds: Seque
     (heights of ``dtype``, C-ordered) is the run's to open in place instead of a copy.
     """
     given = in_place and decode is None and isinstance(z, np.ndarray) and z.dtype == dtype and z.flags.c_contiguous
-    recoveries = [recover(k) for k in windows] if recover is not None else []
-    if dtype == np.float64 and all(w == "line" for w, _ in passes) and not any(r is not None for r in recoveries):
+    if dtype == np.float64 and all(w == "line" for w, _ in passes) and \
+            (recover is None or all(recover(k) is None for k in windows)):
         compiled = _compiled_lines(z, windows, thresholds, [axis for _, axis in passes], skip, decode, given)
         if compiled is not None:
             return compiled
@@ -124,9 +124,9 @@ def _compiled_lines(z: np.ndarray, windows: Sequence[int], thresholds: Sequence[
     linear = scale_and_offset(decode)
     if decode is not None and linear is None:
         return None
-    grid = z if given and decode is None else np.array(z, copy=True)  # the caller's grid is not opened
-    if decode is None and (grid.dtype != np.float64 or np.isnan(grid).any()):
+    if decode is None and (z.dtype != np.float64 or np.isnan(z).any()):
         return None
+    grid = z if given and decode is None else np.array(z, copy=True)  # the caller's grid is not opened
     marks = np.zeros(grid.shape, mark_dtype(max(windows, default=0)))
     if skip is not None:
         marks[skip] = -1

@@ -117,4 +117,3 @@ def held_classes(reader: PointReader) -> str:
     if len(found) == 1:
         return f"it holds class {found[0][0]} ({found[0][1]:,} points)"
     return "it holds classes " + ", ".join(f"{c} ({n:,})" for c, n in found)
-

@@ -260,8 +260,8 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
     x, y, z, spec, count, own_ground, occupancy = made
     del made  # the points go with x, y, z below, before the raster is written
     if len(x) == 0 and params.classes is not None:
-        raise DataError(f"no ground point found by class {params.classes}: no terrain to grid; "
-                        f"{held_classes(reader)}", path=source)
+        raise DataError(f"no ground point found by {_how(params)}: no terrain to grid; {held_classes(reader)}",
+                        path=source)
     ctx.note(f"{own_ground} ground ({_how(params)})")
     if params.classes is None:
         ctx.note(_low_outlier_test(params.ground_params()))

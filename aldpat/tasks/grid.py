@@ -258,7 +258,6 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
     spec = grid_spec_for(params)
     keep = class_selection(params, reader, ctx)
     if params.chunk is not None and params.method not in BINNING:
-        gridded = None  # how many points are gridded, when known before the chunks are cut
         if spec is None or keep is not None or reader.count is None:
             # the points gridded, read through once: their extent is the whole grid's, and their
             # count (not the file's, when --classes leaves some out) sets the buffer
@@ -268,6 +267,8 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
                     raise DataError(f"no points to grid{_none_chosen(params, reader)}", path=source)
                 spec = from_data(np.array([extent.minx, extent.maxx]), np.array([extent.miny, extent.maxy]),
                                  params.cell, origin=params.origin or (0.0, 0.0))
+        else:  # every point of a LAS, within --bounds: the header's count
+            gridded = reader.count
         check_grid_fits(spec, "mean", params.grid_format, out.parent, source)  # the whole grid, filled by chunks
         values, count = grid_chunked(reader, spec, params, ctx, out.parent, keep, gridded)
     elif spec is not None and params.method in BINNING:
@@ -404,17 +405,15 @@ def chunk_buffer_for(params: GridParams, spacing: float | None = None) -> float:
                CHUNK_BUFFER_SPACINGS * (spacing or 0.0))
 
 
-def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep = None,
-                 gridded: int | None = None) -> tuple[np.ndarray, int]:
+def grid_chunked(reader, spec: GridSpec, params: GridParams, ctx: JobContext, place: Path, keep: Keep,
+                 gridded: int) -> tuple[np.ndarray, int]:
     """``--chunk``: the nodes in squares of ``chunk`` (whole cells), each interpolated from the
     points of its square and its buffer only (:mod:`aldpat.io.chunks`); memory is a chunk's points
-    and the grid. ``gridded``: how many points ``keep`` grids, when the caller counted them.
+    and the grid. ``gridded``: how many points ``keep`` grids (their spacing sets the buffer).
     Returns the grid and the number of points."""
     assert params.chunk is not None  # grid_one calls this only with --chunk
     k = params.chunk_cells(params.cell)
     count = gridded
-    if count is None:
-        count = reader.count if keep is None and reader.count is not None else _gridded_extent(reader, keep)[1]
     area = max((spec.xmax - spec.xmin) * (spec.ymax - spec.ymin), params.cell * params.cell)
     buffer = chunk_buffer_for(params, math.sqrt(area / count) if count else None)
     # node i lies at xmin + i * cell: chunk c holds nodes c*k .. c*k + k - 1
