@@ -17,13 +17,22 @@ from __future__ import annotations
 import numpy as np
 
 from aldpat.core.compiled import compiled
-from aldpat.core.height_codes import Decode, LinearDecode
+from aldpat.core.height_codes import Decode, FloatHeights, LinearDecode
 
 
 def scale_and_offset(decode: Decode | None) -> tuple[float, float] | None:
     """``(scale, offset)`` when ``decode`` is a linear decoding (:class:`LinearDecode`, that of
     :class:`~aldpat.core.height_codes.ScaledHeights`); else ``None``."""
     return (decode.scale, decode.offset) if isinstance(decode, LinearDecode) else None
+
+
+def compiled_decoding(decode: Decode) -> tuple[bool, float, float]:
+    """How a compiled loop reads a grid's heights: ``(True, scale, offset)`` of scaled codes
+    (``code * scale + offset``, unfused), ``(False, 1, 0)`` of float heights, read as they are."""
+    linear = scale_and_offset(decode)
+    if linear is None and not isinstance(getattr(decode, "__self__", None), FloatHeights):
+        raise TypeError(f"heights decoded by {decode!r}: neither scaled codes nor float heights")
+    return (True, *linear) if linear is not None else (False, 1.0, 0.0)
 
 
 def heights_and_rise(z: np.ndarray, opened: np.ndarray, decode: Decode | None = None

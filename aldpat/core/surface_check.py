@@ -23,10 +23,10 @@ from typing import Protocol
 import numpy as np
 
 from aldpat.core.compiled import compiled
-from aldpat.core.height_codes import Decode, FloatHeights, Heights
+from aldpat.core.height_codes import Decode, Heights
 from aldpat.core.lowest_grid import CellGridSpec, fill_nearest
 from aldpat.core.memory import release_free_memory
-from aldpat.core.rise import scale_and_offset
+from aldpat.core.rise import compiled_decoding, scale_and_offset
 from aldpat.core.threads import on_threads, thread_budget
 
 #: Points tested at once in numpy (bounds temporaries on large inputs).
@@ -430,7 +430,7 @@ class SurfaceTest:
             return self.slope.ravel().take(r * self.slope.shape[1] + c)
         assert self.marks is not None and self.heights is not None
         codes, decode = self.heights
-        scaled, scale, offset = self._decoding(decode)
+        scaled, scale, offset = compiled_decoding(decode)
         return _slopes_at(self.surface, self.marks, codes, scaled, scale, offset, float(self.spec.cell),
                           np.ascontiguousarray(r), np.ascontiguousarray(c))
 
@@ -443,7 +443,7 @@ class SurfaceTest:
         if self.slope is not None or self.marks is None or self.heights is None:
             return self.test_in_numpy(x, y, z)
         codes, decode = self.heights
-        scaled, scale, offset = self._decoding(decode)
+        scaled, scale, offset = compiled_decoding(decode)
         out = np.empty(len(z), bool)
         x, y, z = (np.ascontiguousarray(v, dtype=np.float64) for v in (x, y, z))
 
@@ -456,15 +456,6 @@ class SurfaceTest:
         bounds = np.linspace(0, len(z), pieces + 1).astype(np.int64).tolist()
         on_threads(run, list(pairwise(bounds)), pieces)  # the compiled loop releases the GIL
         return out
-
-    @staticmethod
-    def _decoding(decode: Decode) -> tuple[bool, float, float]:
-        """How a compiled loop reads the heights: ``(True, scale, offset)`` of scaled codes,
-        ``(False, 1, 0)`` of float heights, read as they are."""
-        linear = scale_and_offset(decode)
-        if linear is None and not isinstance(getattr(decode, "__self__", None), FloatHeights):
-            raise TypeError(f"heights decoded by {decode!r}: neither scaled codes nor float heights")
-        return (True, *linear) if linear is not None else (False, 1.0, 0.0)
 
     def test_in_numpy(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """:meth:`test` in numpy, a block of points at a time: the form for a given surface and

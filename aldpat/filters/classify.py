@@ -19,6 +19,7 @@ from aldpat.core.compiled import compiled
 from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints
 from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, flat_cell_indices
+from aldpat.core.rise import compiled_decoding
 from aldpat.core.surface_check import SurfaceTest
 from aldpat.filters.marks import MARK_GROUND, MARK_INTERPOLATED, MARK_LOW_OUTLIER, MARK_NON_GROUND
 
@@ -182,21 +183,13 @@ class CellClasses:
         point_marks = np.empty(n, np.int32)
         is_ground = np.empty(n, bool)
         flat_marks = self.marks.ravel()
-        codes = self.cells.codes.ravel()
-        decode = self.cells.heights.decode
         for a in range(0, n, _CHUNK):
             b = min(n, a + _CHUNK)
             xs, ys, zs = x[a:b], y[a:b], z[a:b]
             ci = flat_cell_indices(xs, ys, spec, origin=self.origin) if cell_index is None else cell_index[a:b]
-            cm = flat_marks[ci]
-            pm = cm.astype(np.int32)
+            pm = flat_marks[ci].astype(np.int32)
             if marks or self.surface is None:  # else the surface test alone decides
-                # a cell left out of the grid (empty, or a low outlier's) has no lowest point
-                other = np.flatnonzero((zs != decode(codes[ci])) | (cm == MARK_INTERPOLATED))
-                if len(other):
-                    h = zs[other] - self._ground_height(xs[other], ys[other])
-                    ok = h <= self.tolerance  # NaN (no ground around) compares False
-                    pm[other] = np.where(ok, MARK_GROUND, np.maximum(pm[other], MARK_NON_GROUND))
+                self._lowest_or_above(ci, xs, ys, zs, pm)
             if self.surface is not None:
                 # the test's answer and the low outliers, in one pass over the chunk's points
                 ig = self.surface.test(xs, ys, zs)
@@ -213,51 +206,62 @@ class CellClasses:
             is_ground[a:b] = ig
         return point_marks, is_ground
 
-    def _ground_height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Ground surface at points x, y: bilinear between the centres of the four cells around
-        each point, over those that are ground, weights renormalised.
-
-        NaN where none of the four is ground: such a point sits in a cell whose lowest point was
-        removed, amid removed or empty cells, so it cannot be ground either. Local by design -- a
-        nearest-ground search over the whole grid would cost a distance transform per run.
-        """
+    def _lowest_or_above(self, ci: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray,
+                         pm: np.ndarray) -> None:
+        """``pm`` (the points' cell marks) of the points that are not their cell's lowest: ground
+        within ``tolerance`` of the ground surface, else at least ``MARK_NON_GROUND``
+        (:func:`_lowest_or_above_points`)."""
         spec = self.cells.spec
-        flat_marks = self.marks.ravel()
-        codes = self.cells.codes.ravel()
-        # in place wherever possible: on large inputs fresh scratch arrays cost more than arithmetic
-        fc = np.subtract(x, spec.x0)
-        fc /= spec.cell
-        fc -= 0.5
-        fr = np.subtract(y, spec.y0)
-        fr /= spec.cell
-        fr -= 0.5
-        np.clip(fc, 0.0, max(spec.cols - 1.0, 0.0), out=fc)
-        np.clip(fr, 0.0, max(spec.rows - 1.0, 0.0), out=fr)
-        c0 = fc.astype(np.int64)
-        np.minimum(c0, max(spec.cols - 2, 0), out=c0)
-        r0 = fr.astype(np.int64)
-        np.minimum(r0, max(spec.rows - 2, 0), out=r0)
-        fc -= c0  # now the fraction across the cell pair (tc)
-        fr -= r0  # (tr)
-        dc = 1 if spec.cols > 1 else 0
-        dr = spec.cols if spec.rows > 1 else 0
-        i00 = r0
-        i00 *= spec.cols
-        i00 += c0
-        del c0
-        num = np.zeros(len(x))
-        den = np.zeros(len(x))
-        one_c = 1.0 - fc
-        one_r = 1.0 - fr
-        for offset, wr, wc in ((0, one_r, one_c), (dc, one_r, fc), (dr, fr, one_c), (dr + dc, fr, fc)):
-            idx = i00 + offset if offset else i00
-            ground = flat_marks[idx] == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
-            w = wr * wc
-            w *= ground  # 0 unless the corner cell is ground
+        scaled, scale, offset = compiled_decoding(self.cells.heights.decode)
+        x, y, z = (np.ascontiguousarray(v, dtype=np.float64) for v in (x, y, z))
+        _lowest_or_above_points(np.ascontiguousarray(ci), x, y, z, self.marks.ravel(), self.cells.codes.ravel(),
+                                scaled, scale, offset, float(spec.x0), float(spec.y0), float(spec.cell), spec.rows,
+                                spec.cols, float(self.tolerance), pm)
+
+
+@compiled(nogil=True)
+def _lowest_or_above_points(ci: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray, marks: np.ndarray,
+                            codes: np.ndarray, scaled: bool, scale: float, offset: float, x0: float, y0: float,
+                            cell: float, rows: int, cols: int, tolerance: float,
+                            pm: np.ndarray) -> None:  # pragma: no cover - compiled
+    """:meth:`CellClasses.classify`'s points above their cell's lowest, point by point. A point
+    is its cell's lowest when its height is the cell's (``code * scale + offset`` unfused, or the
+    code itself when not ``scaled``) and the cell was not empty; any other point is compared with
+    the ground surface: bilinear between the centres of the four cells around it, over those that
+    are ground (``marks`` 0), the weights renormalised; where none is ground (or none weighs) the
+    surface is not there and the point is not ground -- it sits amid removed or empty cells. Local
+    by design: a nearest-ground search over the whole grid would cost a distance transform a run.
+
+    The operations are numpy's, in numpy's order, so that the classes are the same to the bit
+    whichever form computes them (``tests/filters/test_classify.py`` holds the numpy form)."""
+    last_c, last_r = max(cols - 2, 0), max(rows - 2, 0)
+    dc = 1 if cols > 1 else 0
+    dr = cols if rows > 1 else 0
+    for k in range(len(z)):
+        own = codes[ci[k]] * scale if scaled else np.float64(codes[ci[k]])
+        own = own + offset if scaled else own
+        if z[k] == own and marks[ci[k]] != MARK_INTERPOLATED:
+            continue  # the cell's lowest point: its mark is the cell's
+        fc = min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0)
+        fr = min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0)
+        c0 = min(int(fc), last_c)  # fc >= 0: truncation is the floor
+        r0 = min(int(fr), last_r)
+        tc, tr = fc - c0, fr - r0
+        one_c, one_r = 1.0 - tc, 1.0 - tr
+        i00 = r0 * cols + c0
+        num = 0.0
+        den = 0.0
+        for corner in range(4):
+            idx = i00 + (dc if corner & 1 else 0) + (dr if corner & 2 else 0)
+            ground = marks[idx] == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
+            w = (tr if corner & 2 else one_r) * (tc if corner & 1 else one_c)
+            w = w * (1.0 if ground else 0.0)
             den += w
-            height = self.cells.heights.decode(codes[idx])
-            height[~ground] = 0.0  # another cell's height may be anything (NaN where empty)
-            w *= height
+            height = codes[idx] * scale if scaled else np.float64(codes[idx])
+            height = height + offset if scaled else height
+            w = w * (height if ground else 0.0)  # another cell's height may be anything
             num += w
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return num / den
+        if den != 0.0 and z[k] - num / den <= tolerance:
+            pm[k] = MARK_GROUND
+        else:
+            pm[k] = max(pm[k], MARK_NON_GROUND)
