@@ -10,6 +10,8 @@ defined, and it is then compiled in each process instead of failing the import.
 
 from __future__ import annotations
 
+import functools
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -26,3 +28,21 @@ def compiled(**options: Any) -> Callable[[Callable], Callable]:
             return njit(**options)(fn)
 
     return decorate
+
+
+@functools.cache
+def load_compiler_in_background() -> None:
+    """Start loading numba's compiler (its typing and target contexts: about 0.3 s of imports and
+    tables, the first compiled call's) on a thread of its own, once a process, so that it overlaps
+    work that needs none, such as the first reading of a file. A compiled call meanwhile waits on
+    numba's own lock for it to finish."""
+    threading.Thread(target=_first_call, name="aldpat-load-compiler", daemon=True).start()
+
+
+def _first_call() -> None:
+    _nothing(0)
+
+
+@compiled(nogil=True)
+def _nothing(k: int) -> int:  # pragma: no cover - compiled
+    return k

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.compiled import load_compiler_in_background
 from aldpat.core.height_codes import Decode, LinearDecode, ScaledHeights
 from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, floor_index, grid_spec
@@ -147,6 +148,7 @@ def stream_classes(read: Callable[[], Iterator[CodedChunk]], bounds: Extent, hei
     """Pass one: the grid of ``read()``'s points, through the filter's grid stage. The returned
     :class:`CellClasses` classifies the points of pass two, chunk by chunk."""
     spec = get_filter(algorithm)
+    load_compiler_in_background()  # while the points are read and gridded
     cells = lowest_codes(read(), bounds, heights, params.cell, params.origin)
     log.debug("%s: %d x %d cells of %g m from two passes", algorithm, cells.spec.rows, cells.spec.cols,
               params.cell)
