@@ -11,11 +11,14 @@ defined, and it is then compiled in each process instead of failing the import.
 from __future__ import annotations
 
 import functools
+import logging
 import threading
 from collections.abc import Callable
 from typing import Any
 
 from numba import njit
+
+log = logging.getLogger(__name__)
 
 
 def compiled(**options: Any) -> Callable[[Callable], Callable]:
@@ -40,7 +43,10 @@ def load_compiler_in_background() -> None:
 
 
 def _first_call() -> None:
-    _nothing(0)
+    try:
+        _nothing(0)
+    except Exception as exc:  # noqa: BLE001 - the run's own compiled calls meet the fault and say so
+        log.debug("loading the compiler ahead of the run failed: %s", exc)
 
 
 @compiled(nogil=True)
