@@ -22,6 +22,7 @@ another mark than its cell's.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -29,10 +30,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.compiled import load_compiler_in_background
+from aldpat.core.compiled import compiled, load_compiler_in_background
 from aldpat.core.height_codes import Decode, LinearDecode, ScaledHeights
 from aldpat.core.low_points import point_spacing
-from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, floor_index, grid_spec
+from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, grid_spec
 from aldpat.errors import DataError
 from aldpat.filters.classify import CellClasses, CellHeights
 from aldpat.filters.grid_stage import cell_classes
@@ -107,22 +108,16 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
     for x, y, z in chunks:
         if not len(x):
             continue
-        col = floor_index(x, ox, cell)
-        col -= c_first
-        row = floor_index(y, oy, cell)
-        row -= r_first
-        if col.min() < 0 or row.min() < 0 or col.max() >= outer.cols or row.max() >= outer.rows:
+        x, y = (np.ascontiguousarray(v, dtype=np.float64) for v in (x, y))
+        bad, reach = _lowest_of_chunk(x, y, np.ascontiguousarray(z), float(ox), float(oy), float(cell), c_first, r_first,
+                                      outer.rows, outer.cols, codes, heights.empty)
+        if bad == _OUTSIDE:
             raise Unstreamable("a point lies outside the bounds in the file's header")
-        if z.max() >= heights.empty:
+        if bad == _EMPTY_CODE:
             raise Unstreamable("a height is stored as the largest integer, the code of an empty cell")
-        flat = row
-        flat *= outer.cols
-        flat += col
-        del col
-        np.minimum.at(codes, flat, z)
         count += len(x)
-        lo = [min(lo[0], float(x.min())), min(lo[1], float(y.min()))]
-        hi = [max(hi[0], float(x.max())), max(hi[1], float(y.max()))]
+        lo = [min(lo[0], reach[0]), min(lo[1], reach[1])]
+        hi = [max(hi[0], reach[2]), max(hi[1], reach[3])]
     own = grid_spec(np.zeros(0), np.zeros(0), cell, origin=origin, extent=(lo[0], lo[1], hi[0], hi[1])
                     ) if np.isfinite(lo[0]) else outer
     grid = codes.reshape(outer.shape)
@@ -133,6 +128,38 @@ def lowest_codes(chunks: Iterable[CodedChunk], bounds: Extent, heights: ScaledHe
     del codes
     extent = (lo[0], lo[1], hi[0], hi[1]) if np.isfinite(lo[0]) else None
     return CellHeights(own, grid, heights, owned=True, spacing=point_spacing(count, extent))
+
+
+#: What :func:`_lowest_of_chunk` found wrong with a chunk: a point outside the grid, a height
+#: coded as an empty cell.
+_OUTSIDE, _EMPTY_CODE = 1, 2
+
+
+@compiled(nogil=True)
+def _lowest_of_chunk(x: np.ndarray, y: np.ndarray, z: np.ndarray, ox: float, oy: float, cell: float, c_first: int,
+                     r_first: int, rows: int, cols: int, codes: np.ndarray,
+                     empty: int) -> tuple[int, tuple[float, float, float, float]]:  # pragma: no cover - compiled
+    """A chunk's points into the running minimum ``codes`` (flat, ``rows`` x ``cols``), in one
+    pass: each point's cell ``floor((v - origin) / cell)`` less the grid's first column or row
+    (:func:`aldpat.core.lowest_grid.floor_index`'s operations), and the points' lowest and highest
+    x and y. ``(_OUTSIDE, ...)`` when a point's cell is off the grid, ``(_EMPTY_CODE, ...)`` when a
+    height is stored as ``empty`` (and no point is off the grid): the caller then grids the file
+    another way, so what the chunk wrote is never read."""
+    lo_x, lo_y, hi_x, hi_y = np.inf, np.inf, -np.inf, -np.inf
+    coded_empty = False
+    for k in range(len(z)):
+        col = np.int64(math.floor((x[k] - ox) / cell)) - c_first
+        row = np.int64(math.floor((y[k] - oy) / cell)) - r_first
+        if col < 0 or row < 0 or col >= cols or row >= rows:
+            return _OUTSIDE, (lo_x, lo_y, hi_x, hi_y)
+        if z[k] >= empty:
+            coded_empty = True
+            continue
+        flat = row * cols + col
+        codes[flat] = min(codes[flat], z[k])
+        lo_x, hi_x = min(lo_x, x[k]), max(hi_x, x[k])
+        lo_y, hi_y = min(lo_y, y[k]), max(hi_y, y[k])
+    return _EMPTY_CODE if coded_empty else 0, (lo_x, lo_y, hi_x, hi_y)
 
 
 #: A header's bounds are taken for a stale one (a tile carrying its project's header) when its grid

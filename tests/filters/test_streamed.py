@@ -182,6 +182,43 @@ def test_a_header_narrower_than_the_points_is_refused(tmp_path, runner, cli):
     assert not (tmp_path / "bad_pm.las").exists()
 
 
+def test_pass_one_keeps_each_cells_lowest_code_as_numpy_finds_it():
+    """The compiled pass over a chunk gives numpy's running minimum (``np.minimum.at`` over
+    ``floor((v - origin) / cell)``), extent and spacing, whatever the origin and however the
+    points are cut into chunks; a point off the grid is named before a height coded as empty."""
+    from aldpat.core.height_codes import EMPTY_CODE, ScaledHeights
+
+    rng = np.random.default_rng(5)
+    n = 20_000
+    x = rng.uniform(1000.0, 1093.7, n)
+    y = rng.uniform(-40.0, 21.3, n)
+    x[:50] = np.round(x[:50])  # on cell edges
+    y[50:100] = np.round(y[50:100] * 2) / 2
+    z = rng.integers(-30_000, 90_000, n).astype(np.int32)
+    heights = ScaledHeights(0.01, 100.0)
+    bounds = (float(x.min()), float(y.min()), float(x.max()), float(y.max()))
+    for cell, origin in ((1.0, None), (0.75, (0.3, -0.2)), (2.5, (1000.0, 0.0))):
+        ox, oy = origin or (0.0, 0.0)
+        spec = lowest_codes([], bounds, heights, cell, origin).spec  # the grid over the bounds
+        col = np.floor((x - ox) / cell).astype(np.int64) - round((spec.x0 - ox) / cell)
+        row = np.floor((y - oy) / cell).astype(np.int64) - round((spec.y0 - oy) / cell)
+        expected = np.full(spec.size, EMPTY_CODE, np.int32)
+        np.minimum.at(expected, row * spec.cols + col, z)
+        pieces = [(x[a:a + 3001], y[a:a + 3001], z[a:a + 3001]) for a in range(0, n, 3001)]
+        got = lowest_codes(pieces, bounds, heights, cell, origin)
+        assert got.spec == spec
+        assert np.array_equal(got.codes.ravel(), expected)
+        assert got.spacing == lowest_codes([(x, y, z)], bounds, heights, cell, origin).spacing
+    coded = z.copy()
+    coded[7] = EMPTY_CODE
+    off = x.copy()
+    off[9000] = bounds[2] + 10.0
+    with pytest.raises(Unstreamable, match="outside"):
+        lowest_codes([(off, y, coded)], bounds, heights, 1.0, None)
+    with pytest.raises(Unstreamable, match="empty cell"):
+        lowest_codes([(x, y, coded)], bounds, heights, 1.0, None)
+
+
 def test_a_height_stored_as_the_empty_cells_code_is_not_streamed():
     """The largest integer marks an empty cell: a point stored with it (a height 21,474 km up at
     1 cm) must not vanish from the grid, so the file is read whole instead."""
