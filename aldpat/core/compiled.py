@@ -16,7 +16,11 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from numba import njit
+import numpy as np
+from llvmlite import ir
+from numba import literal_unroll, njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 log = logging.getLogger(__name__)
 
@@ -52,3 +56,50 @@ def _first_call() -> None:
 @compiled(nogil=True)
 def _nothing(k: int) -> int:  # pragma: no cover - compiled
     return k
+
+
+#: Points whose cells are asked for ahead at a time (:func:`prefetch_cells`): the next block's
+#: while this one is worked on. Fewer, and the loads have not arrived when they are needed; many
+#: more, and the first of them are evicted again.
+PREFETCH_BLOCK = 512
+
+
+@intrinsic
+def prefetch(typingctx: Any, grid: Any, row: Any, col: Any) -> Any:
+    """``prefetch(grid, row, col)`` in a compiled loop: ask the processor to bring the cache line
+    of ``grid[row, col]`` (a 2-D array, any strides) in, for reading, and go on without waiting
+    (LLVM's ``llvm.prefetch``). A hint: it never faults, changes nothing and gives the same results."""
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        grid_type = signature.args[0]
+        array = context.make_array(grid_type)(context, builder, args[0])
+        item = cgutils.get_item_pointer(context, builder, grid_type, array, [args[1], args[2]])
+        address = builder.bitcast(item, ir.IntType(8).as_pointer())
+        hint = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [address.type, *([ir.IntType(32)] * 3)]),
+            "llvm.prefetch.p0i8")
+        read, keep, data_cache = (ir.Constant(ir.IntType(32), v) for v in (0, 3, 1))
+        builder.call(hint, [address, read, keep, data_cache])
+        return context.get_dummy_value()
+
+    return types.void(grid, types.intp, types.intp), codegen
+
+
+@compiled(nogil=True)
+def prefetch_cells(grids: Any, x: np.ndarray, y: np.ndarray, first: int, stop: int, x0: float, y0: float,
+                   cell: float) -> None:  # pragma: no cover - compiled
+    """Ask for the cells points ``first:stop`` will read of each of ``grids`` (a tuple of 2-D
+    arrays of one shape, lower-left corner ``x0, y0``): the two rows of cell centres around each
+    point, at its column.
+
+    A per-point loop over a large grid waits on memory: consecutive points of a flight line lie
+    rows apart, so each point's cells are a cache miss on every grid (at 1 m cells over 10 M
+    points, 60 % of a surface test's time). Asked for a block ahead
+    (:data:`PREFETCH_BLOCK`), the loads of many points are under way at once."""
+    rows, cols = grids[0].shape
+    for k in range(first, stop):
+        col = int(min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0))
+        row = int(min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0))
+        below = min(row + 1, rows - 1)
+        for grid in literal_unroll(grids):
+            prefetch(grid, row, col)  # type: ignore[call-arg]  # an intrinsic: numba passes the typing context
+            prefetch(grid, below, col)  # type: ignore[call-arg]

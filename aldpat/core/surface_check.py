@@ -22,7 +22,7 @@ from typing import Protocol
 
 import numpy as np
 
-from aldpat.core.compiled import compiled
+from aldpat.core.compiled import PREFETCH_BLOCK, compiled, prefetch_cells
 from aldpat.core.height_codes import Decode, Heights
 from aldpat.core.lowest_grid import CellGridSpec, fill_nearest
 from aldpat.core.memory import release_free_memory
@@ -482,48 +482,55 @@ def _test_points(surface: np.ndarray, marks: np.ndarray, codes: np.ndarray, scal
     (:func:`_blend` of :func:`_height_at` and of :func:`_cell_slope`'s float32 slopes, widened),
     ``|z - surface| <= threshold + slope_scalar * slope``. The heights a point's four slopes read
     -- the 4 x 4 cells around its corners, less theirs -- are read once into ``patch``, and only for
-    a point the threshold alone does not take."""
+    a point the threshold alone does not take. The cells of each block of points are asked for
+    while the block before is tested (:func:`aldpat.core.compiled.prefetch_cells`)."""
     rows, cols = surface.shape
     last_c, last_r = max(cols - 2, 0), max(rows - 2, 0)
     sloped = slope_scalar != 0.0 and rows >= 2 and cols >= 2
     patch = np.zeros((4, 4))  # rows r0 - 1 .. r0 + 2, columns c0 - 1 .. c0 + 2
-    for k in range(len(z)):
-        fc = min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0)
-        fr = min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0)
-        c0 = min(np.int64(fc), last_c)
-        r0 = min(np.int64(fr), last_r)
-        c1, r1 = min(c0 + 1, cols - 1), min(r0 + 1, rows - 1)
-        tc, tr = fc - c0, fr - r0
-        h00 = _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c0)
-        h01 = _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c1)
-        h10 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c0)
-        h11 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c1)
-        at = (h00 * (1 - tc) + h01 * tc) * (1 - tr) + (h10 * (1 - tc) + h11 * tc) * tr
-        off = abs(z[k] - at)
-        tolerance = threshold
-        if slope_scalar > 0.0 and off <= threshold:
-            # the slope term only widens the tolerance (a positive scalar times a blend of slopes,
-            # none negative, with weights none negative): within the threshold, ground whatever it is
-            out[k] = True
-            continue
-        if slope_scalar != 0.0:
-            s00 = s01 = s10 = s11 = 0.0
-            if sloped:  # r1 = r0 + 1 and c1 = c0 + 1 here
-                patch[1, 1], patch[1, 2], patch[2, 1], patch[2, 2] = h00, h01, h10, h11
-                for a in range(4):
-                    i = r0 - 1 + a
-                    for b in range(4):
-                        j = c0 - 1 + b
-                        if (a == 0 or a == 3) == (b == 0 or b == 3) or i < 0 or j < 0 or i >= rows or j >= cols:
-                            continue  # a corner of the patch, a corner cell (read above), or off the grid
-                        patch[a, b] = _height_at(surface, marks, codes, True, scaled, scale, offset, i, j)
-                s00 = np.float64(_patch_slope(patch, 1, 1, r0, c0, rows, cols, cell))
-                s01 = np.float64(_patch_slope(patch, 1, 2, r0, c1, rows, cols, cell))
-                s10 = np.float64(_patch_slope(patch, 2, 1, r1, c0, rows, cols, cell))
-                s11 = np.float64(_patch_slope(patch, 2, 2, r1, c1, rows, cols, cell))
-            tolerance = threshold + slope_scalar * ((s00 * (1 - tc) + s01 * tc) * (1 - tr)
-                                                    + (s10 * (1 - tc) + s11 * tc) * tr)
-        out[k] = off <= tolerance
+    n = len(z)
+    grids = (surface, marks, codes)
+    prefetch_cells(grids, x, y, 0, min(n, PREFETCH_BLOCK), x0, y0, cell)
+    for first in range(0, n, PREFETCH_BLOCK):
+        stop = min(n, first + PREFETCH_BLOCK)
+        prefetch_cells(grids, x, y, stop, min(n, stop + PREFETCH_BLOCK), x0, y0, cell)
+        for k in range(first, stop):
+            fc = min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0)
+            fr = min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0)
+            c0 = min(np.int64(fc), last_c)
+            r0 = min(np.int64(fr), last_r)
+            c1, r1 = min(c0 + 1, cols - 1), min(r0 + 1, rows - 1)
+            tc, tr = fc - c0, fr - r0
+            h00 = _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c0)
+            h01 = _height_at(surface, marks, codes, True, scaled, scale, offset, r0, c1)
+            h10 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c0)
+            h11 = _height_at(surface, marks, codes, True, scaled, scale, offset, r1, c1)
+            at = (h00 * (1 - tc) + h01 * tc) * (1 - tr) + (h10 * (1 - tc) + h11 * tc) * tr
+            off = abs(z[k] - at)
+            tolerance = threshold
+            if slope_scalar > 0.0 and off <= threshold:
+                # the slope term only widens the tolerance (a positive scalar times a blend of slopes,
+                # none negative, with weights none negative): within the threshold, ground whatever it is
+                out[k] = True
+                continue
+            if slope_scalar != 0.0:
+                s00 = s01 = s10 = s11 = 0.0
+                if sloped:  # r1 = r0 + 1 and c1 = c0 + 1 here
+                    patch[1, 1], patch[1, 2], patch[2, 1], patch[2, 2] = h00, h01, h10, h11
+                    for a in range(4):
+                        i = r0 - 1 + a
+                        for b in range(4):
+                            j = c0 - 1 + b
+                            if (a == 0 or a == 3) == (b == 0 or b == 3) or i < 0 or j < 0 or i >= rows or j >= cols:
+                                continue  # a corner of the patch, a corner cell (read above), or off the grid
+                            patch[a, b] = _height_at(surface, marks, codes, True, scaled, scale, offset, i, j)
+                    s00 = np.float64(_patch_slope(patch, 1, 1, r0, c0, rows, cols, cell))
+                    s01 = np.float64(_patch_slope(patch, 1, 2, r0, c1, rows, cols, cell))
+                    s10 = np.float64(_patch_slope(patch, 2, 1, r1, c0, rows, cols, cell))
+                    s11 = np.float64(_patch_slope(patch, 2, 2, r1, c1, rows, cols, cell))
+                tolerance = threshold + slope_scalar * ((s00 * (1 - tc) + s01 * tc) * (1 - tr)
+                                                        + (s10 * (1 - tc) + s11 * tc) * tr)
+            out[k] = off <= tolerance
 
 
 @compiled(nogil=True)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aldpat.core.compiled import compiled
+from aldpat.core.compiled import PREFETCH_BLOCK, compiled, prefetch_cells
 from aldpat.core.height_codes import FloatHeights, Heights
 from aldpat.core.low_points import NO_LOW_POINTS, LowPoints
 from aldpat.core.lowest_grid import CellGridSpec, LowestGrid, fill_nearest, flat_cell_indices
@@ -233,35 +233,43 @@ def _lowest_or_above_points(ci: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.
     by design: a nearest-ground search over the whole grid would cost a distance transform a run.
 
     The operations are numpy's, in numpy's order, so that the classes are the same to the bit
-    whichever form computes them (``tests/filters/test_classify.py`` holds the numpy form)."""
+    whichever form computes them (``tests/filters/test_classify.py`` holds the numpy form). The
+    cells of each block of points are asked for while the block before is classified
+    (:func:`aldpat.core.compiled.prefetch_cells`)."""
     last_c, last_r = max(cols - 2, 0), max(rows - 2, 0)
     dc = 1 if cols > 1 else 0
     dr = cols if rows > 1 else 0
-    for k in range(len(z)):
-        own = codes[ci[k]] * scale if scaled else np.float64(codes[ci[k]])
-        own = own + offset if scaled else own
-        if z[k] == own and marks[ci[k]] != MARK_INTERPOLATED:
-            continue  # the cell's lowest point: its mark is the cell's
-        fc = min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0)
-        fr = min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0)
-        c0 = min(int(fc), last_c)  # fc >= 0: truncation is the floor
-        r0 = min(int(fr), last_r)
-        tc, tr = fc - c0, fr - r0
-        one_c, one_r = 1.0 - tc, 1.0 - tr
-        i00 = r0 * cols + c0
-        num = 0.0
-        den = 0.0
-        for corner in range(4):
-            idx = i00 + (dc if corner & 1 else 0) + (dr if corner & 2 else 0)
-            ground = marks[idx] == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
-            w = (tr if corner & 2 else one_r) * (tc if corner & 1 else one_c)
-            w = w * (1.0 if ground else 0.0)
-            den += w
-            height = codes[idx] * scale if scaled else np.float64(codes[idx])
-            height = height + offset if scaled else height
-            w = w * (height if ground else 0.0)  # another cell's height may be anything
-            num += w
-        if den != 0.0 and z[k] - num / den <= tolerance:
-            pm[k] = MARK_GROUND
-        else:
-            pm[k] = max(pm[k], MARK_NON_GROUND)
+    n = len(z)
+    grids = (marks.reshape(rows, cols), codes.reshape(rows, cols))
+    prefetch_cells(grids, x, y, 0, min(n, PREFETCH_BLOCK), x0, y0, cell)
+    for first in range(0, n, PREFETCH_BLOCK):
+        stop = min(n, first + PREFETCH_BLOCK)
+        prefetch_cells(grids, x, y, stop, min(n, stop + PREFETCH_BLOCK), x0, y0, cell)
+        for k in range(first, stop):
+            own = codes[ci[k]] * scale if scaled else np.float64(codes[ci[k]])
+            own = own + offset if scaled else own
+            if z[k] == own and marks[ci[k]] != MARK_INTERPOLATED:
+                continue  # the cell's lowest point: its mark is the cell's
+            fc = min(max((x[k] - x0) / cell - 0.5, 0.0), cols - 1.0)
+            fr = min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0)
+            c0 = min(int(fc), last_c)  # fc >= 0: truncation is the floor
+            r0 = min(int(fr), last_r)
+            tc, tr = fc - c0, fr - r0
+            one_c, one_r = 1.0 - tc, 1.0 - tr
+            i00 = r0 * cols + c0
+            num = 0.0
+            den = 0.0
+            for corner in range(4):
+                idx = i00 + (dc if corner & 1 else 0) + (dr if corner & 2 else 0)
+                ground = marks[idx] == MARK_GROUND  # empty cells carry MARK_INTERPOLATED
+                w = (tr if corner & 2 else one_r) * (tc if corner & 1 else one_c)
+                w = w * (1.0 if ground else 0.0)
+                den += w
+                height = codes[idx] * scale if scaled else np.float64(codes[idx])
+                height = height + offset if scaled else height
+                w = w * (height if ground else 0.0)  # another cell's height may be anything
+                num += w
+            if den != 0.0 and z[k] - num / den <= tolerance:
+                pm[k] = MARK_GROUND
+            else:
+                pm[k] = max(pm[k], MARK_NON_GROUND)
