@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.compiled import compiled, load_compiler_in_background
+from aldpat.core.compiled import PREFETCH_BLOCK, compiled, load_compiler_in_background, prefetch_cells
 from aldpat.core.height_codes import Decode, LinearDecode, ScaledHeights
 from aldpat.core.low_points import point_spacing
 from aldpat.core.lowest_grid import Extent, fill_nearest, flat_cell_indices, grid_spec
@@ -144,21 +144,29 @@ def _lowest_of_chunk(x: np.ndarray, y: np.ndarray, z: np.ndarray, ox: float, oy:
     (:func:`aldpat.core.lowest_grid.floor_index`'s operations), and the points' lowest and highest
     x and y. ``(_OUTSIDE, ...)`` when a point's cell is off the grid, ``(_EMPTY_CODE, ...)`` when a
     height is stored as ``empty`` (and no point is off the grid): the caller then grids the file
-    another way, so what the chunk wrote is never read."""
+    another way, so what the chunk wrote is never read. The cells of each block of points are
+    asked for while the block before is gridded (:func:`aldpat.core.compiled.prefetch_cells`)."""
     lo_x, lo_y, hi_x, hi_y = np.inf, np.inf, -np.inf, -np.inf
     coded_empty = False
-    for k in range(len(z)):
-        col = np.int64(math.floor((x[k] - ox) / cell)) - c_first
-        row = np.int64(math.floor((y[k] - oy) / cell)) - r_first
-        if col < 0 or row < 0 or col >= cols or row >= rows:
-            return _OUTSIDE, (lo_x, lo_y, hi_x, hi_y)
-        if z[k] >= empty:
-            coded_empty = True
-            continue
-        flat = row * cols + col
-        codes[flat] = min(codes[flat], z[k])
-        lo_x, hi_x = min(lo_x, x[k]), max(hi_x, x[k])
-        lo_y, hi_y = min(lo_y, y[k]), max(hi_y, y[k])
+    n = len(z)
+    grid = (codes.reshape(rows, cols),)
+    x0, y0 = ox + c_first * cell, oy + r_first * cell  # about the grid's corner: the hint's cells
+    prefetch_cells(grid, x, y, 0, min(n, PREFETCH_BLOCK), x0, y0, cell)
+    for first in range(0, n, PREFETCH_BLOCK):
+        stop = min(n, first + PREFETCH_BLOCK)
+        prefetch_cells(grid, x, y, stop, min(n, stop + PREFETCH_BLOCK), x0, y0, cell)
+        for k in range(first, stop):
+            col = np.int64(math.floor((x[k] - ox) / cell)) - c_first
+            row = np.int64(math.floor((y[k] - oy) / cell)) - r_first
+            if col < 0 or row < 0 or col >= cols or row >= rows:
+                return _OUTSIDE, (lo_x, lo_y, hi_x, hi_y)
+            if z[k] >= empty:
+                coded_empty = True
+                continue
+            flat = row * cols + col
+            codes[flat] = min(codes[flat], z[k])
+            lo_x, hi_x = min(lo_x, x[k]), max(hi_x, x[k])
+            lo_y, hi_y = min(lo_y, y[k]), max(hi_y, y[k])
     return _EMPTY_CODE if coded_empty else 0, (lo_x, lo_y, hi_x, hi_y)
 
 
