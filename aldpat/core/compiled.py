@@ -65,10 +65,8 @@ PREFETCH_BLOCK = 512
 
 
 @intrinsic
-def prefetch(typingctx: Any, grid: Any, row: Any, col: Any) -> Any:
-    """``prefetch(grid, row, col)`` in a compiled loop: ask the processor to bring the cache line
-    of ``grid[row, col]`` (a 2-D array, any strides) in, for reading, and go on without waiting
-    (LLVM's ``llvm.prefetch``). A hint: it never faults, changes nothing and gives the same results."""
+def _prefetch(typingctx: Any, grid: Any, row: Any, col: Any) -> Any:
+    """The compiled form of :func:`prefetch`: LLVM's ``llvm.prefetch`` of the element's address."""
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
         grid_type = signature.args[0]
         array = context.make_array(grid_type)(context, builder, args[0])
@@ -82,6 +80,12 @@ def prefetch(typingctx: Any, grid: Any, row: Any, col: Any) -> Any:
         return context.get_dummy_value()
 
     return types.void(grid, types.intp, types.intp), codegen
+
+
+#: ``prefetch(grid, row, col)`` in a compiled loop: ask the processor to bring the cache line of
+#: ``grid[row, col]`` (a 2-D array, any strides) in, for reading, and go on without waiting. A
+#: hint: it never faults, changes nothing and gives the same results.
+prefetch: Callable[[np.ndarray, int, int], None] = _prefetch  # type: ignore[assignment]  # numba's typing context first
 
 
 @compiled(nogil=True)
@@ -101,5 +105,5 @@ def prefetch_cells(grids: Any, x: np.ndarray, y: np.ndarray, first: int, stop: i
         row = int(min(max((y[k] - y0) / cell - 0.5, 0.0), rows - 1.0))
         below = min(row + 1, rows - 1)
         for grid in literal_unroll(grids):
-            prefetch(grid, row, col)  # type: ignore[call-arg]  # an intrinsic: numba passes the typing context
-            prefetch(grid, below, col)  # type: ignore[call-arg]
+            prefetch(grid, row, col)
+            prefetch(grid, below, col)

@@ -32,12 +32,16 @@ import threading
 
 import numpy as np
 
-from aldpat.core.compiled import compiled
+from aldpat.core.compiled import compiled, prefetch
 from aldpat.core.trend import row_thresholds
 
 #: Lines filtered side by side: a group of columns of 4-byte codes reads one 64-byte cache line of
 #: each grid row it crosses.
 LANES = 16
+#: Grid rows ahead whose cells of a column group are asked for while this row's are copied in: a
+#: column group's cells lie a grid row apart, farther than the processor's own prefetching looks,
+#: so each row of the copy waited on memory (``aldpat.core.compiled.prefetch``).
+_AHEAD = 16
 
 
 def filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, axis: int, k: int, label: int,
@@ -244,6 +248,11 @@ def _filter_lines(grid: np.ndarray, mark: np.ndarray, first: int, last: int, alo
                     unfiltered[r, j] = mark[start + r, j] == 0
         else:
             for j in range(n):
+                if j + _AHEAD < n:
+                    prefetch(grid, j + _AHEAD, start)
+                    prefetch(grid, j + _AHEAD, start + width - 1)
+                    prefetch(mark, j + _AHEAD, start)
+                    prefetch(mark, j + _AHEAD, start + width - 1)
                 for r in range(width):
                     codes[j, r] = grid[j, start + r]
                     unfiltered[r, j] = mark[j, start + r] == 0
