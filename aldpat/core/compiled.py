@@ -107,3 +107,16 @@ def prefetch_cells(grids: Any, x: np.ndarray, y: np.ndarray, first: int, stop: i
         for grid in literal_unroll(grids):
             prefetch(grid, row, col)
             prefetch(grid, below, col)
+
+
+@compiled(nogil=True)
+def prefetch_run(grid: np.ndarray, row: int, first: int, stop: int) -> None:  # pragma: no cover - compiled
+    """Ask for the cells ``grid[row, first:stop]`` (a 2-D array, ``row`` inside it), a cache line
+    at a time: a loop taking a block of columns a grid row at a time reads rows farther apart than
+    the processor's own prefetching looks, and asks for a row some rows ahead of the one it reads."""
+    if stop <= first:
+        return
+    line = max(1, 64 // grid.itemsize)
+    for c in range(first, stop, line):
+        prefetch(grid, row, c)
+    prefetch(grid, row, stop - 1)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from aldpat.core.compiled import compiled
+from aldpat.core.compiled import compiled, prefetch_run
 from aldpat.core.height_codes import Decode
 from aldpat.core.rise import scale_and_offset
 from aldpat.core.segments import SPACING_REACH, SPACING_SLOPE, _height, step_limit
@@ -39,6 +39,8 @@ from aldpat.core.threads import on_threads, thread_budget
 SPAN_LEVEL = 1.0
 #: Lines of the grid taken at a time.
 BLOCK_LINES = 64
+#: Grid rows ahead whose cells of a block of columns are asked for (:func:`aldpat.core.compiled.prefetch_run`).
+_AHEAD = 8
 
 
 def raised_spans(z: np.ndarray, step: float, max_cells: int, *,
@@ -181,6 +183,11 @@ def _column_spans(z: np.ndarray, spacing: np.ndarray, has_spacing: bool, scaled:
         here[j] = high[j] = low[j] = h
         _lost(out, 0, 0, first + j, mode)  # a run from the grid's edge is never kept
     for i in range(1, rows):
+        if i + _AHEAD < rows:
+            prefetch_run(z, i + _AHEAD, first, stop)
+            prefetch_run(out, i + _AHEAD, first, stop)
+            if has_spacing:
+                prefetch_run(spacing, i + _AHEAD, first, stop)
         for j in range(width):
             c = first + j
             there = _height(z[i, c], scaled, scale, offset)
