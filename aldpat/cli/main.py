@@ -24,7 +24,7 @@ from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line, shown
-from aldpat.io.toml import load_toml
+from aldpat.jobs.resolve import load_params_file
 from aldpat.jobs.run import PlannedRun, plan_run, run_task
 from aldpat.jobs.task import Task
 from aldpat.params import renamed_keys, spec_map
@@ -75,7 +75,7 @@ def make_command(task: Task) -> click.Command:
         layers = []
         try:
             if params_file:
-                layers.append(("params file", load_toml(params_file)))
+                layers.append(("params file", load_params_file(task, params_file)))
             layers.append(("cli", given))
             if dry_run:
                 sys.exit(show_plan(task, plan_run(task, list(inputs), layers)))

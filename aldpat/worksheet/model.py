@@ -23,7 +23,7 @@ from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, real
 from aldpat.jobs.registry import get_task
-from aldpat.jobs.resolve import ResolvedRun, resolve_run
+from aldpat.jobs.resolve import ResolvedRun, load_params_file, resolve_run
 from aldpat.jobs.task import Planned, Task
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
@@ -191,7 +191,7 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path,
     if isinstance(params, str):
         pfile = Path(_rebase(params, folder))
         try:
-            layers.append(("params file", rebased(load_toml(pfile), pfile.parent)))
+            layers.append(("params file", load_params_file(task, pfile, lambda m: rebased(m, pfile.parent))))
         except UsageError as exc:
             raise UsageError(f"{where}params: {exc}", path=wpath) from None
     elif isinstance(params, dict):

@@ -148,6 +148,30 @@ def test_a_params_file_nested_too_deep_is_one_message(tmp_path, samp24):
     assert "p.toml: TOML nested too deep to read" in proc.stderr
 
 
+@pytest.mark.parametrize("content, message", [
+    ("cel = 2\n", "p.toml: unknown key 'cel'; did you mean 'cell'?"),
+    ("cell = -1\n", "p.toml: cell: -1 is out of range (must be > 0)"),
+    ("window_series = [1, 'a']\n", "p.toml: window_series: expected a whole number, got 'a'"),
+])
+def test_a_bad_key_of_a_params_file_names_the_file(tmp_path, samp24, content, message):
+    """Merged with the command line, the file's bad key was said as if typed ("unknown key
+    'feilds'"): the file is named, on the command line and in a worksheet."""
+    p = tmp_path / "p.toml"
+    p.write_text(content)
+    proc = run("filter", "pm", samp24, "--params", p, "--odir", tmp_path / "out")
+    assert proc.returncode == 2 and f"aldpat: error: {p}: {message.split(': ', 1)[1]}" in proc.stderr, proc.stderr
+    (tmp_path / "w.toml").write_text(f'[[job]]\ntask = "filter"\nalgorithm = "pm"\ninputs = ["{samp24}"]\n'
+                                     'params = "p.toml"\nodir = "out"\n')
+    proc = run("run", tmp_path / "w.toml")
+    assert proc.returncode == 2 and f"w.toml: job 1: params: {p}: {message.split(': ', 1)[1]}" in proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_missing_params_file_is_a_usage_error(tmp_path, samp24):
+    proc = run("convert", samp24, "--params", tmp_path / "nowhere.toml")
+    assert proc.returncode == 2 and "nowhere.toml: no such file" in proc.stderr
+
+
 def test_usage_errors_exit_2(tmp_path, samp24):
     proc = run("convert", samp24, "--delimiter", "semicolon")
     assert proc.returncode == 2 and "delimiter: 'semicolon' is not one of space, comma" in proc.stderr
