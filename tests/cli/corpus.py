@@ -82,6 +82,13 @@ def text_cases(folder: Path, layout: str = "points") -> list[Case]:
     huge = good.copy()
     huge[100] = huge[100].replace(huge[100].split()[2], "1e300", 1)
     cases.append(Case("1e300", _write(folder / "huge.txt", huge), r"huge\.txt:101: \w+ = 1e300 is not a plausible"))
+    # tokens Python's float takes and the file's reader does not: the message was pandas' own
+    for name, token in (("underscore", "1_000"), ("arabic digits", "\u0661\u0662\u0663")):
+        odd = good.copy()
+        odd[250] = odd[250].replace(odd[250].split()[2], token, 1)
+        file = name.replace(" ", "_") + ".txt"
+        cases.append(Case(f"a number with {name}", _write(folder / file, odd),
+                          rf"{file}:251: not a number: '{token}'"))
     (folder / "binary.txt").write_bytes(bytes(range(256)) * 64)
     cases.append(Case("binary file named .txt", folder / "binary.txt", r"binary\.txt: not a text file"))
     latin_bad = good.copy()
