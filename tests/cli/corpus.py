@@ -666,6 +666,13 @@ def resources_cases(root: Path) -> list[Hostile]:
         Hostile("resources", "an option of a megabyte", ["thin", a, "--cell", "1" * 1_000_000], root, 2,
                 r"cell: expected a finite number, got '1+\.\.\. \(1,000,002 characters\)"),
     ]
+    # a tape split at an interval below its pulse spacing: a strip a shot, a file each
+    tape = root / "every_shot.txt"
+    t = 318000.0 + np.arange(10_001) * 0.01
+    tape.write_text("".join(f"{ti:.2f} 500000.00 4000000.00 100.00 10 500000.00 4000000.00 100.40 12\n" for ti in t))
+    cases.append(Hostile("resources", "split-tape --interval 1e-9: a strip a shot", ["split-tape", tape, "--interval",
+                         "1e-9", "--odir", root / "strips"], root, 1,
+                         r"every_shot\.txt: more than 10,000 strips at --interval 1e-09 s", _no_files(root / "strips")))
     # a file of one 4 MB line, a megabyte token on a later line, ten thousand columns
     one_line = root / "one_line.txt"
     one_line.write_text(" ".join(["1.5"] * 1_000_000) + "\n", encoding="ascii")
