@@ -174,7 +174,11 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             status.outputs = [sig[0] for sig in entry.get("outputs", [])]
             _notify(on_status, status)
             continue
-        rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
+        # its own outputs, which the killed run may have renamed into place, are replaced; only
+        # the same job's: one edited since (another odir, suffix or parameter) writes where the
+        # killed run never did, and with --overwrite forced it replaced a user's file there
+        rerun_after_kill = (resume and entry is not None and entry.get("status") == RUNNING
+                            and entry.get("fingerprint") == fingerprint(job))
         run = job.run
         layers_override: dict[str, object] = {}
         _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any

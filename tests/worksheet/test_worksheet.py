@@ -164,6 +164,21 @@ def test_resume_after_a_kill_finishes_the_interrupted_job(project):
     assert sorted(x.name for x in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
 
 
+def test_resume_after_a_kill_replaces_only_what_the_killed_job_wrote(project):
+    """A killed job resumed after the worksheet was edited (another odir) is another job: its
+    outputs are not the killed run's, and a file of the user's where it now writes stays."""
+    from aldpat.worksheet.runner import _save_state, fingerprint
+
+    p = sheet(project, CONVERT_THEN_INFO)
+    _save_state(load_worksheet(p), {"1": {"status": "Running", "fingerprint": fingerprint(load_worksheet(p).jobs[0])}})
+    (project / "kept").mkdir()
+    (project / "kept" / "a.laz").write_text("the user's own file\n")
+    edited = sheet(project, CONVERT_THEN_INFO.replace('odir = "laz"', 'odir = "kept"').replace("laz/*.laz", "kept/*.laz"))
+    statuses = run_worksheet(load_worksheet(edited), resume=True)
+    assert statuses[0].state == FAILED and "a.laz: output exists" in statuses[0].message
+    assert (project / "kept" / "a.laz").read_text() == "the user's own file\n"
+
+
 def test_log_replays_the_run(project):
     p = sheet(project, CONVERT_THEN_INFO)
     run_worksheet(load_worksheet(p))
