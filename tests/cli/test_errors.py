@@ -183,6 +183,19 @@ def test_usage_errors_exit_2(tmp_path, samp24):
     assert run("info").returncode == 2  # no inputs: usage help, status 2
 
 
+@pytest.mark.parametrize("args, name", [
+    (["thin", "{samp24}", "--odir", "-q"], "odir: '-q'"),
+    (["evaluate", "{samp24}", "--reference", "{samp24}", "--map", "--overwrite"], "map: '--overwrite'"),
+    (["merge", "{samp24}", "-o", "--overwrite"], "output: '--overwrite'"),
+])
+def test_a_path_option_whose_value_was_left_out_takes_no_option_for_a_file(tmp_path, samp24, args, name):
+    """click takes the next word for a value left out: ``--odir -q`` made a folder "-q", and
+    ``--map --overwrite`` wrote the picture to a file named "--overwrite"."""
+    proc = run(*[a.format(samp24=samp24) for a in args], cwd=tmp_path)
+    assert proc.returncode == 2 and f"{name} looks like an option, not a file name" in proc.stderr, proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_unknown_command_suggests(tmp_path):
     proc = run("inof")
     assert proc.returncode == 2 and "did you mean 'info'?" in proc.stderr
