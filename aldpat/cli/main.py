@@ -102,7 +102,9 @@ def make_command(task: Task) -> click.Command:
                 named = sum(len(r.inputs) for r in report.results) + len(report.input_errors)
                 log.warning("%s of %d %s failed", task.key, named, "input" if named == 1 else "inputs")
             else:
-                log.warning("%d of %d inputs failed", report.failed, len(report.results) + len(report.input_errors))
+                failed, named = report.inputs_failed
+                if failed:  # a mosaic that failed alone has said so: its inputs are no one's files
+                    log.warning("%d of %d inputs failed", failed, named)
         sys.exit(report.exit_code)
 
     params: list[click.Parameter] = []

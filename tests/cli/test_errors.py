@@ -196,6 +196,16 @@ def test_a_path_option_whose_value_was_left_out_takes_no_option_for_a_file(tmp_p
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_mosaic_is_not_counted_as_an_input(tmp_path, samp24):
+    """``grid a.txt bad.txt --mosaic m.vrt`` said "2 of 3 inputs failed": the mosaic counted as a
+    third input."""
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2\n")
+    proc = run("grid", samp24, bad, "--cell", "5", "--odir", tmp_path / "out", "--mosaic", tmp_path / "out" / "m.vrt")
+    assert proc.returncode == 1 and "m.vrt: mosaic not written: 1 of 2 grids failed" in proc.stderr
+    assert "aldpat: 1 of 2 inputs failed" in proc.stderr.splitlines(), proc.stderr
+
+
 def test_unknown_command_suggests(tmp_path):
     proc = run("inof")
     assert proc.returncode == 2 and "did you mean 'info'?" in proc.stderr
