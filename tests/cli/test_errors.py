@@ -206,6 +206,28 @@ def test_a_mosaic_is_not_counted_as_an_input(tmp_path, samp24):
     assert "aldpat: 1 of 2 inputs failed" in proc.stderr.splitlines(), proc.stderr
 
 
+@pytest.mark.parametrize("record_id, data, name", [
+    (2112, b"NONSENSE WKT\0", "OGC coordinate system WKT"),
+    (34735, b"\xff" * 37, "GeoKeyDirectory"),
+])
+def test_a_crs_record_that_is_no_crs_is_said(tmp_path, record_id, data, name):
+    """A CRS record of nonsense was passed over: ``info`` said "crs unknown" and the outputs were
+    written without a CRS, the user not told the input had a record at all."""
+    import laspy
+    import numpy as np
+
+    header = laspy.LasHeader(point_format=6 if record_id == 2112 else 3, version="1.4" if record_id == 2112 else "1.2")
+    header.scales, header.offsets = np.array([0.01] * 3), np.array([500000.0, 4000000.0, 0.0])
+    header.vlrs.append(laspy.VLR(user_id="LASF_Projection", record_id=record_id, record_data=data))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = 500000 + np.arange(20.0), 4000000 + np.arange(20.0), np.arange(20.0)
+    las.write(tmp_path / "odd.las")
+    proc = run("info", tmp_path / "odd.las")
+    assert proc.returncode == 0
+    assert f"odd.las: its CRS record ({name}) is no CRS PROJ can read: taken as none" in proc.stderr, proc.stderr
+    assert "crs      unknown" in proc.stdout
+
+
 def test_unknown_command_suggests(tmp_path):
     proc = run("inof")
     assert proc.returncode == 2 and "did you mean 'info'?" in proc.stderr
