@@ -72,7 +72,7 @@ def make_command(task: Task) -> click.Command:
 
         given = {k: v for k, v in raw.items()
                  if v is not None and ctx.get_parameter_source(k) == ParameterSource.COMMANDLINE}
-        layers = []
+        layers: list[tuple[str, dict[str, Any]]] = []
         try:
             if params_file:
                 layers.append(("params file", load_params_file(task, params_file)))

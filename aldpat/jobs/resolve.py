@@ -29,6 +29,9 @@ class ResolvedRun:
     stage: str = "main"
     #: the run's scratch folder, shared by its passes (None when the task has no first pass)
     scratch: str | None = None
+    #: the parameter files its values came from (``--params``): read by the run, so no output
+    #: may replace one (:func:`aldpat.jobs.outputs.path_parameter_files`)
+    params_files: tuple[Path, ...] = ()
 
     def record(self) -> list[tuple[str, str, str]]:
         rows = self.params.record()
@@ -43,6 +46,7 @@ def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], whe
     then the task's own rules (:attr:`Task.check`)."""
     known = {s.name for s in task.all_specs()}
     renames = renamed_keys(task.all_specs())
+    given = layers
     layers = [(source, with_current_names(mapping, renames, where)) for source, mapping in layers]
     for _, mapping in layers:
         for key in mapping:
@@ -61,10 +65,19 @@ def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], whe
         except ParamError as exc:
             raise ParamError(f"{where}{exc.message}") from None
     output = next((part for cls, part in parts.items() if issubclass(cls, OutputParams)), None)
-    return ResolvedRun(task, parts[task.params], output, parts.get(InputParams), parts[RunParams])
+    files = tuple(m.path for _, m in given if isinstance(m, ParamsFile))
+    return ResolvedRun(task, parts[task.params], output, parts.get(InputParams), parts[RunParams], params_files=files)
 
 
-def load_params_file(task: Task, path: str | Path, rebase: Callable[[dict], dict] | None = None) -> dict:
+class ParamsFile(dict):
+    """The keys and values of a parameter file, which knows its file (:func:`load_params_file`)."""
+
+    def __init__(self, mapping: Mapping[str, Any], path: str | Path):
+        super().__init__(mapping)
+        self.path = Path(path)
+
+
+def load_params_file(task: Task, path: str | Path, rebase: Callable[[dict], dict] | None = None) -> ParamsFile:
     """The parameter file ``path`` of ``task``, its paths made what ``rebase`` makes of them (a
     worksheet's are relative to the file), checked (:func:`check_params_file`). A file that is
     not there is a usage error, as click says of any option naming a missing file: the command
@@ -76,7 +89,7 @@ def load_params_file(task: Task, path: str | Path, rebase: Callable[[dict], dict
     if rebase is not None:
         mapping = rebase(mapping)
     check_params_file(task, mapping, path)
-    return mapping
+    return ParamsFile(mapping, path)
 
 
 def check_params_file(task: Task, mapping: Mapping[str, Any], path: object) -> None:

@@ -316,6 +316,13 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
     planned = _Planned()
     originals = Reads()
     readers: dict[str, int] = {}  # realpath of an original input -> the first job reading it
+    # what the run itself reads: the worksheet and the jobs' parameter files. merge-boundary's
+    # ``output = "w.toml"`` with ``overwrite = true`` replaced the worksheet being run (exit 0)
+    run_reads = Reads()
+    run_reads.add(wpath)
+    for job in jobs:
+        if isinstance(job.raw.get("params"), str):
+            run_reads.add(Path(_rebase(job.raw["params"], wpath.parent)))
     for job in jobs:
         where = f"job {job.number}: "
         sources: list[Path] = []
@@ -340,6 +347,11 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
         except UsageError as exc:
             raise UsageError(f"{where}{exc.message}", path=wpath) from None
         for out in job.planned:
+            read = run_reads.replaced_by(out)
+            if read is not None:
+                what = "the worksheet being run" if real(read) == real(wpath) else f"the parameter file {read}"
+                raise UsageError(f"{where}output {out.path} would replace {what}; give the job another output name",
+                                 path=wpath)
             victim = originals.replaced_by(out)
             if victim is not None:
                 reader = readers.get(real(victim), job.number)

@@ -230,7 +230,7 @@ def _with_overrides(job: Job, values: dict) -> ResolvedRun:
     base = [(src, {n: getattr(part.values, n)}) for part in (job.run.params, job.run.input, job.run.output, job.run.run)
             if part is not None for n, src in part.sources.items()]
     layers = [(src, m) for src, m in base] + [("runner", values)]
-    return resolve_run(job.task, layers)
+    return dataclasses.replace(resolve_run(job.task, layers), params_files=job.run.params_files)
 
 
 def _notify(cb: Callable[[JobStatus], None] | None, status: JobStatus) -> None:
