@@ -386,6 +386,11 @@ def check_value(spec: Spec, v: Any, where: str = "") -> None:
     if isinstance(v, str) and spec.path and (why := not_local(v)) is not None:
         named = repr(v) if len(v) <= LONGEST_PATH else shown(v)  # a path is shown whole, unless endless
         raise ParamError(f"{where}{spec.name}: {named} is {why}")
+    if isinstance(v, str) and spec.path and v.startswith("-") and len(v) > 1:
+        # ``--odir -q`` or ``--map --odir out``: the option's value was left out and click took
+        # the next word for it -- a folder named "-q" was made, a picture named "--odir" written
+        raise ParamError(f"{where}{spec.name}: {shown(v)} looks like an option, not a file name (was the value "
+                         f"left out?); a file whose name starts with '-' is ./{shown(v, quoted=False)}")
     if isinstance(v, str) and spec.path and spec.metavar != "DIR" and names_folder(v):
         raise ParamError(f"{where}{spec.name}: {v!r} is a folder; name a file")  # not_local bounds it
     _check_bounds(spec, v, where)

@@ -24,7 +24,7 @@ from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line, shown
-from aldpat.io.toml import load_toml
+from aldpat.jobs.resolve import load_params_file
 from aldpat.jobs.run import PlannedRun, plan_run, run_task
 from aldpat.jobs.task import Task
 from aldpat.params import renamed_keys, spec_map
@@ -72,10 +72,10 @@ def make_command(task: Task) -> click.Command:
 
         given = {k: v for k, v in raw.items()
                  if v is not None and ctx.get_parameter_source(k) == ParameterSource.COMMANDLINE}
-        layers = []
+        layers: list[tuple[str, dict[str, Any]]] = []
         try:
             if params_file:
-                layers.append(("params file", load_toml(params_file)))
+                layers.append(("params file", load_params_file(task, params_file)))
             layers.append(("cli", given))
             if dry_run:
                 sys.exit(show_plan(task, plan_run(task, list(inputs), layers)))
@@ -102,7 +102,9 @@ def make_command(task: Task) -> click.Command:
                 named = sum(len(r.inputs) for r in report.results) + len(report.input_errors)
                 log.warning("%s of %d %s failed", task.key, named, "input" if named == 1 else "inputs")
             else:
-                log.warning("%d of %d inputs failed", report.failed, len(report.results) + len(report.input_errors))
+                failed, named = report.inputs_failed
+                if failed:  # a mosaic that failed alone has said so: its inputs are no one's files
+                    log.warning("%d of %d inputs failed", failed, named)
         sys.exit(report.exit_code)
 
     params: list[click.Parameter] = []

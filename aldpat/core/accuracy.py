@@ -11,6 +11,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from aldpat.errors import DataError
+
 
 @dataclass(frozen=True)
 class Accuracy:
@@ -62,10 +64,23 @@ def accuracy(reference_ground: np.ndarray, predicted_ground: np.ndarray) -> Accu
                     int(np.sum(~ref & pred)), int(np.sum(~ref & ~pred)))
 
 
+#: The largest key int64 holds, with room (2**63 is 9.22e18): past it the keys wrapped -- at
+#: ``--tolerance 1e-300`` every point got the same key, and every point of a result "matched"
+#: every point of any reference. (Past 2**53 keys are no longer every whole number, but equal coordinates still
+#: get equal keys: a tolerance below the coordinates' precision matches them exactly.)
+MOST_KEY = 9e18
+
+
 def coordinate_keys(x: np.ndarray, y: np.ndarray, z: np.ndarray, tolerance: float) -> np.ndarray:
-    """Integer keys of coordinates snapped to ``tolerance`` (n x 3 int64)."""
-    return np.stack([np.round(np.asarray(v, dtype=np.float64) / tolerance) for v in (x, y, z)],
-                    axis=1).astype(np.int64)
+    """Integer keys of coordinates snapped to ``tolerance`` (n x 3 int64); a :class:`DataError`
+    when a coordinate is more steps of ``tolerance`` from 0 than keys hold."""
+    steps = [np.round(np.asarray(v, dtype=np.float64) / tolerance) for v in (x, y, z)]
+    for axis, s in zip("xyz", steps, strict=False):
+        far = float(np.max(np.abs(s), initial=0.0))
+        if not far < MOST_KEY:
+            raise DataError(f"{axis} is {far:.3g} steps of the tolerance {tolerance:g} m from 0, more than coordinates "
+                            f"can be matched at ({MOST_KEY:.3g}); use a larger --tolerance")
+    return np.stack(steps, axis=1).astype(np.int64)
 
 
 def _key_counts(ref_keys: np.ndarray, ref_ground: np.ndarray, res_keys: np.ndarray, res_ground: np.ndarray

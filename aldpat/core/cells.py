@@ -15,7 +15,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from aldpat.errors import DataError
+
 METHODS = ("lowest", "median", "center")
+#: The most cells a point may lie from the origin. Past it a cell is below the last place of the
+#: quotient (2**44 cells: its spare of a few units in the last place grows to 1/64 of a cell), and
+#: past 2**63 the column wraps round int64: every point of a file at a cell of 1e-15 m fell into
+#: one "cell", and ``thin`` kept one point of it, silently.
+MOST_FROM_ORIGIN = 2.0**44
 
 
 def cell_of(x: np.ndarray, y: np.ndarray, width: float, height: float,
@@ -28,12 +35,16 @@ def cell_of(x: np.ndarray, y: np.ndarray, width: float, height: float,
     if not (width > 0 and height > 0):
         raise ValueError(f"cell width and height must be > 0, got {width!r} x {height!r}")
     ox, oy = origin if origin is not None else (0.0, 0.0)
-    return _floored((np.asarray(x, dtype=np.float64) - ox) / width), \
-        _floored((np.asarray(y, dtype=np.float64) - oy) / height)
+    return _floored((np.asarray(x, dtype=np.float64) - ox) / width, width, "x"), \
+        _floored((np.asarray(y, dtype=np.float64) - oy) / height, height, "y")
 
 
-def _floored(q: np.ndarray) -> np.ndarray:
+def _floored(q: np.ndarray, cell: float, axis: str) -> np.ndarray:
     """floor(q) as int64, a quotient a few units in the last place below a whole number taken as it."""
+    far = float(np.max(np.abs(q), initial=0.0))
+    if not far < MOST_FROM_ORIGIN:  # NaN too
+        raise DataError(f"a point lies {far:.3g} cells of {cell:g} m from the origin in {axis}, more than cells "
+                        f"of that size can be told apart ({MOST_FROM_ORIGIN:.3g}); use a larger cell")
     spare = np.spacing(np.abs(q))
     spare *= 8
     spare += q

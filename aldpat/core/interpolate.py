@@ -131,7 +131,9 @@ def idw(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, power: floa
         found = np.isfinite(dist)
         exact = found & (dist == 0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            w = np.where(found & ~exact, dist ** -power, 0.0)
+            # weights relative to the nearest point's (they cancel in the mean): 1 / d**power
+            # itself overflows at a large power (d = 0.5 m, --power 1100) and every node went blank
+            w = np.where(found & ~exact, (dist / dist[:, :1]) ** -power, 0.0)
             on_point = exact.any(axis=1)
             w[on_point] = exact[on_point].astype(float)
             vals = (w * zpad[idx]).sum(axis=1) / w.sum(axis=1)

@@ -38,9 +38,32 @@ log = logging.getLogger(__name__)
 GRACE = 30.0
 
 
-def _start(threads: int, run: int) -> None:
+def _start(threads: int, run: int, level: int, formatter: logging.Formatter | None) -> None:
     interrupt.install_in_worker(run)
     set_budget(threads)  # the workers share the cores: each takes its part of them
+    _say_as(level, formatter)
+
+
+def _messages() -> tuple[int, logging.Formatter | None]:
+    """The level (``-q``, ``-v``) and the form (``aldpat: ...``, one line each) of this process's
+    messages, for its workers: without them a worker's warnings went to Python's last-resort
+    handler, bare, printed under ``-q``, and a file name holding a terminal escape reached the
+    terminal as it was."""
+    logger = logging.getLogger("aldpat")
+    return logger.getEffectiveLevel(), next((h.formatter for h in logger.handlers if h.formatter), None)
+
+
+def _say_as(level: int, formatter: logging.Formatter | None) -> None:
+    """This worker's messages on stderr at ``level`` in ``formatter``'s form, as its parent's."""
+    import sys
+
+    handler = logging.StreamHandler(sys.stderr)
+    if formatter is not None:
+        handler.setFormatter(formatter)
+    logger = logging.getLogger("aldpat")
+    logger.handlers[:] = [handler]
+    logger.setLevel(level)
+    logger.propagate = False
 
 
 #: imported once by the fork server, so that its workers start with them loaded
@@ -91,7 +114,7 @@ class WorkerPool:
 
     def __init__(self, workers: int):
         self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=start_method(),
-                                         initializer=_start, initargs=(share_for(workers), os.getpid()))
+                                         initializer=_start, initargs=(share_for(workers), os.getpid(), *_messages()))
 
     def submit_all(self, fn: Callable, jobs: list[tuple]) -> list[Future]:
         """``fn(*job)`` for every job, each a job of :func:`aldpat.interrupt.run_job` (the workers

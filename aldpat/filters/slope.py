@@ -49,6 +49,11 @@ log = logging.getLogger(__name__)
 
 
 
+#: The widest search, in cells: 1,000 cells a side compares each point with 3 million cells (the
+#: manual's 8 m on 1 m cells: 200).
+MOST_REACH = 1_000
+
+
 @dataclass(frozen=True)
 class SlopeParams(CellHeightOption, ElevationLimitsOption, PointFilterParams):
     cell: float = param(1.0, "cell width of the lowest-point mesh", unit="m", gt=0, manual="Width")
@@ -61,6 +66,13 @@ class SlopeParams(CellHeightOption, ElevationLimitsOption, PointFilterParams):
 
     def check(self) -> None:
         super().check()
+        # each point is compared with the cells of a square of the radius a side (:func:`_offsets`
+        # lists them): at --search-radius 1e9 on 1 m cells that list alone was 4e18 cells, and the
+        # process ate the machine's memory until the kernel killed it
+        reach = self.search_radius / min(self.cell_shape())
+        if reach > MOST_REACH:
+            raise ParamError(f"search_radius: {self.search_radius:g} m is {reach:.3g} cells of {min(self.cell_shape()):g} m; "
+                             f"at most {MOST_REACH:,} cells (each point is compared with every cell within it)")
         if self.min_distance >= self.search_radius:
             raise ParamError(f"min_distance: {self.min_distance:g} must be below search_radius "
                              f"{self.search_radius:g}")

@@ -153,6 +153,13 @@ class LasReader:
             self.crs = self.header.parse_crs()
         except Exception:  # noqa: BLE001  (a CRS record PROJ cannot read: the points are still usable)
             self.crs = None
+        if self.crs is None and _crs_records(self.header) and str(self.path.resolve()) not in _UNREAD_CRS:
+            # said, not passed over: ``info`` showed "crs unknown" for a file holding a CRS record
+            # of nonsense, and its outputs were written without a CRS, as if it had none. Once a
+            # file and process: ``dtm`` opens each tile for its extent, its pass and its neighbours
+            _UNREAD_CRS.add(str(self.path.resolve()))
+            log.warning("%s: its CRS record (%s) is no CRS PROJ can read: taken as none; give --crs to set one",
+                        self.path, ", ".join(_crs_records(self.header)))
         self.names, self.decimals = _columns(self.header)
 
     def _check_header(self) -> None:
@@ -386,6 +393,18 @@ def needs_wkt(crs: Any) -> bool:
     except RuntimeError:  # laspy: "Projected CRS without epsg is not supported"...
         return True
     return False
+
+
+#: The files whose unreadable CRS record this process has said (:class:`LasReader`).
+_UNREAD_CRS: set[str] = set()
+#: The GeoTIFF keys and WKT records of LAS's ``LASF_Projection`` user: record ids and names.
+CRS_RECORDS = {34735: "GeoKeyDirectory", 2111: "OGC math transform WKT", 2112: "OGC coordinate system WKT"}
+
+
+def _crs_records(header: laspy.LasHeader) -> list[str]:
+    """The names of ``header``'s records that say its CRS (VLRs and EVLRs)."""
+    return [CRS_RECORDS[r.record_id] for r in [*header.vlrs, *(header.evlrs or ())]
+            if str(getattr(r, "user_id", "")).rstrip("\0") == "LASF_Projection" and r.record_id in CRS_RECORDS]
 
 
 def set_crs(header: laspy.LasHeader, crs: Any) -> None:

@@ -12,10 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
-from aldpat.errors import InputFormatError, InputMissingError
+from aldpat.errors import InputFormatError, InputMissingError, shown
+from aldpat.io.text import MAX_COORDINATE
 
 #: The line between two strips.
 SEPARATOR = "-1111"
+#: The largest strip index: the shapefile's ``strip`` field holds ten characters, a sign and nine digits.
+MOST_INDEX = 999_999_999
 
 
 @dataclass
@@ -58,9 +61,21 @@ def read_merged(path: str | Path) -> list[Strip]:
                                        path=path, line=number)
             try:
                 x, y, z = float(parts[0]), float(parts[1]), float(parts[2])
-                index = int(float(parts[3]))
+                value = float(parts[3])
             except ValueError:
                 raise InputFormatError("x, y, z and strip_index must be numbers", path=path, line=number) from None
+            # said here, as the point reader says it: a NaN or 1e300 corner went into the
+            # shapefile as it was, an infinite index was an internal error, and an index of 1e20
+            # was cut to the ten digits of the shapefile's field
+            for name, token, v in zip("xyz", parts, (x, y, z), strict=False):
+                if not abs(v) <= MAX_COORDINATE:
+                    raise InputFormatError(f"{name} = {shown(token, quoted=False)} is not a plausible coordinate "
+                                           f"(larger than {MAX_COORDINATE:g} in magnitude, or not finite)",
+                                           path=path, line=number)
+            if not (value.is_integer() and abs(value) <= MOST_INDEX):
+                raise InputFormatError(f"strip_index {shown(parts[3], quoted=False)} is not a whole number of at "
+                                       f"most {len(str(MOST_INDEX))} digits", path=path, line=number)
+            index = int(value)
             this = (index, parts[4])
             if key is not None and this != key:  # a new strip without a separator line
                 close()

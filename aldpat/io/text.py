@@ -41,7 +41,12 @@ _SNIFF_BYTES = 1 << 16
 LONGEST_LINE = _SNIFF_BYTES
 #: The most columns a point line has (x y z and every attribute a LAS point holds, with room).
 MOST_COLUMNS = 256
-_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE)
+#: A number as the file's reader (pandas' C tokenizer) takes it: ASCII digits only. Python's
+#: ``float`` also takes ``1_000`` and other scripts' digits (Arabic-Indic, full-width), which the
+#: reader does not: a line of them was found by neither, and the message was pandas' own ("cannot
+#: safely convert passed user dtype of float64 for object dtyped data in column 2"), without a line.
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$",
+                     re.IGNORECASE | re.ASCII)
 _DELIMS = {"comma": ",", "tab": "\t", "space": " "}
 #: A UTF-8 byte-order mark, which some Windows editors put at the start of a text file.
 UTF8_BOM = b"\xef\xbb\xbf"
@@ -304,6 +309,8 @@ class TextReader:
                             f"expected {self.ncols} columns, found {len(tokens)}", path=self.path, line=number)
                     for name, tok in zip(self.names, tokens, strict=False):
                         try:
+                            if not _NUMBER.match(tok):
+                                raise ValueError(tok)
                             value = float(tok)
                         except ValueError:
                             raise InputFormatError(f"not a number: {shown(tok)}", path=self.path,

@@ -132,10 +132,11 @@ def literal_prefix(pattern: str) -> str:
 
 def path_parameter_files(run: ResolvedRun, planned: Iterable[Planned]) -> list[Path]:
     """Files the run's path parameters name that exist (a polygon, a reference, tile parameters,
-    a geoid grid): they are read too -- all but the parameters that name outputs (``mosaic``)."""
+    a geoid grid): they are read too -- all but the parameters that name outputs (``mosaic``) --
+    and the parameter files (``--params``) its values came from."""
     outputs = {p.named_by for p in planned}
     paths = {s.name for s in run.task.all_specs() if s.path} - outputs
-    out = []
+    out = [p for p in run.params_files if p.is_file()]
     for part in (run.params, run.input):
         if part is None:
             continue

@@ -3,14 +3,16 @@ command line), split among the task's own params class and the options every com
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from aldpat.errors import ParamError
+from aldpat.errors import InputMissingError, ParamError, UsageError
+from aldpat.io.toml import load_toml
 from aldpat.jobs.task import Task
 from aldpat.options import InputParams, OutputParams, RunParams
-from aldpat.params import Resolved, renamed_keys, resolve, specs, with_current_names
+from aldpat.params import Resolved, coerce, renamed_keys, resolve, specs, unknown_key_error, with_current_names
 
 
 @dataclass
@@ -27,6 +29,9 @@ class ResolvedRun:
     stage: str = "main"
     #: the run's scratch folder, shared by its passes (None when the task has no first pass)
     scratch: str | None = None
+    #: the parameter files its values came from (``--params``): read by the run, so no output
+    #: may replace one (:func:`aldpat.jobs.outputs.path_parameter_files`)
+    params_files: tuple[Path, ...] = ()
 
     def record(self) -> list[tuple[str, str, str]]:
         rows = self.params.record()
@@ -41,6 +46,7 @@ def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], whe
     then the task's own rules (:attr:`Task.check`)."""
     known = {s.name for s in task.all_specs()}
     renames = renamed_keys(task.all_specs())
+    given = layers
     layers = [(source, with_current_names(mapping, renames, where)) for source, mapping in layers]
     for _, mapping in layers:
         for key in mapping:
@@ -59,4 +65,48 @@ def resolve_run(task: Task, layers: Sequence[tuple[str, Mapping[str, Any]]], whe
         except ParamError as exc:
             raise ParamError(f"{where}{exc.message}") from None
     output = next((part for cls, part in parts.items() if issubclass(cls, OutputParams)), None)
-    return ResolvedRun(task, parts[task.params], output, parts.get(InputParams), parts[RunParams])
+    files = tuple(m.path for _, m in given if isinstance(m, ParamsFile))
+    return ResolvedRun(task, parts[task.params], output, parts.get(InputParams), parts[RunParams], params_files=files)
+
+
+class ParamsFile(dict):
+    """The keys and values of a parameter file, which knows its file (:func:`load_params_file`)."""
+
+    def __init__(self, mapping: Mapping[str, Any], path: str | Path):
+        super().__init__(mapping)
+        self.path = Path(path)
+
+
+def load_params_file(task: Task, path: str | Path, rebase: Callable[[dict], dict] | None = None) -> ParamsFile:
+    """The parameter file ``path`` of ``task``, its paths made what ``rebase`` makes of them (a
+    worksheet's are relative to the file), checked (:func:`check_params_file`). A file that is
+    not there is a usage error, as click says of any option naming a missing file: the command
+    cannot start, whatever its inputs."""
+    try:
+        mapping = load_toml(path)
+    except InputMissingError as exc:
+        raise UsageError(exc.message, path=exc.path) from None
+    if rebase is not None:
+        mapping = rebase(mapping)
+    check_params_file(task, mapping, path)
+    return ParamsFile(mapping, path)
+
+
+def check_params_file(task: Task, mapping: Mapping[str, Any], path: object) -> None:
+    """Every key of the parameter file ``path`` (``--params``, a job's ``params``) one of
+    ``task``'s and each value of its kind and range, the :class:`ParamError` naming the file.
+
+    Merged with the other layers, a bad key of the file was said as if typed ("unknown key
+    'foo'", "job 1: cell: -1 is out of range"), and the user looked for it on the command line or
+    in the worksheet. Rules between values (a window series and its smallest window) are the
+    merged parameters' to check, as before."""
+    known = {s.name: s for s in task.all_specs()}
+    renames = renamed_keys(known.values())  # said once, when the layers are merged
+    where = f"{path}: "
+    for raw_key, value in mapping.items():
+        key = renames.get(raw_key.replace("-", "_"), raw_key.replace("-", "_"))
+        spec = known.get(key)
+        if spec is None:
+            raise unknown_key_error(raw_key, known, where)
+        coerce(spec, value, where)
+

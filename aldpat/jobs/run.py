@@ -34,10 +34,20 @@ class RunReport:
     results: list[JobResult]
     input_errors: list[str]
     params: Any = None  # the task's resolved parameters (``json`` says how to show the records)
+    #: the result of the task's finish step (``--mosaic``), also the last of ``results``: its
+    #: inputs are the run's outputs, no input of the user's
+    finish: JobResult | None = None
 
     @property
     def failed(self) -> int:
         return sum(not r.ok for r in self.results) + len(self.input_errors)
+
+    @property
+    def inputs_failed(self) -> tuple[int, int]:
+        """(inputs that failed, inputs) of the user's: "2 of 3 inputs failed" counted the mosaic
+        of a run over two grids as a third input."""
+        jobs = [r for r in self.results if r is not self.finish]
+        return sum(not r.ok for r in jobs) + len(self.input_errors), len(jobs) + len(self.input_errors)
 
     @property
     def exit_code(self) -> int:
@@ -127,12 +137,15 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
             said = {Path(r.inputs[0]).resolve() for r in failed if r.inputs}
             jobs = [job for job in jobs if Path(job[0]).resolve() not in said]
         _execute(task, jobs, run, command, scheduler, wanted, results, progress)
+    last = None
     if task.finish is not None:
         last = execute_finish(task, results, run, command)
         if last.outputs or not last.ok:  # a finish step with nothing to do is not a job
             results.append(last)
             report_result(last, None)
-    return RunReport(task.key, results, input_errors, run.params.values)
+        else:
+            last = None
+    return RunReport(task.key, results, input_errors, run.params.values, finish=last)
 
 
 def _execute(task: Task, jobs: list[list[str]], run: ResolvedRun, command: str, scheduler: str | None,

@@ -155,7 +155,9 @@ class DtmParams(LowOutlierOption, ExistingClassesOption, OriginOption, CrsOption
             layers.append(("dtm", self.set_options()))
         if self.auto:
             layers.append(("--auto", {"auto": True}))
-        return resolve(FILTERS[self.algorithm].params, layers, where="filter_params: ").values
+        # a bad key or value is the file's, named as it is: the option alone sent users to dtm's flags
+        where = f"filter_params: {self.filter_params}: " if self.filter_params else "filter_params: "
+        return resolve(FILTERS[self.algorithm].params, layers, where=where).values
 
     def set_options(self) -> dict[str, Any]:
         """The low-outlier and existing-class options set on ``dtm`` to other than its defaults

@@ -30,7 +30,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.crs import cell_in_degrees, output_crs
-from aldpat.errors import ParamError
+from aldpat.errors import DataError, ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.marks import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
@@ -130,10 +130,19 @@ def with_result(params, source: Path, ctx: JobContext, reader):
     return dataclasses.replace(params, result="classified" if las else "terrain")
 
 
-def _output_names(reader, params) -> tuple[str, ...]:
-    """The columns of the outputs: the input's, then ``mark`` and the class where asked."""
+def _output_names(reader, params, warn: Callable[[str], None]) -> tuple[str, ...]:
+    """The columns of the outputs: the input's, then ``mark`` and the class where asked. An
+    input's own ``mark`` (a vendor's extra bytes, an earlier ``--marks``) is replaced by the
+    filter's, and said: it was replaced without a word."""
     names = tuple(reader.names)
-    if params.marks:
+    dims = set(reader.header.point_format.dimension_names) if reader.format == "las" else set()
+    if params.marks and "mark" in dims:
+        kind = reader.header.point_format.dimension_by_name("mark").dtype
+        if not (kind.kind == "f" or np.can_cast(np.int32, kind)):  # -9000 and windows of 100,000 cells
+            raise DataError(f"its own dimension mark ({kind}) cannot hold the filter's marks (--marks writes "
+                            "int32): leave out --marks, or remove that dimension", path=reader.path)
+        warn(f"{reader.path}: its own dimension mark is replaced by the filter's marks (--marks)")
+    if params.marks and "mark" not in names:
         names += ("mark",)
     if params.result == "classified" and not ("classification" in names or "class" in names):
         names += ("classification",) if reader.format == "las" else ("class",)
@@ -208,7 +217,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     cls = classes_written(found, rows, part, params, algorithm, _output_point_format(reader, ctx, source))
     ground = ground_flags(found, part)
     rows = _with_classes(rows, reader, params, marks, cls)
-    names = _output_names(reader, params)
+    names = _output_names(reader, params, ctx.warn)
     n_ground = int(ground.sum())
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")
@@ -365,7 +374,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
                         classes_of, algorithm: str, chunk: int | None = None) -> None:
     """One input's outputs, streamed from the input again; ``classes_of(table, start, stop)``
     gives the marks and the classes the filter found of its rows ``start:stop`` (the table)."""
-    names = _output_names(reader, params)
+    names = _output_names(reader, params, ctx.warn)
     point_format = _output_point_format(reader, ctx, source)
     n_ground = n = set_aside = 0
     with contextlib.ExitStack() as stack:

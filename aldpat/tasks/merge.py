@@ -99,6 +99,16 @@ def _exact_at(header, template) -> bool:
                                                    strict=True))
 
 
+def _extra_kind(reader, name: str) -> str:
+    """An extra dimension's type as a message says it: ``float32``, ``3 x float64``, ``int16
+    scaled 0.01``."""
+    dim = reader.header.point_format.dimension_by_name(name)
+    kind = f"{dim.num_elements} x {dim.dtype.base}" if dim.num_elements > 1 else str(dim.dtype)
+    if dim.scales is not None or dim.offsets is not None:
+        kind += f" scaled {np.asarray(dim.scales).tolist()} offset {np.asarray(dim.offsets).tolist()}"
+    return kind
+
+
 def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
     """The columns of the merged file, the same whatever the order of the inputs: every LAS input's
     (LAS inputs into a LAS file, of one point format, whose whole records are copied: their extra
@@ -119,6 +129,13 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
                                                       f"lacks {', '.join(fewer)}" if fewer else "") if part)
                 raise DataError(f"{differ} (extra bytes), unlike {first.path.name}: LAS inputs merged into one LAS "
                                 "file hold the same extra dimensions", path=reader.path)
+            # of the same kind too: the first input's decided, and a later one's float32 0.75 was
+            # written into an int16 as 0, its int16 30000 into an int8 wrapped, without a word
+            for name in sorted(own):
+                mine, their = _extra_kind(first, name), _extra_kind(reader, name)
+                if mine != their:
+                    raise DataError(f"its extra dimension {name} is {their}, {mine} in {first.path.name}: LAS inputs "
+                                    "merged into one LAS file hold the same extra dimensions", path=reader.path)
         return first.names
     if fields == "xyzi":
         having = [r for r in readers if "intensity" in r.names]

@@ -22,6 +22,7 @@ from aldpat.core.polygon import clean_ring, points_in_polygons
 from aldpat.errors import InputFormatError, InputMissingError, shown
 from aldpat.io.atomic import atomic_output
 from aldpat.io.rawtext import RawLines, passthrough_ok
+from aldpat.io.text import MAX_COORDINATE
 from aldpat.io.toml import MAX_SIDE_FILE_BYTES, read_limited
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -41,6 +42,14 @@ class PolygonExtractParams(CrsOption):
     outside: bool = param(False, "keep the points outside the polygon instead")
 
 
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
 def read_polygon_text(path: Path) -> list[list[np.ndarray]]:
     """One polygon from an ``x,y`` a line text file (comma, space or tab; header lines allowed)."""
     try:
@@ -55,12 +64,18 @@ def read_polygon_text(path: Path) -> list[list[np.ndarray]]:
         try:
             values = [float(t) for t in tokens]
         except ValueError:
-            if vertices:
+            # a header line comes before the vertices and starts with a word: a first vertex
+            # with a typo ("513830,540312O") was taken for one, and the polygon lost a corner
+            if vertices or _is_number(tokens[0]):
                 raise InputFormatError(f"expected x,y numbers, got {shown(line.strip())}", path=path,
                                        line=number) from None
-            continue  # a header line before the vertices
-        if len(values) < 2 or not np.all(np.isfinite(values[:2])):
+            continue
+        if len(values) < 2:
             raise InputFormatError("expected x,y", path=path, line=number)
+        if not (abs(values[0]) <= MAX_COORDINATE and abs(values[1]) <= MAX_COORDINATE):
+            raise InputFormatError(f"vertex {shown(line.strip(), quoted=False)} is not a plausible coordinate "
+                                   f"(larger than {MAX_COORDINATE:g} in magnitude, or not finite)",
+                                   path=path, line=number)
         vertices.append((values[0], values[1]))
     ring = clean_ring(np.asarray(vertices, dtype=np.float64).reshape(-1, 2))
     if len(ring) < 3:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aldpat.core.crs import output_crs
-from aldpat.errors import UsageError
+from aldpat.errors import DataError, UsageError
 from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import PARTS as SHAPEFILE_PARTS
 from aldpat.io.shapefile import Polygon, shapefile_rings, write_polygons
@@ -66,7 +66,8 @@ def shapefile_all(sources: list[Path], params: ShapefileParams, ctx: JobContext)
                 continue
             polygons.append(Polygon([strip.xyz[:, :2]], (strip.index, strip.name)))
     if not polygons:
-        raise UsageError("no strip with a usable boundary", path=sources[0])
+        # the data's fault, not the command's: exit 1, as any input refused for what it holds
+        raise DataError("no strip with a usable boundary", path=sources[0])
     crs = output_crs(params.crs, None, out, ctx.warn)  # a merged boundary file names no CRS
     files = write_polygons(out, polygons, FIELDS, crs=crs, overwrite=ctx.overwrite)
     for f in files:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.precision import above
-from aldpat.errors import UsageError
+from aldpat.errors import DataError, UsageError
 from aldpat.io.atomic import atomic_output, glob_escape
 from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.jobs.context import JobContext
@@ -36,6 +36,12 @@ from aldpat.options import OrderOption
 from aldpat.params import param
 
 log = logging.getLogger(__name__)
+
+#: The most strips one tape is split into. A flight has tens of strips; an interval below the
+#: pulse spacing (``--interval 1e-9``, seconds taken for milliseconds) made a strip of every
+#: shot, millions of files held open as temporaries until the tape was read, until the disk's
+#: inodes ran out.
+MOST_STRIPS = 10_000
 
 
 @dataclass(frozen=True)
@@ -106,6 +112,9 @@ def split_tape_one(source: Path, params: SplitTapeParams, ctx: JobContext) -> No
             if written:  # strips follow one another in time: the last one is done (renamed at the end)
                 written[-1][1].close()
             number = len(written) + 1
+            if number > MOST_STRIPS:
+                raise DataError(f"more than {MOST_STRIPS:,} strips at --interval {params.interval:g} s (a flight has "
+                                "tens): is the interval right, in seconds?", path=source)
             out = ctx.output_path(source, f"{suffix}{number:02d}", reader=reader, use_suffix_option=False)
             if raw:
                 tmp = stack.enter_context(atomic_output(out, overwrite=ctx.overwrite))

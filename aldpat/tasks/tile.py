@@ -360,6 +360,13 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     except BaseException:
         sink.discard()
         raise
+    if not done and any(r.format == "las" and BUFFER_DIMENSION in r.header.point_format.dimension_names
+                        for r in readers):
+        # buffer copies are left out, their own tiles holding them: a file of nothing else (a
+        # vendor's own dimension of that name, a tile's buffer cut out) made no tile, exit 0
+        raise DataError(f"every point is marked {BUFFER_DIMENSION} (a buffer copy of an earlier tiling, left out as "
+                        "its own tile holds it): no tile to write; remove that dimension to tile these points",
+                        path=sources[0])
     rows = read_parameter_rows(param_path) if params.append and param_path.exists() else {}
     for (i, j), path, _ in done:
         x0, x1, y0, y1 = layout.core(i, j)

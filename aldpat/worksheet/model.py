@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from aldpat.errors import ParamError, UsageError
+from aldpat.errors import ParamError, UsageError, shown
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.inputs import expand_inputs
 from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, real
 from aldpat.jobs.registry import get_task
-from aldpat.jobs.resolve import ResolvedRun, resolve_run
+from aldpat.jobs.resolve import ResolvedRun, load_params_file, resolve_run
 from aldpat.jobs.task import Planned, Task
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
@@ -133,10 +133,20 @@ def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = ()
             hint = difflib.get_close_matches(key, TOP_KEYS, n=1)
             raise UsageError(f"unknown top-level key {key!r}" + (f"; did you mean {hint[0]!r}?" if hint else ""),
                              path=path)
-    settings = dict(doc.get("settings", {}))
+    # ``settings = "x"`` or ``job = [1, 2]`` are valid TOML of the wrong shape: said here, where
+    # the worksheet is named, not by ``dict()`` ("dictionary update sequence element #0 ...")
+    settings = doc.get("settings", {})
+    if not isinstance(settings, dict):
+        raise UsageError("settings: expected a table ([settings] and its keys below it), got "
+                         + ("an array of tables ([[settings]])" if isinstance(settings, list) else shown(settings)),
+                         path=path)
+    settings = dict(settings)
     raw_jobs = doc.get("job", [])
     if not isinstance(raw_jobs, list) or not raw_jobs:
         raise UsageError("a worksheet needs at least one [[job]] table", path=path)
+    for n, job in enumerate(raw_jobs, start=1):
+        if not isinstance(job, dict):
+            raise UsageError(f"job {n}: expected a [[job]] table of keys, got {shown(job)}", path=path)
     raw_jobs = [dict(j) for j in raw_jobs]
     for scope, number, key, value in parse_set(overrides):
         if scope == "settings" or number is None:
@@ -156,8 +166,10 @@ def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = ()
 def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path, given: dict) -> Job:
     where = f"job {number}: "
     name = raw.get("task")
-    if not isinstance(name, str):
+    if name is None:
         raise UsageError(f"{where}missing key 'task'", path=wpath)
+    if not isinstance(name, str):
+        raise UsageError(f"{where}task: expected a task name such as \"thin\", got {shown(name)}", path=wpath)
     if name == "run":
         raise UsageError(f"{where}a worksheet cannot run another worksheet", path=wpath)
     algorithm = raw.get("algorithm")
@@ -191,7 +203,7 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path,
     if isinstance(params, str):
         pfile = Path(_rebase(params, folder))
         try:
-            layers.append(("params file", rebased(load_toml(pfile), pfile.parent)))
+            layers.append(("params file", load_params_file(task, pfile, lambda m: rebased(m, pfile.parent))))
         except UsageError as exc:
             raise UsageError(f"{where}params: {exc}", path=wpath) from None
     elif isinstance(params, dict):
@@ -304,6 +316,13 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
     planned = _Planned()
     originals = Reads()
     readers: dict[str, int] = {}  # realpath of an original input -> the first job reading it
+    # what the run itself reads: the worksheet and the jobs' parameter files. merge-boundary's
+    # ``output = "w.toml"`` with ``overwrite = true`` replaced the worksheet being run (exit 0)
+    run_reads = Reads()
+    run_reads.add(wpath)
+    for job in jobs:
+        if isinstance(job.raw.get("params"), str):
+            run_reads.add(Path(_rebase(job.raw["params"], wpath.parent)))
     for job in jobs:
         where = f"job {job.number}: "
         sources: list[Path] = []
@@ -328,6 +347,11 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
         except UsageError as exc:
             raise UsageError(f"{where}{exc.message}", path=wpath) from None
         for out in job.planned:
+            read = run_reads.replaced_by(out)
+            if read is not None:
+                what = "the worksheet being run" if real(read) == real(wpath) else f"the parameter file {read}"
+                raise UsageError(f"{where}output {out.path} would replace {what}; give the job another output name",
+                                 path=wpath)
             victim = originals.replaced_by(out)
             if victim is not None:
                 reader = readers.get(real(victim), job.number)

@@ -174,7 +174,11 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             status.outputs = [sig[0] for sig in entry.get("outputs", [])]
             _notify(on_status, status)
             continue
-        rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
+        # its own outputs, which the killed run may have renamed into place, are replaced; only
+        # the same job's: one edited since (another odir, suffix or parameter) writes where the
+        # killed run never did, and with --overwrite forced it replaced a user's file there
+        rerun_after_kill = (resume and entry is not None and entry.get("status") == RUNNING
+                            and entry.get("fingerprint") == fingerprint(job))
         run = job.run
         layers_override: dict[str, object] = {}
         _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any
@@ -226,7 +230,7 @@ def _with_overrides(job: Job, values: dict) -> ResolvedRun:
     base = [(src, {n: getattr(part.values, n)}) for part in (job.run.params, job.run.input, job.run.output, job.run.run)
             if part is not None for n, src in part.sources.items()]
     layers = [(src, m) for src, m in base] + [("runner", values)]
-    return resolve_run(job.task, layers)
+    return dataclasses.replace(resolve_run(job.task, layers), params_files=job.run.params_files)
 
 
 def _notify(cb: Callable[[JobStatus], None] | None, status: JobStatus) -> None:

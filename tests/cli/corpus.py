@@ -82,6 +82,13 @@ def text_cases(folder: Path, layout: str = "points") -> list[Case]:
     huge = good.copy()
     huge[100] = huge[100].replace(huge[100].split()[2], "1e300", 1)
     cases.append(Case("1e300", _write(folder / "huge.txt", huge), r"huge\.txt:101: \w+ = 1e300 is not a plausible"))
+    # tokens Python's float takes and the file's reader does not: the message was pandas' own
+    for name, token in (("underscore", "1_000"), ("arabic digits", "\u0661\u0662\u0663")):
+        odd = good.copy()
+        odd[250] = odd[250].replace(odd[250].split()[2], token, 1)
+        file = name.replace(" ", "_") + ".txt"
+        cases.append(Case(f"a number with {name}", _write(folder / file, odd),
+                          rf"{file}:251: not a number: '{token}'"))
     (folder / "binary.txt").write_bytes(bytes(range(256)) * 64)
     cases.append(Case("binary file named .txt", folder / "binary.txt", r"binary\.txt: not a text file"))
     latin_bad = good.copy()
@@ -553,6 +560,23 @@ def data_loss_cases(root: Path) -> list[Hostile]:
                                               "overwrite": True}])
     cases.append(Hostile("data loss", "a worksheet job replaces what an earlier job reads", ["run", sheet], root, 2,
                          r"job 2: output .*a\.txt would replace .*a\.txt", _unchanged(first)))
+    # nor the worksheet being run, nor a parameter file the run reads
+    sheet = _worksheet(ws / "itself.toml", [{"task": "merge-boundary", "inputs": ["a.txt"], "output": "itself.toml",
+                                             "overwrite": True}])
+    cases.append(Hostile("data loss", "a worksheet job writes the worksheet itself", ["run", sheet], root, 2,
+                         r"job 1: output .*itself\.toml would replace the worksheet being run", _unchanged(sheet)))
+    params = ws / "p.toml"
+    params.write_text("cell = 2.0\n")
+    sheet = _worksheet(ws / "params.toml", [{"task": "thin", "inputs": ["a.txt"], "params": "p.toml", "odir": "pt"},
+                                            {"task": "merge-boundary", "inputs": ["a.txt"], "output": "p.toml",
+                                             "overwrite": True}])
+    cases.append(Hostile("data loss", "a worksheet job writes another job's parameter file", ["run", sheet], root, 2,
+                         r"job 2: output .*p\.toml would replace the parameter file .*p\.toml", _unchanged(params)))
+    own = ws / "own.toml"
+    own.write_text('delimiter = "space"\n')
+    cases.append(Hostile("data loss", "-o names the command's own --params file", ["merge-boundary", a, "-o", own,
+                         "--params", own, "--overwrite"], root, 2, r"output .*own\.toml would replace the input",
+                         _unchanged(own)))
     sheet = _worksheet(ws / "twice.toml", [{"task": "thin", "inputs": ["a.txt"], "odir": "t", "overwrite": True},
                                            {"task": "thin", "inputs": ["a.txt"], "odir": "t", "cell": 5.0,
                                             "overwrite": True}])
@@ -633,6 +657,9 @@ def resources_cases(root: Path) -> list[Hostile]:
                 _none_of(out), limit=30),
         Hostile("resources", "grid --cell 1e-300", ["grid", a, "--cell", "1e-300", "--odir", out], root, 1,
                 r"a\.txt: x .* at 1e-300 m cells would take .* nodes a side", _none_of(out), limit=30),
+        Hostile("resources", "thin --cell 1e-15: columns past int64", ["thin", a, "--cell", "1e-15", "--odir",
+                root / "thin-out"], root, 1, r"a\.txt: a point lies 5(\.\d+)?e\+20 cells of 1e-15 m from the origin in x",
+                _no_files(root / "thin-out")),
         Hostile("resources", "grid --chunk 1 with a 40 m buffer", ["grid", a, "--chunk", "1", "--chunk-buffer", "40",
                 "--odir", out], root, 2, r"--chunk 1 m with a 40 m buffer copies every point into 6,561 chunks",
                 _none_of(out), limit=30),
@@ -642,6 +669,9 @@ def resources_cases(root: Path) -> list[Hostile]:
         Hostile("resources", "grid --chunk at the cell: a chunk a node", ["grid", a, "--cell", "0.01", "--chunk", "0.01",
                 "--chunk-buffer", "0", "--grid-format", "geotiff", "--odir", out], root, 2,
                 r"cuts the input into [\d,]+ chunks or more \(at most 1,000,000\)", _none_of(out), limit=30),
+        Hostile("resources", "filter slope --search-radius 1e9: a list of 4e18 cells", ["filter", "slope", a,
+                "--search-radius", "1e9", "--odir", out], root, 2,
+                r"search_radius: 1e\+09 m is 1e\+09 cells of 1 m; at most 1,000 cells", _none_of(out), limit=30),
         Hostile("resources", "--window-series-length 3000", ["filter", "pm", a, "--window-series-length", "3000",
                 "--odir", out], root, 2, r"window_series_length: 3000 is out of range", _none_of(out)),
         Hostile("resources", "--window-series-length 200 past the widest window", ["filter", "pm", a,
@@ -656,6 +686,13 @@ def resources_cases(root: Path) -> list[Hostile]:
         Hostile("resources", "an option of a megabyte", ["thin", a, "--cell", "1" * 1_000_000], root, 2,
                 r"cell: expected a finite number, got '1+\.\.\. \(1,000,002 characters\)"),
     ]
+    # a tape split at an interval below its pulse spacing: a strip a shot, a file each
+    tape = root / "every_shot.txt"
+    t = 318000.0 + np.arange(10_001) * 0.01
+    tape.write_text("".join(f"{ti:.2f} 500000.00 4000000.00 100.00 10 500000.00 4000000.00 100.40 12\n" for ti in t))
+    cases.append(Hostile("resources", "split-tape --interval 1e-9: a strip a shot", ["split-tape", tape, "--interval",
+                         "1e-9", "--odir", root / "strips"], root, 1,
+                         r"every_shot\.txt: more than 10,000 strips at --interval 1e-09 s", _no_files(root / "strips")))
     # a file of one 4 MB line, a megabyte token on a later line, ten thousand columns
     one_line = root / "one_line.txt"
     one_line.write_text(" ".join(["1.5"] * 1_000_000) + "\n", encoding="ascii")

@@ -148,6 +148,30 @@ def test_a_params_file_nested_too_deep_is_one_message(tmp_path, samp24):
     assert "p.toml: TOML nested too deep to read" in proc.stderr
 
 
+@pytest.mark.parametrize("content, message", [
+    ("cel = 2\n", "p.toml: unknown key 'cel'; did you mean 'cell'?"),
+    ("cell = -1\n", "p.toml: cell: -1 is out of range (must be > 0)"),
+    ("window_series = [1, 'a']\n", "p.toml: window_series: expected a whole number, got 'a'"),
+])
+def test_a_bad_key_of_a_params_file_names_the_file(tmp_path, samp24, content, message):
+    """Merged with the command line, the file's bad key was said as if typed ("unknown key
+    'feilds'"): the file is named, on the command line and in a worksheet."""
+    p = tmp_path / "p.toml"
+    p.write_text(content)
+    proc = run("filter", "pm", samp24, "--params", p, "--odir", tmp_path / "out")
+    assert proc.returncode == 2 and f"aldpat: error: {p}: {message.split(': ', 1)[1]}" in proc.stderr, proc.stderr
+    (tmp_path / "w.toml").write_text(f'[[job]]\ntask = "filter"\nalgorithm = "pm"\ninputs = ["{samp24}"]\n'
+                                     'params = "p.toml"\nodir = "out"\n')
+    proc = run("run", tmp_path / "w.toml")
+    assert proc.returncode == 2 and f"w.toml: job 1: params: {p}: {message.split(': ', 1)[1]}" in proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_missing_params_file_is_a_usage_error(tmp_path, samp24):
+    proc = run("convert", samp24, "--params", tmp_path / "nowhere.toml")
+    assert proc.returncode == 2 and "nowhere.toml: no such file" in proc.stderr
+
+
 def test_usage_errors_exit_2(tmp_path, samp24):
     proc = run("convert", samp24, "--delimiter", "semicolon")
     assert proc.returncode == 2 and "delimiter: 'semicolon' is not one of space, comma" in proc.stderr
@@ -157,6 +181,51 @@ def test_usage_errors_exit_2(tmp_path, samp24):
     assert proc.returncode == 2 and "unknown key 'feilds'; did you mean 'fields'?" in proc.stderr
     assert run("nosuchcommand").returncode == 2
     assert run("info").returncode == 2  # no inputs: usage help, status 2
+
+
+@pytest.mark.parametrize("args, name", [
+    (["thin", "{samp24}", "--odir", "-q"], "odir: '-q'"),
+    (["evaluate", "{samp24}", "--reference", "{samp24}", "--map", "--overwrite"], "map: '--overwrite'"),
+    (["merge", "{samp24}", "-o", "--overwrite"], "output: '--overwrite'"),
+])
+def test_a_path_option_whose_value_was_left_out_takes_no_option_for_a_file(tmp_path, samp24, args, name):
+    """click takes the next word for a value left out: ``--odir -q`` made a folder "-q", and
+    ``--map --overwrite`` wrote the picture to a file named "--overwrite"."""
+    proc = run(*[a.format(samp24=samp24) for a in args], cwd=tmp_path)
+    assert proc.returncode == 2 and f"{name} looks like an option, not a file name" in proc.stderr, proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_mosaic_is_not_counted_as_an_input(tmp_path, samp24):
+    """``grid a.txt bad.txt --mosaic m.vrt`` said "2 of 3 inputs failed": the mosaic counted as a
+    third input."""
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2\n")
+    proc = run("grid", samp24, bad, "--cell", "5", "--odir", tmp_path / "out", "--mosaic", tmp_path / "out" / "m.vrt")
+    assert proc.returncode == 1 and "m.vrt: mosaic not written: 1 of 2 grids failed" in proc.stderr
+    assert "aldpat: 1 of 2 inputs failed" in proc.stderr.splitlines(), proc.stderr
+
+
+@pytest.mark.parametrize("record_id, data, name", [
+    (2112, b"NONSENSE WKT\0", "OGC coordinate system WKT"),
+    (34735, b"\xff" * 37, "GeoKeyDirectory"),
+])
+def test_a_crs_record_that_is_no_crs_is_said(tmp_path, record_id, data, name):
+    """A CRS record of nonsense was passed over: ``info`` said "crs unknown" and the outputs were
+    written without a CRS, the user not told the input had a record at all."""
+    import laspy
+    import numpy as np
+
+    header = laspy.LasHeader(point_format=6 if record_id == 2112 else 3, version="1.4" if record_id == 2112 else "1.2")
+    header.scales, header.offsets = np.array([0.01] * 3), np.array([500000.0, 4000000.0, 0.0])
+    header.vlrs.append(laspy.VLR(user_id="LASF_Projection", record_id=record_id, record_data=data))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = 500000 + np.arange(20.0), 4000000 + np.arange(20.0), np.arange(20.0)
+    las.write(tmp_path / "odd.las")
+    proc = run("info", tmp_path / "odd.las")
+    assert proc.returncode == 0
+    assert f"odd.las: its CRS record ({name}) is no CRS PROJ can read: taken as none" in proc.stderr, proc.stderr
+    assert "crs      unknown" in proc.stdout
 
 
 def test_unknown_command_suggests(tmp_path):

@@ -103,3 +103,19 @@ def test_two_workers_write_what_one_writes(inputs, tmp_path, key):
             assert a.read_text().replace(str(one), "") == b.read_text().replace(str(two), ""), name
         else:
             assert filecmp.cmp(a, b, shallow=False), f"{key}: {name} differs between -j 1 and -j 2"
+
+
+def test_a_worker_s_messages_are_the_parent_s(tmp_path):
+    """A warning logged in a ``-j 2`` worker went to Python's last-resort handler: without
+    "aldpat: ", printed under ``-q``, and a file name's terminal escape reached the terminal."""
+    names = ["wide.txt", "red\x1b[31m.txt"]
+    for name in names:
+        rows = [f"{500000 + k * 0.123:.3f} {4000000 + k * 0.456:.3f} {100 + k * 0.01:.3f}" for k in range(20)]
+        (tmp_path / name).write_text("\n".join([*rows, "-9000000.000 9000000.000 0.000"]) + "\n")  # a stray point
+    args = ["convert", *[tmp_path / n for n in names], "--out-format", "laz", "--crs", "32617", "-j", "2",
+            "--odir", tmp_path / "out", "--overwrite"]
+    done = aldpat(*args).ok()
+    coarser = [ln for ln in done.stderr.splitlines() if "coarser than the 3 decimals" in ln]
+    assert len(coarser) == 4 and all(ln.startswith("aldpat: ") for ln in coarser), done.stderr
+    assert "\x1b" not in done.stderr
+    assert aldpat(*args, "-q").ok().stderr == ""

@@ -66,3 +66,17 @@ def test_every_occupied_cell_keeps_exactly_one_point():
 def test_unknown_method_is_refused():
     with pytest.raises(ValueError, match="unknown method"):
         select_per_cell(X, Y, Z, 1.0, 1.0, method="highest")
+
+
+def test_cells_too_small_to_tell_apart_are_refused_not_wrapped():
+    """At 1e-15 m cells a UTM easting is 5e20 cells from the origin, past int64: the columns
+    wrapped to one value and every point fell into one cell."""
+    from aldpat.errors import DataError
+
+    x = np.array([500000.0, 500001.0])
+    with pytest.raises(DataError, match=r"5e\+20 cells of 1e-15 m from the origin in x.*use a larger cell"):
+        cell_of(x, x, 1e-15, 1.0)
+    with pytest.raises(DataError, match="in y"):
+        cell_of(x, np.array([np.nan, 0.0]), 1.0, 1.0)
+    i, _ = cell_of(x, x, 1e-6, 1e-6)  # small, but cells still apart
+    assert i.tolist() == [500000000000, 500001000000]

@@ -4,6 +4,8 @@ blanks far from data instead of invented terrain."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -124,6 +126,19 @@ def test_idw_hand_case_and_exact_hits():
     np.testing.assert_allclose(vals, [[10.0, 16.0, 34.0, 40.0]])
     vals = idw([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [10.0, 20.0, 40.0], spec, max_points=3)
     assert vals[0, 0] == 15.0  # coincident points are averaged
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e4])
+def test_idw_at_a_large_power_is_the_nearest_point_not_a_blank(scale):
+    """1 / d**power overflowed (d < 1) or underflowed (d > 1) at --power 1e9: every node was
+    blank, with numpy's overflow warning; the weight of the nearest point dominates instead."""
+    spec = GridSpec(0.0, 0.0, scale, scale, 4, 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vals = idw([0.0, 3.0 * scale], [0.0, 0.0], [10.0, 40.0], spec, power=1e9)
+    np.testing.assert_allclose(vals, [[10.0, 10.0, 40.0, 40.0]])
+    np.testing.assert_allclose(idw([0.0, 3.0 * scale], [0.0, 0.0], [10.0, 40.0], spec, power=2.0),
+                               [[10.0, 16.0, 34.0, 40.0]])
 
 
 def test_binning_hand_case():

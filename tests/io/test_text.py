@@ -46,6 +46,9 @@ def test_chunks_cover_the_file_in_order(tmp_path):
     ("x y z\n1 2 3\n\n4 5 nan\n", 4, "non-finite value 'nan'"),
     ("1 2 3\n4 5 inf\n", 2, "non-finite value 'inf'"),
     ("1 2 abc\n", 1, "not a number: 'abc'"),
+    # Python's float takes these, pandas' reader does not: said by pandas, without the line
+    ("1 2 3\n4 1_000 6\n", 2, "not a number: '1_000'"),
+    ("1 2 3\n4 5 \u0666\n", 2, "not a number: '\u0666'"),
 ])
 def test_bad_lines_are_reported_with_file_and_line(tmp_path, content, line, message):
     p = tmp_path / "bad.txt"

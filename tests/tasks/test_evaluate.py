@@ -37,6 +37,22 @@ def test_keys_snap_coordinates_to_the_tolerance():
     assert (k[0] == k[1]).all()
 
 
+def test_a_tolerance_whose_keys_wrap_is_refused_not_matched(tmp_path, samp24):
+    """At --tolerance 1e-300 every key wrapped to one value: a shifted result "matched" every
+    reference point, scored, exit 0, where it matches none."""
+    data = np.loadtxt(samp24)
+    shifted = write_xyz(tmp_path / "shifted.txt", data[:, :3] + [1000.0, 0.0, 0.0])
+    report = get_task("evaluate")([shifted], reference=str(samp24), tolerance=1e-300)
+    assert report.exit_code == 1
+    assert "steps of the tolerance 1e-300 m from 0" in report.results[0].error
+    assert "use a larger --tolerance" in report.results[0].error
+    # a tolerance below the coordinates' precision still matches them exactly
+    same = write_xyz(tmp_path / "same.txt", data[:, :3])
+    report = get_task("evaluate")([same], reference=str(samp24), tolerance=1e-12)
+    assert report.exit_code == 0 and report.results[0].records[0]["total"] == pytest.approx(
+        100 * (data[:, 3] != 0).sum() / len(data))
+
+
 def test_evaluate_a_terrain_file_against_isprs_labels(tmp_path, samp24):
     data = np.loadtxt(samp24)
     ground = data[:, 3] == 0

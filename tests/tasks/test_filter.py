@@ -89,6 +89,30 @@ def test_las_keeps_attributes_and_gets_classes_and_marks(runner, cli, samp24, tm
     assert len(g.points) == int((classes == 2).sum())
 
 
+@pytest.mark.parametrize("kind, refused", [(np.float32, False), (np.uint8, True)])
+def test_marks_over_an_input_s_own_mark_dimension_are_said(tmp_path, kind, refused):
+    """A LAS's own ``mark`` (a vendor's extra bytes, an earlier ``--marks``) was replaced by the
+    filter's without a word, and a uint8 one took -9000 and windows wrapped."""
+    import laspy
+
+    from tests.cli.fresh import TEST_DATA, aldpat
+
+    las = laspy.read(TEST_DATA / "fsite5_pit.laz")
+    las.add_extra_dim(laspy.ExtraBytesParams(name="mark", type=kind))
+    las.mark = np.full(len(las.points), 5, kind)
+    las.write(tmp_path / "own.laz")
+    done = aldpat("filter", "pm", tmp_path / "own.laz", "--marks", "--odir", tmp_path / "out")
+    if refused:
+        assert done.returncode == 1 and "own.laz: its own dimension mark (uint8) cannot hold the filter's marks" \
+            in done.stderr, done.stderr
+        assert not (tmp_path / "out" / "own_pm.laz").exists()
+    else:
+        assert done.returncode == 0 and "own.laz: its own dimension mark is replaced by the filter's marks" \
+            in done.stderr, done.stderr
+        out = laspy.read(tmp_path / "out" / "own_pm.laz")
+        assert np.array_equal(np.asarray(out.classification) == 2, np.asarray(out.mark) == 0)
+
+
 def test_center_mode_writes_one_point_per_cell_at_its_centre(runner, cli, samp24, tmp_path):
     out = runner.invoke(cli, ["filter", "pm", str(samp24), "--odir", str(tmp_path), "--data-mode", "center",
                               "--cell", "2", "--result", "both"])

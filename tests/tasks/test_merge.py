@@ -152,6 +152,16 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
         done = aldpat("merge", *order, "-o", "e.las", cwd=tmp_path)
         assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
         assert not (tmp_path / "e.las").exists()
+    # and of one kind: the first input's kind decided, and 0.75 in float32 was written as 0 in int16
+    other = laspy.read(STRIP)
+    other.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.int16))
+    other.height_above_ground = np.full(len(other.points), 3, np.int16)
+    other.write(tmp_path / "other.las")
+    for order, kinds in ((["other.las", "extra.las"], "is float32, int16 in other.las"),
+                         (["extra.las", "other.las"], "is int16, float32 in extra.las")):
+        done = aldpat("merge", *order, "-o", "e.las", cwd=tmp_path)
+        assert done.returncode == 1 and f"its extra dimension height_above_ground {kinds}" in done.stderr, done.stderr
+        assert not (tmp_path / "e.las").exists()
     assert leftovers(tmp_path) == []
 
 

@@ -1,11 +1,13 @@
 """merge-boundary (manual task 5) and shapefile (task 6): the 5-column file, polygons, .prj, OGR."""
 
 import itertools
+import re
 
 import numpy as np
 import pytest
 import shapefile as pyshp
 
+from aldpat.errors import InputFormatError
 from aldpat.io.merged_boundary import read_merged
 from aldpat.io.shapefile import Polygon, read_polygons, write_polygons
 from aldpat.tasks import get_task
@@ -131,3 +133,35 @@ def test_a_strip_enclosing_no_area_is_skipped_by_name_and_the_others_written(tmp
     done = aldpat("shapefile", "m.txt", "--crs", "32632", cwd=tmp_path).ok()
     assert "strip 3 (c.txt): its boundary encloses no area" in done.stderr
     assert [r[1] for r in pyshp.Reader(str(tmp_path / "m.shp")).records()] == ["a.txt"]
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("nan 4000000 100 1 a.txt", r"bad\.txt:2: x = nan is not a plausible coordinate"),
+    ("500005 1e300 100 1 a.txt", r"bad\.txt:2: y = 1e300 is not a plausible coordinate"),
+    ("500005 4000005 inf 1 a.txt", r"bad\.txt:2: z = inf is not a plausible coordinate"),
+    ("500005 4000005 100 inf a.txt", r"bad\.txt:2: strip_index inf is not a whole number of at most 9 digits"),
+    ("500005 4000005 100 1e20 a.txt", r"bad\.txt:2: strip_index 1e20 is not a whole number"),
+    ("500005 4000005 100 1.5 a.txt", r"bad\.txt:2: strip_index 1.5 is not a whole number"),
+])
+def test_a_merged_file_line_that_is_no_boundary_point_is_named(tmp_path, bad, message):
+    """A NaN or 1e300 corner went into the shapefile as it was, an index of 1e20 was cut to the
+    field's ten digits, and an infinite one was an internal error."""
+    from tests.cli.fresh import aldpat
+
+    merged = tmp_path / "bad.txt"
+    rows = ["500000 4000000 100 1 a.txt", bad, "500010 4000000 100 1 a.txt", "500010 4000010 100 1 a.txt"]
+    merged.write_text("\n".join(rows) + "\n")
+    with pytest.raises(InputFormatError, match=message):
+        read_merged(merged)
+    done = aldpat("shapefile", merged, "-o", tmp_path / "out" / "b.shp")
+    assert done.returncode == 1 and re.search(message, done.stderr), done.stderr
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_no_usable_strip_is_the_data_s_fault_not_a_usage_error(tmp_path):
+    from tests.cli.fresh import aldpat
+
+    merged = tmp_path / "one.txt"
+    merged.write_text("500000 4000000 100 1 a.txt\n")
+    done = aldpat("shapefile", merged, "-o", tmp_path / "one.shp")
+    assert done.returncode == 1 and "one.txt: no strip with a usable boundary" in done.stderr

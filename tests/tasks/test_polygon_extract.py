@@ -79,6 +79,27 @@ def test_bad_polygon_files(tmp_path, points):
         get_task("polygon-extract")([points])
 
 
+@pytest.mark.parametrize("first, second, message", [
+    # a first vertex with a typo was skipped as a header line: the polygon lost a corner, exit 0
+    ("0,6O", "6,0", "bad.txt:1: expected x,y numbers, got '0,6O'"),
+    ("0,0", "nan,0", "bad.txt:2: vertex nan,0 is not a plausible coordinate"),
+    ("0,0", "1e300,0", "bad.txt:2: vertex 1e300,0 is not a plausible coordinate"),
+])
+def test_a_polygon_vertex_that_is_no_coordinate_is_named(tmp_path, points, first, second, message):
+    bad = tmp_path / "bad.txt"
+    bad.write_text(f"{first}\n{second}\n6,6\n0,6\n")
+    report = get_task("polygon-extract")([points], polygon=str(bad))
+    assert report.exit_code == 1 and message in report.results[0].error, report.results[0].error
+    assert not (tmp_path / "p_poly.txt").exists()
+
+
+def test_a_header_line_of_words_and_a_year_is_still_a_header(tmp_path, points):
+    poly = tmp_path / "poly.txt"
+    poly.write_text("# the survey of 2007\n" + "\n".join(f"{x},{y}" for x, y in U) + "\n")
+    assert get_task("polygon-extract")([points], polygon=str(poly)).exit_code == 0
+    assert np.array_equal(np.loadtxt(tmp_path / "p_poly.txt"), PTS[IN])
+
+
 def test_streams_las_and_keeps_attributes(tmp_path):
     from pathlib import Path
 

@@ -141,6 +141,23 @@ def test_las_tiles_keep_attributes_and_mark_their_buffer_points(tmp_path):
         get_task("tile")([src], append=True, out_format="laz", odir=str(tmp_path))
 
 
+def test_a_las_of_buffer_points_only_is_refused_not_tiled_into_nothing(tmp_path):
+    """Buffer copies are left out, their own tiles holding them: a file of nothing else wrote a
+    tile_parameter.txt of no tile, exit 0."""
+    import laspy
+
+    from tests.cli.fresh import aldpat
+
+    las = laspy.read(Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz")
+    las.add_extra_dim(laspy.ExtraBytesParams(name="tile_buffer", type=np.uint8))
+    las.tile_buffer = np.ones(len(las.points), np.uint8)
+    las.write(tmp_path / "marked.laz")
+    done = aldpat("tile", tmp_path / "marked.laz", "--width", "300", "--height", "300", "--odir", tmp_path / "t")
+    assert done.returncode == 1, done.stderr
+    assert "marked.laz: every point is marked tile_buffer" in done.stderr
+    assert not (tmp_path / "t" / "tile_parameter.txt").exists()
+
+
 def test_more_las_tiles_than_may_be_open_are_written_in_groups_alike(tmp_path, monkeypatch):
     """LAS/LAZ tiles keep a writer open each: past OPEN_LAS_TILES they are written that many at a
     time, the input read once a group; the tiles are those of one pass, point for point."""
