@@ -161,6 +161,17 @@ def aldpat_command(row: str, las: Path, odir: Path) -> list[str]:
     return [*cmd, "--params", str(SET01)] if row == "gapm-set01" else cmd
 
 
+def aldpat_env(tree: Path) -> dict:
+    """The environment of an aldpat row: the package of ``tree`` first on the path, and Python
+    free to write its bytecode, as ``pip install`` compiles it for users: under
+    ``PYTHONDONTWRITEBYTECODE`` (set on some machines) every run compiled the package's modules
+    from source again, some 0.2 s of start-up no user pays, and a tree that had bytecode from
+    another run did not."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
 def warm(row: str, env: dict) -> None:
     """Run ``row``'s command once on a small file, untimed: a package tree's first run compiles its
     numba loops and holds the compiler's memory (some 100 MB) and time, which the timed run would
@@ -337,7 +348,7 @@ def run(rows: list[str], against: str | None, repeat: int, file: Path | None, la
     old = revision_tree(against) if against else None
     for row in [r for r in rows if r in ALDPAT_ROWS]:
         odir = OUT / row
-        env = dict(os.environ, PYTHONPATH=str(REPO))
+        env = aldpat_env(REPO)
         warm(row, env)
         runs = [timed(aldpat_command(row, las, odir), env=env) for _ in range(repeat)]
         m = min(runs, key=lambda r: r["seconds"])
@@ -346,7 +357,7 @@ def run(rows: list[str], against: str | None, repeat: int, file: Path | None, la
         note = fingerprint(row, output_of(row, las, odir))
         if old is not None:
             old_dir = OUT / f"{row}-{old[1]}"
-            old_env = dict(os.environ, PYTHONPATH=str(old[0]))
+            old_env = aldpat_env(old[0])
             warm(row, old_env)
             om = timed(aldpat_command(row, las, old_dir), env=old_env)
             note += (f"; at {old[1]}: {om['seconds']:.1f} s, {mib(om['peak_bytes'])}; "
