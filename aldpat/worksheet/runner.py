@@ -8,8 +8,9 @@ parameter, each input's path, size and modification time) and of what it wrote (
 size and modification time) in ``<worksheet-stem>.state.json``, written atomically. ``--resume``
 skips a job whose fingerprint and outputs are unchanged. A job that was started but never
 recorded as finished (the run was killed) runs again and may replace the outputs it had already
-renamed into place -- they are its own; temporary files and scratch folders of writers no
-longer running are removed before every job. Because every output is renamed into place only
+renamed into place -- they are its own, as long as the job is the one that was killed (the same
+fingerprint) and none of its outputs was there before that run started; temporary files and
+scratch folders of writers no longer running are removed before every job. Because every output is renamed into place only
 when complete, a run killed at any instant and resumed ends with the same outputs as an
 uninterrupted one.
 
@@ -123,6 +124,26 @@ def _unchanged(entry: dict | None, job: Job) -> bool:
     return True
 
 
+def _existing_outputs(job: Job, run: ResolvedRun) -> list[str]:
+    """The outputs of ``job`` known by name that exist as it starts, when it may not replace them:
+    should the run be killed, they are not its own to replace when it is resumed."""
+    parts = (run.params, run.output)
+    if any(getattr(part.values, "overwrite", False) for part in parts if part is not None):
+        return []
+    return [str(out.path) for out in job.planned if not out.family and os.path.lexists(out.path)]
+
+
+def _outputs_are_its_own(entry: dict, job: Job) -> bool:
+    """Whether a job recorded as Running (its run was killed) may replace the outputs it finds when
+    it runs again: only when it is the job that was killed -- the worksheet edited meanwhile may
+    point it at a folder of someone else's files -- and none of its outputs existed before that
+    run started (those were refused then, and are not its own)."""
+    if entry.get("fingerprint") != fingerprint(job):
+        return False
+    existed = entry.get("existed", [])
+    return not (isinstance(existed, list) and any(os.path.lexists(str(p)) for p in existed))
+
+
 def _remove_stray_temporaries(job: Job) -> None:
     """Temporaries and scratch folders of writers no longer running, where the job writes and
     where its chunks spill (``tmpdir``)."""
@@ -175,6 +196,11 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             _notify(on_status, status)
             continue
         rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
+        if rerun_after_kill and entry is not None and not _outputs_are_its_own(entry, job):
+            rerun_after_kill = False
+            log.warning(f"{job.label}: the job killed in the last run was another (the worksheet, its parameters or "
+                        "its inputs changed since) or found outputs already there; it runs again without replacing "
+                        f"what exists (--set job.{job.number}.overwrite=true replaces it)")
         run = job.run
         layers_override: dict[str, object] = {}
         _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any
@@ -186,7 +212,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             run = _with_overrides(job, layers_override)
         status.state = RUNNING
         _notify(on_status, status)
-        state[str(job.number)] = {"status": RUNNING, "fingerprint": fingerprint(job)}
+        state[str(job.number)] = {"status": RUNNING, "fingerprint": fingerprint(job),
+                                  "existed": _existing_outputs(job, run)}
         _save_state(ws, state)
         start = time.perf_counter()
         try:

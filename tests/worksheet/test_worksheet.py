@@ -176,3 +176,33 @@ def test_run_from_the_command_line_reports_statuses(project):
     assert proc.returncode == 0, proc.stderr
     assert "job 1 convert: Running" in proc.stderr and "job 1 convert: Done: 2 outputs" in proc.stderr
     assert "job 2 info: Done" in proc.stderr and "7,492" in proc.stdout
+
+
+def test_resume_after_a_kill_replaces_only_what_the_killed_job_wrote(project):
+    """A job recorded as Running (its run was killed) may replace the outputs it finds when resumed,
+    as they are its own -- but not when the worksheet was edited meanwhile to point it at someone
+    else's files, nor files that were there before the killed run started."""
+    from aldpat.worksheet.runner import _save_state, fingerprint
+
+    killed = load_worksheet(sheet(project, CONVERT_THEN_INFO.replace('odir = "laz"', 'odir = "old"')
+                                  .replace("laz/*.laz", "old/*.laz")))
+    ws_path = sheet(project, CONVERT_THEN_INFO)  # edited after the kill: another odir
+    (project / "laz").mkdir()
+    (project / "laz" / "a.laz").write_bytes(b"someone else's file")
+    _save_state(killed, {"1": {"status": "Running", "fingerprint": fingerprint(killed.jobs[0])}})
+    proc = subprocess.run(ALDPAT + ["run", str(ws_path), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert "a.laz: output exists" in proc.stderr and "--set job.1.overwrite=true" in proc.stderr
+    assert (project / "laz" / "a.laz").read_bytes() == b"someone else's file"
+    # the same job, killed, but a.laz was there before it started: still not its own
+    ws = load_worksheet(ws_path)
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]),
+                           "existed": [str(project / "laz" / "a.laz")]}})
+    proc = subprocess.run(ALDPAT + ["run", str(ws_path), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 1 and (project / "laz" / "a.laz").read_bytes() == b"someone else's file"
+    # what the killed job wrote itself is replaced: the run finishes
+    (project / "laz" / "a.laz").unlink()
+    run_worksheet(load_worksheet(sheet(project, CONVERT_THEN_INFO.replace("raw/*.txt", "raw/b.txt"), "b.toml")))
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]), "existed": []}})
+    statuses = run_worksheet(load_worksheet(ws_path), resume=True)
+    assert [s.state for s in statuses] == [DONE, DONE]
