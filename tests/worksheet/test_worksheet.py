@@ -206,3 +206,50 @@ def test_resume_after_a_kill_replaces_only_what_the_killed_job_wrote(project):
     _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]), "existed": []}})
     statuses = run_worksheet(load_worksheet(ws_path), resume=True)
     assert [s.state for s in statuses] == [DONE, DONE]
+
+
+BOUNDARY_THEN = """
+    [settings]
+    overwrite = true
+
+    [[job]]
+    task = "strip-boundary"
+    inputs = ["raw/a.txt"]
+    odir = "bounds"
+
+    [[job]]
+    task = "{task}"
+    inputs = ["{inputs}"]
+    {key} = "{value}"
+
+    [[job]]
+    task = "merge-boundary"
+    inputs = ["bounds/a_Bound.txt"]
+    output = "{victim}"
+"""
+
+
+@pytest.mark.parametrize("task, inputs, key, value, victim, message", [
+    ("info", "raw/b.txt", "json", "true", "job.toml", "would replace the worksheet itself"),
+    ("info", "raw/b.txt", "json", "true", "job.state.json", "would replace the worksheet's run state"),
+    ("info", "raw/b.txt", "json", "true", "job.log.2", "would replace a log of the worksheet's earlier runs"),
+    ("polygon-extract", "raw/b.txt", "polygon", "poly.txt", "poly.txt", "poly.txt, which job 2 reads"),
+    ("thin", "raw/b.txt", "params", "thin.toml", "thin.toml", "thin.toml, which job 2 reads"),
+    ("info", "@list.txt", "json", "true", "list.txt", "list.txt, which job 2 reads"),
+])
+def test_no_job_replaces_the_worksheet_its_files_or_what_a_job_reads(project, task, inputs, key, value, victim,
+                                                                     message):
+    """The worksheet, the files its run keeps beside it, a job's parameter file and the files its
+    path parameters read are read by the run: no job's output replaces them, with or without
+    --overwrite (merge-boundary writes any name it is given)."""
+    (project / "poly.txt").write_text("513800,5403000\n514000,5403000\n514000,5403200\n")
+    (project / "thin.toml").write_text("cell = 5.0\n")
+    (project / "list.txt").write_text("raw/a.txt\n")
+    body = BOUNDARY_THEN.format(task=task, inputs=inputs, key=key, value=value, victim=victim)
+    body = body.replace('json = "true"', "json = true")
+    p = sheet(project, body)
+    before = {name: (project / name).read_bytes() for name in ("job.toml", "poly.txt", "thin.toml", "list.txt")}
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and not (project / "bounds").exists()
+    assert {name: (project / name).read_bytes() for name in before} == before
