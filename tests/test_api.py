@@ -126,6 +126,11 @@ def test_dtm_takes_the_filters_parameters_and_its_own(tmp_path):
     (lambda: aldpat.dtm(STRIP, mosaic="x.vrt"), "mosaic: an option of the command 'aldpat dtm'"),
     (lambda: aldpat.dtm(STRIP, filter_params={"cell": -2}), "dtm: cell: -2 is out of range"),
     (lambda: aldpat.dtm(STRIP, algorithm="outlier"), "dtm: algorithm"),
+    (lambda: aldpat.ground("http://example.com/a.laz"), "points: 'http://example.com/a.laz' is a URL"),
+    (lambda: aldpat.ground("/vsicurl/https://example.com/a.laz"), "is a GDAL virtual file system path"),
+    (lambda: aldpat.ground(np.zeros((5, 3), complex)), "points: expected real coordinates, got an array of complex128"),
+    (lambda: aldpat.dtm(STRIP, filter_params=["cell", 2]), "dtm: filter_params: expected a mapping"),
+    (lambda: aldpat.dtm(STRIP, filter_params="s3://bucket/gapm.toml"), "dtm: filter_params: 's3://bucket/gapm.toml' is a URL"),
 ], ids=lambda v: v if isinstance(v, str) else "")
 def test_a_bad_parameter_is_refused_at_the_call_by_name(call, words):
     with pytest.raises(aldpat.ParamError) as caught:
@@ -275,3 +280,17 @@ def test_a_dtm_too_large_for_memory_is_refused_before_it_is_allocated():
     xyz = np.c_[rng.uniform(0, 100, 1000), rng.uniform(0, 100, 1000), rng.uniform(0, 1, 1000)]
     with pytest.raises(aldpat.AldpatError, match=r"99933 x 99617 grid .* of 0\.001 m cells needs .*use a larger cell"):
         aldpat.dtm(xyz, cell=0.001)
+
+
+@pytest.mark.parametrize("target", ["s3://bucket/dtm.tif", "/vsis3/bucket/dtm.tif", "https://example.com/dtm.tif",
+                                    "/vsimem/dtm.tif", ""])
+def test_a_raster_is_written_to_a_local_file_only(target, tmp_path, monkeypatch):
+    """``dem.write("s3://bucket/dtm.tif")`` went to GDAL, which asked for AWS credentials (and with
+    them would have written to the bucket), and left a local folder ``s3:/bucket`` behind: nothing
+    but a local file is written, and nothing is made for a name that is not one."""
+    monkeypatch.chdir(tmp_path)
+    rng = np.random.default_rng(0)
+    dem = aldpat.dtm(np.c_[rng.uniform(0, 50, 500), rng.uniform(0, 50, 500), rng.uniform(0, 1, 500)], cell=5.0)
+    with pytest.raises(aldpat.AldpatError, match="raster not written: .* is (a URL|a GDAL virtual|empty)"):
+        dem.write(target)
+    assert list(tmp_path.iterdir()) == []

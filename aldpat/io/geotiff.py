@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 from aldpat.core.grid_extent import GridSpec, refuse_held_nodata
 from aldpat.core.paths import not_local
 from aldpat.core.threads import thread_budget
-from aldpat.errors import InputFormatError, UsageError, one_line
+from aldpat.errors import InputFormatError, UsageError, one_line, shown
 from aldpat.io.atomic import atomic_output
 
 #: ``--grid-format`` / ``--to`` name -> file extension
@@ -104,7 +105,12 @@ class Raster:
         (``.cog.tif``), as ``format`` (``geotiff`` or ``cog``) says or else by the extension:
         float32, deflate with the floating-point predictor, 256 x 256 tiles (a COG with its
         overviews), the CRS and nodata set; atomically, an existing file replaced only with
-        ``overwrite``."""
+        ``overwrite``. ``path`` is a local file: a URL or a GDAL virtual file system (``s3://``,
+        ``/vsicurl/``) is refused before GDAL is asked, which would reach the network for it (and
+        ``Path`` would make ``s3:`` a local folder)."""
+        why = not_local(os.fspath(path))
+        if why is not None:
+            raise UsageError(f"raster not written: {shown(os.fspath(path))} is {why}")
         path = Path(path)
         name = path.name.lower()
         if format is None:
