@@ -116,11 +116,20 @@ def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None,
 
 
 def _rebase(value: Any, folder: Path) -> Any:
-    if isinstance(value, str) and value and not value.startswith("@") and not Path(value).expanduser().is_absolute():
-        return str(folder / value)
-    if isinstance(value, str) and value.startswith("@") and not Path(value[1:]).is_absolute():
-        return "@" + str(folder / value[1:])
-    return value
+    """A path of the worksheet (an input, ``@list``, or a path parameter) as the run takes it:
+    relative to the worksheet's folder, and a leading ``~`` the home folder, as a shell expands it
+    on a command line -- for every path, not for the inputs alone (an ``odir = "~/out"`` made a
+    folder named ``~`` wherever the run was started). ``$VAR`` is left as it is: a worksheet is
+    data, and what it names may not depend on the environment of whoever runs it."""
+    if not isinstance(value, str) or not value:
+        return value
+    at = "@" if value.startswith("@") else ""
+    path = value[len(at):]
+    if path.startswith("~"):
+        path = os.path.expanduser(path)
+    if Path(path).is_absolute():
+        return at + path
+    return at + str(folder / path)
 
 
 def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *,

@@ -253,3 +253,25 @@ def test_no_job_replaces_the_worksheet_its_files_or_what_a_job_reads(project, ta
     assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
     assert len(proc.stderr.splitlines()) == 1 and not (project / "bounds").exists()
     assert {name: (project / name).read_bytes() for name in before} == before
+
+
+def test_a_tilde_is_the_home_folder_in_every_path_of_a_worksheet(project, tmp_path_factory):
+    """``odir = "~/out"`` made a folder named ``~`` in the folder the run was started from (the
+    inputs' ``~`` was expanded, the other paths' not); it is the home folder now, as a shell makes
+    it. ``$HOME`` is not expanded: a worksheet is data, not a shell line."""
+    home, elsewhere = tmp_path_factory.mktemp("home"), tmp_path_factory.mktemp("cwd")
+    shutil.copy(project / "raw" / "a.txt", home / "a.txt")
+    p = sheet(project, """
+        [[job]]
+        task = "thin"
+        inputs = ["~/a.txt"]
+        odir = "~/out"
+        cell = 5.0
+    """)
+    env = {**os.environ, "HOME": str(home)}
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, cwd=elsewhere, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert (home / "out" / "a_thin.txt").is_file() and list(elsewhere.iterdir()) == []
+    p = sheet(project, '[[job]]\ntask = "thin"\ninputs = ["$HOME/a.txt"]\ncell = 5.0\n')
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, cwd=elsewhere, env=env)
+    assert proc.returncode == 2 and "$HOME/a.txt: no such file" in proc.stderr
