@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.crs import output_crs
-from aldpat.errors import DataError
+from aldpat.errors import DataError, UsageError
 from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
-from aldpat.io.registry import detect_format
+from aldpat.io.registry import EXTENSIONS, detect_format
 from aldpat.io.tile_project import find_tile_job, in_core
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -130,9 +130,15 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
 
 
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
-    """``-o FILE``: like every path, from where the command runs (a worksheet's folder)."""
+    """``-o FILE``: like every path, from where the command runs (a worksheet's folder). Its
+    extension is its format, so one that names no point format is refused here, with the plan --
+    before a worksheet's first job runs, and by ``--dry-run`` -- not when the points are written."""
     assert params.output is not None  # required
-    return [Planned(Path(params.output), named_by="output", rename="give -o another name")]
+    out = Path(params.output)
+    if out.suffix.lower() not in EXTENSIONS:
+        raise UsageError(f"output {out}: a merged point file's extension is its format: "
+                         f"{', '.join(sorted(set(EXTENSIONS)))}")
+    return [Planned(out, named_by="output", rename="give -o another name")]
 
 
 def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:

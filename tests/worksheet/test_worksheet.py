@@ -275,3 +275,15 @@ def test_a_tilde_is_the_home_folder_in_every_path_of_a_worksheet(project, tmp_pa
     p = sheet(project, '[[job]]\ntask = "thin"\ninputs = ["$HOME/a.txt"]\ncell = 5.0\n')
     proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, cwd=elsewhere, env=env)
     assert proc.returncode == 2 and "$HOME/a.txt: no such file" in proc.stderr
+
+
+def test_a_merge_output_of_no_point_format_is_refused_before_the_first_job(project):
+    """``merge -o x.toml`` passed ``--dry-run`` and a worksheet's check, and failed only when it
+    came to write ("unknown extension '.toml'"), after the jobs before it had run."""
+    proc = subprocess.run(ALDPAT + ["merge", "raw/a.txt", "-o", "x.toml", "--dry-run"], check=False,
+                          capture_output=True, text=True, cwd=project)
+    assert proc.returncode == 2 and "output x.toml: a merged point file's extension is its format" in proc.stderr
+    p = sheet(project, CONVERT_THEN_INFO + '\n[[job]]\ntask = "merge"\ninputs = ["laz/*.laz"]\noutput = "all.toml"\n')
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and "job 3: output" in proc.stderr and "all.toml: a merged point file's" in proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and not (project / "laz").exists()
