@@ -102,6 +102,15 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
     if task.inputs == "many" and not sources:
         return RunReport(task.key, [], input_errors)
+    if task.run_all is not None and input_errors:
+        # one product of every input (merge, tile): made of those found, it would be put in place
+        # under its final name without the others' points -- a merged site missing a tile -- as
+        # lasmerge and PDAL's merge stop at an input they cannot open; so it is not made at all,
+        # as when an input found cannot be read
+        missing = len(input_errors)
+        return RunReport(task.key, [JobResult(inputs=[str(s) for s in sources], error=(
+            f"{task.key} not run: {missing} of its inputs cannot be found, and it makes one product of them all"))],
+            input_errors, run.params.values)
     if task.finish is not None and not (run.output is not None and run.output.values.overwrite):
         # the finish step writes its output (a mosaic) once every job is done: refused now, not
         # after the work, as each job refuses its own outputs before it reads anything
