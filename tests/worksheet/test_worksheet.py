@@ -287,3 +287,21 @@ def test_a_merge_output_of_no_point_format_is_refused_before_the_first_job(proje
     proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True)
     assert proc.returncode == 2 and "job 3: output" in proc.stderr and "all.toml: a merged point file's" in proc.stderr
     assert len(proc.stderr.splitlines()) == 1 and not (project / "laz").exists()
+
+
+def test_a_named_pipe_nothing_writes_to_is_refused_not_waited_for(project):
+    """``aldpat run fifo.toml`` (or ``params = "fifo.toml"``, an ``@fifo`` input list) waited for
+    ever for a writer; it is refused in one line. A pipe something writes to is read as before."""
+    os.mkfifo(project / "fifo.toml")
+    proc = subprocess.run(ALDPAT + ["run", str(project / "fifo.toml")], check=False, capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 2 and "fifo.toml: TOML file is a named pipe that nothing writes to" in proc.stderr
+    p = sheet(project, '[[job]]\ntask = "thin"\ninputs = ["raw/a.txt"]\nparams = "fifo.toml"\n')
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and "job 1: params:" in proc.stderr and "named pipe" in proc.stderr
+    proc = subprocess.run(ALDPAT + ["thin", "@fifo.toml", "--dry-run"], check=False, capture_output=True, text=True,
+                          timeout=60, cwd=project)
+    assert proc.returncode == 1 and "input list is a named pipe that nothing writes to" in proc.stderr
+    proc = subprocess.run(["bash", "-c", f"{' '.join(ALDPAT)} thin raw/a.txt --params <(echo 'cell = 7.0') --dry-run"],
+                          check=False, capture_output=True, text=True, timeout=60, cwd=project)
+    assert proc.returncode == 0 and "cell = 7    # params file" in proc.stdout, proc.stderr
