@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 from aldpat.errors import InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
@@ -54,6 +54,8 @@ class PointReader(PointSource, Protocol):
 EXTENSIONS = {".txt": "text", ".xyz": "text", ".csv": "text", ".pts": "text", ".las": "las", ".laz": "las"}
 #: format name -> reader (mypy checks that each meets the PointReader contract)
 FORMATS: dict[str, Callable[..., PointReader]] = {"text": TextReader, "las": LasReader}
+#: a reader of either format (what :func:`holding_points` keeps it gives back)
+R = TypeVar("R", bound=PointReader)
 #: output format name -> default extension (``--out-format``)
 OUT_EXTENSIONS = {"text": ".txt", "csv": ".csv", "las": ".las", "laz": ".laz"}
 
@@ -85,6 +87,20 @@ def open_points(path: str | Path, *, format: str | None = None, layout: str = "p
     if fmt == "las" and layout == "altm9":
         raise UsageError("ALTM 9-column tapes are text files", path=path)
     return FORMATS[fmt](path, layout=layout, order=order)
+
+
+def holding_points(readers: list[R], warn: Callable[[str], None], what: str) -> list[R]:
+    """The readers of a task combining its inputs into one product (``merge``, ``tile``) whose files
+    hold points. A LAS file whose header says it holds none (a tile emptied by a filter, a
+    delivery's placeholder) adds nothing, as lasmerge and PDAL take it: it is named in a warning
+    and left out -- with its point format, extra bytes and CRS, which it does not bring either --
+    instead of failing the product of every other input. When none holds a point, the first is
+    returned, whose reading says so."""
+    full = [r for r in readers if r.count != 0]
+    for reader in readers:
+        if reader.count == 0:
+            warn(f"{reader.path.name}: holds no points: nothing of it is {what}")
+    return full or readers[:1]
 
 
 def output_extension(source: Path | None, out_format: str | None) -> str:

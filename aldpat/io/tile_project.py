@@ -123,11 +123,14 @@ class OwnedPoints:
 def owned_points(path: Path, cores: list[TileRow], region: tuple[float, float, float, float], *,
                  fmt: str | None = None, keep: Keep = None) -> OwnedPoints:
     """The points of ``path`` inside one of ``cores`` and inside ``region`` (min x, max x, min y,
-    max y, closed), read chunk by chunk."""
+    max y, closed), read chunk by chunk. A file holding no points (a LAS tile whose header says 0)
+    owns none: it is a tile without data, not one that cannot be read, and its neighbours, which
+    read it for their buffers, go on without points from it."""
     x0, x1, y0, y1 = region
     xs, ys, zs, idx = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)], [np.zeros(0, np.int64)]
     start = 0
-    for chunk in open_points(path, format=fmt).chunks():
+    reader = open_points(path, format=fmt)
+    for chunk in (reader.chunks() if reader.count != 0 else ()):
         x, y = np.asarray(chunk.x, np.float64), np.asarray(chunk.y, np.float64)
         take = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
         owned = np.zeros(len(x), bool)

@@ -33,7 +33,7 @@ import numpy as np
 from aldpat.core.crs import output_crs
 from aldpat.errors import DataError, UsageError
 from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
-from aldpat.io.registry import EXTENSIONS, detect_format
+from aldpat.io.registry import EXTENSIONS, detect_format, holding_points
 from aldpat.io.tile_project import find_tile_job, in_core
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -143,7 +143,7 @@ def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> 
 
 def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:
     out = merge_outputs(sources, params, ctx)[0].path
-    readers = [ctx.open_input(s) for s in sources]
+    readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "merged")
     template = _las_template(readers) if detect_format(out) == "las" else None
     if template is not None:
         kinds = {r.header.point_format.id for r in readers if r.format == "las"}

@@ -53,7 +53,7 @@ from aldpat.io.atomic import (
 )
 from aldpat.io.las import BUFFER_DIMENSION, LasWriter, buffer_marks
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.io.registry import output_extension
+from aldpat.io.registry import holding_points, output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
 from aldpat.jobs.context import JobContext
@@ -295,7 +295,7 @@ def tile_outputs(sources: list[Path], params: TileParams, ctx: JobContext) -> li
 
 
 def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
-    readers = [ctx.open_input(s) for s in sources]
+    readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "tiled")
     first = readers[0]
     folder = ctx.output_dir(sources[0])
     ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs

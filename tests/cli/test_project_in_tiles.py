@@ -146,6 +146,30 @@ def test_a_tile_that_cannot_be_read_fails_with_the_tiles_that_need_it_and_no_oth
     assert leftovers(tmp_path) == []
 
 
+def test_a_tile_holding_no_points_is_a_tile_without_data_not_one_that_cannot_be_read(tmp_path):
+    """A LAS tile of zero points (a tile emptied by an earlier filter or a delivery's placeholder)
+    failed as "no points in file", and with it every tile within the buffer of it and every tile
+    needing their ground classes: 6 of 10. It adds no points now: every tile is made, the empty one
+    from its neighbours' points near its edges, as identical on the shared edges as any; ``merge``
+    and ``tile`` of the tiles leave it out with a warning, as lasmerge does."""
+    from tests.cli.fresh import DATA
+
+    aldpat("tile", DATA / "samp24.txt", "--width", "30", "--height", "40", "--out-format", "laz", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    empty = tmp_path / "tiles" / "tile_513720_5403120.laz"
+    las = laspy.read(empty)
+    las.points = las.points[:0]
+    las.write(empty)
+    aldpat("dtm", "tiles", "--cell", "1", "--buffer", "10", "--odir", "dtm", cwd=tmp_path).ok()
+    tifs = sorted((tmp_path / "dtm").glob("*.tif"))
+    assert len(tifs) == 10 and shared_nodes(tifs)[1] == 0
+    for task, args in (("merge", ["-o", "all.laz"]), ("tile", ["--width", "60", "--height", "80", "--odir", "t2"])):
+        done = aldpat(task, "tiles", *args, cwd=tmp_path).ok()
+        assert "tile_513720_5403120.laz: holds no points: nothing of it is" in done.stderr
+    held = sum(laspy.open(p).header.point_count for p in (tmp_path / "t2").glob("tile_*.laz"))
+    assert laspy.open(tmp_path / "all.laz").header.point_count == held > 0
+
+
 def test_a_buffer_of_many_tiles_is_refused_once_before_anything_runs(tmp_path):
     """As ``tile`` refuses such buffers: with 40 m tiles a 200 m buffer would make every tile's DTM
     or grid read the points of the tiles five tiles around it, the project again for every tile.
