@@ -144,6 +144,17 @@ def _outputs_are_its_own(entry: dict, job: Job) -> bool:
     return not (isinstance(existed, list) and any(os.path.lexists(str(p)) for p in existed))
 
 
+def _finished_as(job: Job, entry: dict | None, done_before: dict[str, dict]) -> dict | None:
+    """The state entry of the last run saying ``job`` finished, unchanged since: the one under its
+    number, or else one under another number with its fingerprint -- a job inserted before it, or
+    one removed, renumbers the jobs after it, which are not changed by that and are not run again
+    (they would find their own outputs and fail, and block what reads them)."""
+    if entry is not None and _unchanged(entry, job):
+        return entry
+    other = done_before.get(fingerprint(job))
+    return other if other is not None and _unchanged(other, job) else None
+
+
 def _remove_stray_temporaries(job: Job) -> None:
     """Temporaries and scratch folders of writers no longer running, where the job writes and
     where its chunks spill (``tmpdir``)."""
@@ -173,6 +184,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
     _say_where_side_files_go(ws)
     rotate(log_path(ws), LOG_MARK)  # the last run's log is kept as .log.1
     state = _load_state(ws) if resume else {}
+    done_before = {e["fingerprint"]: e for e in state.values()
+                   if isinstance(e, dict) and e.get("status") == DONE and isinstance(e.get("fingerprint"), str)}
     if not resume:
         with contextlib.suppress(OSError):
             state_path(ws).unlink()
@@ -190,9 +203,11 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             _notify(on_status, status)
             continue
         entry = state.get(str(job.number))
-        if resume and entry is not None and _unchanged(entry, job):
+        finished = _finished_as(job, entry, done_before) if resume else None
+        if finished is not None:
             status.state, status.message = SKIPPED, "unchanged since it last finished (--resume)"
-            status.outputs = [sig[0] for sig in entry.get("outputs", [])]
+            status.outputs = [sig[0] for sig in finished.get("outputs", [])]
+            state[str(job.number)] = finished
             _notify(on_status, status)
             continue
         rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
@@ -245,6 +260,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
         _save_state(ws, state)
         write_worksheet_log(ws, statuses, command)
         _notify(on_status, status)
+    if resume:  # the jobs skipped under other numbers than the last run's are found under theirs next time
+        _save_state(ws, state)
     write_worksheet_log(ws, statuses, command)
     return statuses
 

@@ -305,3 +305,20 @@ def test_a_named_pipe_nothing_writes_to_is_refused_not_waited_for(project):
     proc = subprocess.run(["bash", "-c", f"{' '.join(ALDPAT)} thin raw/a.txt --params <(echo 'cell = 7.0') --dry-run"],
                           check=False, capture_output=True, text=True, timeout=60, cwd=project)
     assert proc.returncode == 0 and "cell = 7    # params file" in proc.stdout, proc.stderr
+
+
+def test_resume_after_a_job_is_inserted_or_removed_skips_the_unchanged_jobs(project):
+    """The run state knew a job by its number: a job inserted before the others made ``--resume``
+    run each of them again, under its new number -- each failed on its own outputs ("output
+    exists") and blocked the jobs reading them. A job that finished unchanged is found by what it
+    runs now, under any number, and the state keeps it under its new one."""
+    p = sheet(project, CONVERT_THEN_INFO)
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE, DONE]
+    mtime = os.stat(project / "laz" / "a.laz").st_mtime_ns
+    sheet(project, '[[job]]\ntask = "info"\ninputs = ["raw/b.txt"]\n' + textwrap.dedent(CONVERT_THEN_INFO))
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "job 2 convert: Skipped" in proc.stderr and "job 3 info: Skipped" in proc.stderr
+    sheet(project, CONVERT_THEN_INFO)  # and removed again
+    assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED, SKIPPED]
+    assert os.stat(project / "laz" / "a.laz").st_mtime_ns == mtime
