@@ -30,7 +30,7 @@ import logging
 import os
 import re
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -155,6 +155,41 @@ def _finished_as(job: Job, entry: dict | None, done_before: dict[str, dict]) -> 
     return other if other is not None and _unchanged(other, job) else None
 
 
+def _written(entries: Iterable[dict]) -> dict[str, list]:
+    """The outputs the jobs of the last runs wrote, as recorded when each finished: path -> its
+    signature then (path, size, modification time)."""
+    out: dict[str, list] = {}
+    for entry in entries:
+        for sig in entry.get("outputs", []):
+            if isinstance(sig, list) and len(sig) == 3 and isinstance(sig[0], str):
+                out[sig[0]] = sig
+    return out
+
+
+def _replaces_only_its_last_outputs(job: Job, written: dict[str, list]) -> bool:
+    """Whether every output of ``job`` that exists is one the worksheet's last runs wrote and that
+    nothing changed since (its size and time as recorded): a job run again by ``--resume``
+    because its inputs or parameters changed -- an upstream job made its inputs anew -- then
+    replaces what it made itself, as ``make`` does, instead of failing on it ("output exists")
+    and blocking what reads it. A file of anyone else's, or one changed since, is never replaced
+    without ``--overwrite``. True only when there is something to replace."""
+    found = False
+    for out in job.planned:
+        paths = ([p for p in out.path.parent.glob(out.path.name) if out.matches(p)]
+                 if out.family and out.path.parent.is_dir() else [out.path])
+        for path in paths:
+            if not os.path.lexists(path):
+                continue
+            sig = written.get(str(Path(path).resolve()))
+            try:
+                if sig is None or os.path.islink(path) or _file_sig(path) != sig:
+                    return False
+            except OSError:
+                return False
+            found = True
+    return found
+
+
 def _remove_stray_temporaries(job: Job) -> None:
     """Temporaries and scratch folders of writers no longer running, where the job writes and
     where its chunks spill (``tmpdir``)."""
@@ -186,6 +221,7 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
     state = _load_state(ws) if resume else {}
     done_before = {e["fingerprint"]: e for e in state.values()
                    if isinstance(e, dict) and e.get("status") == DONE and isinstance(e.get("fingerprint"), str)}
+    written_before = _written(done_before.values())
     if not resume:
         with contextlib.suppress(OSError):
             state_path(ws).unlink()
@@ -219,7 +255,7 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
         run = job.run
         layers_override: dict[str, object] = {}
         _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any
-        if rerun_after_kill:
+        if rerun_after_kill or (resume and _replaces_only_its_last_outputs(job, written_before)):
             layers_override["overwrite"] = True
         if jobs is not None:
             layers_override["jobs"] = jobs

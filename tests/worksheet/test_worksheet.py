@@ -322,3 +322,31 @@ def test_resume_after_a_job_is_inserted_or_removed_skips_the_unchanged_jobs(proj
     sheet(project, CONVERT_THEN_INFO)  # and removed again
     assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED, SKIPPED]
     assert os.stat(project / "laz" / "a.laz").st_mtime_ns == mtime
+
+
+def test_resume_replaces_what_a_changed_job_wrote_itself_and_nothing_else(project):
+    """A job run again by --resume because its input changed (or an upstream job made its inputs
+    anew) failed on its own outputs of the last run ("output exists") and blocked the jobs
+    reading them, unless the worksheet said overwrite: resuming after mending a raw file needed
+    --overwrite on every job. It replaces what it wrote itself, unchanged since; a file of
+    anyone else's or changed since is refused as ever."""
+    p = sheet(project, CONVERT_THEN_INFO.replace('task = "info"\n    inputs = ["laz/*.laz"]',
+                                                 'task = "thin"\n    inputs = ["laz/*.laz"]\n    odir = "thin"\n'
+                                                 '    cell = 5.0'))
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE, DONE]
+    with open(project / "raw" / "a.txt", "a") as fh:
+        fh.write("513866.46\t5403124.79\t310.77\t0\n")
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 0 and "job 2 thin: Done" in proc.stderr, proc.stderr
+    assert laspy_count(project / "laz" / "a.laz") == 7493
+    (project / "thin" / "b_thin.laz").write_bytes(b"edited by hand")
+    os.utime(project / "raw" / "b.txt")
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 1 and "b_thin.laz: output exists" in proc.stderr, proc.stderr
+    assert (project / "thin" / "b_thin.laz").read_bytes() == b"edited by hand"
+
+
+def laspy_count(path) -> int:
+    import laspy
+
+    return laspy.open(path).header.point_count
