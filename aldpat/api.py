@@ -65,9 +65,9 @@ Points = Any  # a path, a laspy.LasData, an (N, 3) array or an (x, y, z) tuple
 def ground(points: Points, algorithm: str = "gapm", **params: Any) -> np.ndarray:
     """Which points are ground: a numpy bool array, one per point in the input's order.
 
-    ``points`` is a path (LAS, LAZ or ASCII, as ``aldpat filter`` reads it), a laspy ``LasData``,
-    an (N, 3) array of x, y, z or an ``(x, y, z)`` tuple of arrays. ``algorithm`` is a filter of
-    ``aldpat filter`` (``gapm`` by default: start with it) and ``params`` its parameters, named
+    ``points`` is a path (LAS, LAZ or ASCII, as ``aldpat filter`` reads it), a laspy ``LasData``
+    or its points (``las.points[keep]``), an (N, 3) array of x, y, z or an ``(x, y, z)`` tuple of
+    arrays. ``algorithm`` is a filter of ``aldpat filter`` (``gapm`` by default: start with it) and ``params`` its parameters, named
     as its ``--params`` file names them (``cell=1.5``, ``auto=True``). True is what ``aldpat
     filter ALGO --result classified`` writes as class 2 for the same points and parameters.
 
@@ -170,6 +170,8 @@ def _table(points: Points) -> tuple[PointTable, Any]:
         return reader.read(), getattr(reader, "crs", None)
     if hasattr(points, "header") and hasattr(points, "points"):  # a laspy.LasData
         return las_table(points), _las_crs(points)
+    if type(points).__name__ == "ScaleAwarePointRecord":  # las.points[keep]: no header, so no CRS
+        return las_table(points), None
     if isinstance(points, tuple) and len(points) == 3:
         x, y, z = (_numbers(v, points) for v in points)
     else:

@@ -59,8 +59,20 @@ def test_every_form_of_points_gives_the_same_flags():
     las = laspy.read(STRIP)
     flags = aldpat.ground(str(STRIP))
     x, y, z = np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)
-    for points in (las, STRIP, np.column_stack([x, y, z]), (x, y, z), (list(x), list(y), list(z))):
+    for points in (las, STRIP, np.column_stack([x, y, z]), (x, y, z), (list(x), list(y), list(z)), las.points):
         np.testing.assert_array_equal(aldpat.ground(points), flags)
+
+
+def test_a_selection_of_a_las_files_points_is_points():
+    """``aldpat.ground(las.points[keep])`` -- a notebook's selection of a file's points -- was refused
+    with "argument of type 'NoneType' is not iterable": a point record carries the point format,
+    scales and offsets a header would give, and is taken as the LasData holding just those points."""
+    las = laspy.read(STRIP)
+    keep = np.asarray(las.z) < np.median(las.z) + 5
+    selected = laspy.LasData(las.header)
+    selected.points = las.points[keep]
+    np.testing.assert_array_equal(aldpat.ground(las.points[keep]), aldpat.ground(selected))
+    assert aldpat.dtm(las.points[keep], cell=5.0).array.shape == aldpat.dtm(selected, cell=5.0).array.shape
 
 
 def test_dtm_is_the_commands_dtm(tmp_path):

@@ -334,12 +334,16 @@ def _table(record: Any, names: tuple[str, ...], decimals: dict[str, int]) -> Poi
     return PointTable(cols, record=record, meta={"decimals": decimals, "in_record": frozenset(cols)})
 
 
-def las_table(las: laspy.LasData) -> PointTable:
-    """The points of a laspy ``LasData`` in memory as :meth:`LasReader.read` reads a file's."""
+def las_table(las: laspy.LasData | laspy.ScaleAwarePointRecord) -> PointTable:
+    """The points of a laspy ``LasData`` in memory as :meth:`LasReader.read` reads a file's; or of
+    a point record alone (``las.points[keep]``, a selection a notebook makes), which carries the
+    point format, scales and offsets a header would give."""
+    if not hasattr(las, "header"):
+        return _table(las, *_columns(las))
     return _table(las.points, *_columns(las.header))
 
 
-def _columns(header: laspy.LasHeader) -> tuple[tuple[str, ...], dict[str, int]]:
+def _columns(header: laspy.LasHeader | laspy.ScaleAwarePointRecord) -> tuple[tuple[str, ...], dict[str, int]]:
     """The columns read from a LAS file (x, y, z and the attributes tasks use), and the decimals
     its scales give x, y, z."""
     dims = set(header.point_format.dimension_names)
