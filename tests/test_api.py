@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import doctest
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -306,3 +307,31 @@ def test_a_raster_is_written_to_a_local_file_only(target, tmp_path, monkeypatch)
     with pytest.raises(aldpat.AldpatError, match="raster not written: .* is (a URL|a GDAL virtual|empty)"):
         dem.write(target)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("fields, words", [
+    ({"array": np.zeros((2, 3, 4))}, "Raster: array: expected a 2-D array of heights"),
+    ({"array": np.zeros((0, 0))}, "Raster: array: expected a 2-D array"),
+    ({"array": [["a", "b"]]}, "Raster: array: expected a 2-D array"),
+    ({"transform": (1.0, 0.0)}, "Raster: transform: expected 6 finite numbers"),
+    ({"transform": (1.0, 0.0, 0.0, 0.0, -1.0, float("nan"))}, "Raster: transform: expected 6 finite numbers"),
+    ({"nodata": 1e300}, "Raster: nodata: expected a finite float32 value"),
+    ({"nodata": "blank"}, "Raster: nodata: expected a finite float32 value"),
+    ({"crs": "EPSG:0"}, "Raster: crs: unknown CRS 'EPSG:0'"),
+], ids=lambda v: v if isinstance(v, str) else "")
+def test_a_raster_made_by_hand_is_checked_field_by_field(fields, words):
+    """``aldpat.Raster`` is the API's: one made by hand with a 3-D array, a short transform or a CRS
+    as text failed when written, with numpy's "too many values to unpack", Affine's missing
+    arguments or "'str' object has no attribute 'to_wkt'". Each field is checked when it is made."""
+    good = {"array": np.zeros((2, 2), np.float32), "transform": (1.0, 0.0, 500.0, 0.0, -1.0, 100.0)}
+    with pytest.raises(aldpat.ParamError, match=re.escape(words)):
+        aldpat.Raster(**{**good, **fields})
+
+
+def test_a_raster_made_by_hand_takes_rows_as_lists_and_a_crs_as_text(tmp_path):
+    raster = aldpat.Raster(array=[[1.0, 2.0], [3.0, 4.0]], transform=(1, 0, 500, 0, -1, 100), crs="EPSG:32632")
+    assert raster.array.shape == (2, 2) and raster.crs.to_epsg() == 32632
+    import rasterio
+
+    with rasterio.open(raster.write(tmp_path / "hand.tif")) as ds:
+        assert ds.crs.to_epsg() == 32632 and ds.read(1).tolist() == [[1.0, 2.0], [3.0, 4.0]]
