@@ -335,3 +335,14 @@ def test_a_raster_made_by_hand_takes_rows_as_lists_and_a_crs_as_text(tmp_path):
 
     with rasterio.open(raster.write(tmp_path / "hand.tif")) as ds:
         assert ds.crs.to_epsg() == 32632 and ds.read(1).tolist() == [[1.0, 2.0], [3.0, 4.0]]
+
+
+def test_a_search_radius_beyond_the_points_reaches_the_grid_not_further():
+    """``aldpat.ground(points, algorithm="slope", search_radius=1e6)`` asked numpy for 29.1 TiB of
+    cell offsets (2,000,001 x 2,000,001) and raised its MemoryError; the command said "out of
+    memory". A search reaches no farther than the grid's cells: the flags are those of any radius
+    spanning the strip."""
+    las = laspy.read(STRIP)
+    xyz = np.c_[las.x, las.y, las.z][::4]
+    np.testing.assert_array_equal(aldpat.ground(xyz, algorithm="slope", search_radius=1e6),
+                                  aldpat.ground(xyz, algorithm="slope", search_radius=2000.0))
