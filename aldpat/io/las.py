@@ -351,6 +351,39 @@ def _columns(header: laspy.LasHeader | laspy.ScaleAwarePointRecord) -> tuple[tup
     return names, dict(zip("xyz", stored_decimals(header.scales, header.offsets), strict=True))
 
 
+def finest_scales(header: laspy.LasHeader, inputs: list[laspy.LasHeader]) -> np.ndarray:
+    """Per axis, the finest of the inputs' scales where every input's coordinates are exact at it
+    from ``header``'s offset (:func:`exact_axis`) and the 32-bit integers hold every input's
+    extent from that offset; else ``header``'s own. A tile stored at 0.001 m merged (or tiled)
+    after one at 0.01 m was rounded to centimetres (lasmerge and PDAL keep the first or a default
+    scale): ``merge`` and ``tile`` write their points at these scales."""
+    scales = np.array(header.scales, dtype=np.float64)
+    lowest = np.min([h.mins for h in inputs], axis=0)
+    highest = np.max([h.maxs for h in inputs], axis=0)
+    for k in range(3):
+        finer = min(float(h.scales[k]) for h in inputs)
+        reach = max(float(highest[k]) - float(header.offsets[k]), float(header.offsets[k]) - float(lowest[k]))
+        if finer < scales[k] and reach / finer < 2 ** 31 - 1 and all(
+                exact_axis(float(h.scales[k]), float(h.offsets[k]), finer, float(header.offsets[k])) for h in inputs):
+            scales[k] = finer
+    return scales
+
+
+def exact_axis(scale: float, offset: float, to_scale: float, to_offset: float) -> bool:
+    """Whether a coordinate stored at ``scale`` from ``offset`` keeps every digit stored again at
+    ``to_scale`` from ``to_offset`` (the scale a whole multiple of the other, the offsets apart by
+    whole steps)."""
+    ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
+    return ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) <= 1e-9 and abs(shift - round(shift)) <= 1e-6
+
+
+def exact_at(header: laspy.LasHeader, template: laspy.LasHeader) -> bool:
+    """Whether the coordinates stored under ``header`` keep every digit stored under ``template``'s
+    scales and offsets."""
+    return all(exact_axis(*axis) for axis in zip(header.scales, header.offsets, template.scales, template.offsets,
+                                                   strict=True))
+
+
 def stored_decimals(scales: Iterable[float], offsets: Iterable[float]) -> list[int]:
     """The decimals that write every x, y, z a LAS file stores at ``scales`` from ``offsets``
     exactly: the more of the scale's and the offset's (a scale of 0.025: 3)."""
