@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.las import LasReader, LasWriter
 from aldpat.io.table import PointTable
@@ -101,6 +101,19 @@ def holding_points(readers: list[R], warn: Callable[[str], None], what: str) -> 
         if reader.count == 0:
             warn(f"{reader.path.name}: holds no points: nothing of it is {what}")
     return full or readers[:1]
+
+
+def one_crs(readers: list[PointReader], task: str) -> Any:
+    """The CRS the inputs of a task combining them into one product (``merge``, ``tile``) share, or
+    None when none names one; an input naming another than the first that does is a
+    :class:`DataError`: its coordinates are of another system, and written beside the others'
+    under one CRS they would lie where they are not (``--crs`` relabels, it does not re-project)."""
+    known = [r for r in readers if getattr(r, "crs", None) is not None]
+    for reader in known[1:]:
+        if reader.crs != known[0].crs:
+            raise DataError(f"its CRS differs from {known[0].path.name}'s: {task} inputs of one CRS (re-project "
+                            "with 'aldpat ortho-height --to-crs')", path=reader.path)
+    return known[0].crs if known else None
 
 
 def output_extension(source: Path | None, out_format: str | None) -> str:

@@ -33,7 +33,7 @@ import numpy as np
 from aldpat.core.crs import output_crs
 from aldpat.errors import DataError, UsageError
 from aldpat.io.las import BUFFER_DIMENSION, buffer_marks, exact_at, finest_scales
-from aldpat.io.registry import EXTENSIONS, detect_format, holding_points
+from aldpat.io.registry import EXTENSIONS, detect_format, holding_points, one_crs
 from aldpat.io.tile_project import find_tile_job, in_core
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -124,13 +124,10 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
             if reader.format == "las" and dropped:
                 ctx.warn(f"{reader.path.name}: its {', '.join(dropped)} are not written: the text inputs have none "
                          f"(x, y, z{' and intensity' if 'intensity' in names else ''} are)")
-    known = [r for r in readers if r.crs is not None]
-    for reader in readers:
-        if reader.crs is not None and reader.crs != known[0].crs:
-            raise DataError(f"its CRS differs from {known[0].path.name}'s: merge inputs of one CRS", path=reader.path)
+    shared = one_crs(readers, "merge")
     kept = copies = 0
     rescaled = []
-    with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, known[0].crs if known else None, out, ctx.warn),
+    with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, shared, out, ctx.warn),
                           template=template) as writer:
         for reader in readers:
             marked = reader.format == "las" and BUFFER_DIMENSION in reader.header.point_format.dimension_names

@@ -54,7 +54,7 @@ from aldpat.io.atomic import (
 )
 from aldpat.io.las import BUFFER_DIMENSION, LasWriter, buffer_marks, exact_at, finest_scales
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.io.registry import holding_points, output_extension
+from aldpat.io.registry import holding_points, one_crs, output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
 from aldpat.jobs.context import JobContext
@@ -311,6 +311,7 @@ def _tile_header(readers: list, ctx: JobContext):
 
 def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "tiled")
+    shared = one_crs(readers, "tile")
     first = readers[0]
     folder = ctx.output_dir(sources[0])
     ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs
@@ -343,7 +344,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     template = _tile_header(readers, ctx) if first.format == "las" else None
     sink = TileSink(folder, ext, names + ((BUFFER_DIMENSION,) if ext in (".las", ".laz") else ()),
                     delimiter=ctx.delimiter, overwrite=ctx.overwrite, append=params.append, template=template,
-                    crs=output_crs(params.crs, first.crs, folder / f"tile_*{ext}", ctx.warn))
+                    crs=output_crs(params.crs, shared, folder / f"tile_*{ext}", ctx.warn))
     total = outside = copies = 0
     try:
         for group, only in enumerate(tile_groups(readers, layout, sink)):

@@ -229,3 +229,23 @@ def test_las_inputs_at_finer_scales_are_tiled_exactly(tmp_path):
     held = {(round(float(a), 4), round(float(b), 4)) for t in tiles for a, b in zip(t.x, t.y, strict=True)}
     for source in (coarse, laspy.read(tmp_path / "fine.laz")):
         assert all((round(float(a), 4), round(float(b), 4)) in held for a, b in zip(source.x, source.y, strict=True))
+
+
+def test_inputs_of_two_crss_are_not_tiled_together(tmp_path):
+    """``tile utm.laz swiss.laz`` wrote tiles under the first input's CRS holding the second's
+    coordinates too, of another system; as ``merge`` refuses such inputs, ``tile`` does, writing
+    nothing."""
+    import laspy
+    import pyproj
+
+    strip = laspy.read(Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz")  # EPSG:32632
+    header = laspy.LasHeader(point_format=strip.header.point_format.id, version=strip.header.version)
+    header.scales, header.offsets = strip.header.scales, strip.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    laspy.LasData(header, strip.points.copy()).write(tmp_path / "swiss.laz")
+    strip.write(tmp_path / "utm.laz")
+    report = get_task("tile")([tmp_path / "utm.laz", tmp_path / "swiss.laz"], width=300.0, height=300.0,
+                              odir=str(tmp_path / "tiles"))
+    assert report.exit_code == 1
+    assert "swiss.laz: its CRS differs from utm.laz's: tile inputs of one CRS" in report.results[0].error
+    assert not (tmp_path / "tiles").exists() or not list((tmp_path / "tiles").iterdir())
