@@ -226,3 +226,26 @@ def test_catalog_over_tiles_with_buffers_says_their_copies_are_taken_twice(tmp_p
                       cwd=tmp_path).ok()
         said = [ln for ln in done.stderr.splitlines() if "which --catalog takes as points beside" in ln]
         assert len(said) == (1 if buffer != "0" else 0), done.stderr
+
+
+def test_a_tile_of_another_crs_is_waited_for_as_one_that_cannot_be_read(tmp_path):
+    """A tile of the project replaced by one labelled with another CRS gave its points to its
+    neighbours' DTMs as if they were of theirs; each tile within the buffer of it now fails naming
+    it and both CRSs, as for a tile that cannot be read, and the tiles farther away are made."""
+    import pyproj
+
+    source = shutil.copy(SITES["fsite5"], tmp_path / "site.laz")
+    aldpat("tile", source, "--width", "150", "--height", "150", "--buffer", "10", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    tiles = sorted((tmp_path / "tiles").glob("tile_*.laz"))
+    other = tiles[0]  # a corner: the tiles farther away do not wait for it
+    las = laspy.read(other)
+    header = laspy.LasHeader(point_format=las.header.point_format, version=las.header.version)
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    laspy.LasData(header, las.points).write(other)
+    done = aldpat("dtm", "tiles", "--cell", "2", "--buffer", "10", "--odir", "dtm", cwd=tmp_path)
+    assert done.returncode == 1
+    assert re.search(rf"needs the points of its neighbouring tile {other.name} within 10 m, whose CRS "
+                     r"\(EPSG:2056\) is not this tile's \(EPSG:32632\)", done.stderr), done.stderr
+    assert len(list((tmp_path / "dtm").glob("*.tif"))) > 0
