@@ -222,6 +222,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
     done_before = {e["fingerprint"]: e for e in state.values()
                    if isinstance(e, dict) and e.get("status") == DONE and isinstance(e.get("fingerprint"), str)}
     written_before = _written(done_before.values())
+    killed_before = {e["fingerprint"]: e for e in state.values()
+                     if isinstance(e, dict) and e.get("status") == RUNNING and isinstance(e.get("fingerprint"), str)}
     if not resume:
         with contextlib.suppress(OSError):
             state_path(ws).unlink()
@@ -246,6 +248,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             state[str(job.number)] = finished
             _notify(on_status, status)
             continue
+        if resume and (entry is None or entry.get("status") != RUNNING):  # killed under another number?
+            entry = killed_before.get(fingerprint(job), entry)
         rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
         if rerun_after_kill and entry is not None and not _outputs_are_its_own(entry, job):
             rerun_after_kill = False

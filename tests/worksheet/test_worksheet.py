@@ -350,3 +350,17 @@ def laspy_count(path) -> int:
     import laspy
 
     return laspy.open(path).header.point_count
+
+
+def test_resume_after_a_kill_and_an_inserted_job_finishes_the_killed_one(project):
+    """The job a kill left Running is found by what it runs when a job inserted before it has
+    renumbered it: it finishes, replacing what it had written, instead of failing on it."""
+    from aldpat.worksheet.runner import _save_state, fingerprint
+
+    ws = load_worksheet(sheet(project, CONVERT_THEN_INFO))
+    run_worksheet(load_worksheet(sheet(project, CONVERT_THEN_INFO.replace("raw/*.txt", "raw/a.txt"), "a.toml")))
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]), "existed": []}})
+    p = sheet(project, '[[job]]\ntask = "info"\ninputs = ["raw/b.txt"]\n' + textwrap.dedent(CONVERT_THEN_INFO))
+    statuses = run_worksheet(load_worksheet(p), resume=True)
+    assert [s.state for s in statuses] == [DONE, DONE, DONE], [s.message for s in statuses]
+    assert sorted(x.name for x in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
