@@ -90,12 +90,12 @@ def open_points(path: str | Path, *, format: str | None = None, layout: str = "p
 
 
 def holding_points(readers: list[R], warn: Callable[[str], None], what: str) -> list[R]:
-    """The readers of a task combining its inputs into one product (``merge``, ``tile``) whose files
-    hold points. A LAS file whose header says it holds none (a tile emptied by a filter, a
-    delivery's placeholder) adds nothing, as lasmerge and PDAL take it: it is named in a warning
-    and left out -- with its point format, extra bytes and CRS, which it does not bring either --
-    instead of failing the product of every other input. When none holds a point, the first is
-    returned, whose reading says so."""
+    """The readers of ``merge``'s inputs whose files hold points. A LAS tile whose header says it
+    holds none (emptied by a filter, a delivery's placeholder) adds nothing, as lasmerge and PDAL
+    take it: it is named in a warning and left out -- with its point format, extra bytes and CRS,
+    which it does not bring either -- instead of failing the merge of every other tile. When none
+    holds a point, the first is returned, whose reading says so. (``tile`` refuses an empty strip
+    among its inputs, as any input it cannot use: a strip of no points is a delivery's fault.)"""
     full = [r for r in readers if r.count != 0]
     for reader in readers:
         if reader.count == 0:

@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from aldpat.core.paths import not_local
-from aldpat.errors import SHOWN, AldpatError, InputFormatError, InputMissingError, shown
+from aldpat.errors import SHOWN, AldpatError, InputFormatError, InputMissingError, NoSuchFile, shown
 from aldpat.io.atomic import TMP_MARK
 from aldpat.io.registry import EXTENSIONS
 from aldpat.io.tile_parameters import PARAMETER_FILE
@@ -138,7 +138,7 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
                 errors.append(exc)
                 continue
             except OSError:
-                errors.append(InputMissingError("cannot read input list", path=listfile))
+                errors.append(NoSuchFile("cannot read input list", path=listfile))
                 continue
             sub = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
             _expand(sub, listfile.parent, skipped, out, errors, (*lists, key))
@@ -168,7 +168,7 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
         elif path.exists():  # a pipe would block the batch until something writes to it
             errors.append(InputFormatError("is not a regular file (a pipe, a device or a socket)", path=path))
         else:
-            errors.append(InputMissingError("no such file", path=path))
+            errors.append(NoSuchFile("no such file", path=path))
 
 
 def pattern_files(pattern: Path) -> list[Path]:

@@ -54,7 +54,7 @@ from aldpat.io.atomic import (
 )
 from aldpat.io.las import BUFFER_DIMENSION, LasWriter, buffer_marks, exact_at, finest_scales
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.io.registry import holding_points, one_crs, output_extension
+from aldpat.io.registry import one_crs, output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
 from aldpat.jobs.context import JobContext
@@ -310,7 +310,7 @@ def _tile_header(readers: list, ctx: JobContext):
 
 
 def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
-    readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "tiled")
+    readers = [ctx.open_input(s) for s in sources]
     shared = one_crs(readers, "tile")
     first = readers[0]
     folder = ctx.output_dir(sources[0])
