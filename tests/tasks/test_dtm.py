@@ -292,3 +292,25 @@ def test_a_neighbouring_input_of_another_crs_is_no_buffer(tmp_path):
     with rasterio.open(tmp_path / "both" / "fsite5_strip_dtm.tif") as a, \
             rasterio.open(tmp_path / "alone" / "fsite5_strip_dtm.tif") as b:
         np.testing.assert_array_equal(a.read(1), b.read(1))
+
+
+def test_a_mosaic_of_grids_of_two_crss_is_not_written(tmp_path):
+    """``dtm utm.laz swiss.laz --mosaic m.vrt`` wrote a VRT holding both DTMs under the first one's
+    CRS, the second drawn where it is not (gdalbuildvrt leaves such a grid out). As for a grid
+    that failed, the mosaic is not written: one line naming both grids and their CRSs."""
+    import laspy
+    import pyproj
+
+    from tests.cli.fresh import TEST_DATA, aldpat
+
+    las = laspy.read(TEST_DATA / "fsite5_strip.laz")
+    header = laspy.LasHeader(point_format=las.header.point_format, version=las.header.version)
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    laspy.LasData(header, las.points.copy()).write(tmp_path / "swiss.laz")
+    done = aldpat("dtm", TEST_DATA / "fsite5_strip.laz", tmp_path / "swiss.laz", "--cell", "10", "--odir",
+                  tmp_path / "dtm", "--mosaic", tmp_path / "dtm" / "m.vrt", cwd=tmp_path)
+    assert done.returncode == 1
+    assert ("m.vrt: mosaic not written: swiss_dtm.tif is in EPSG:2056, fsite5_strip_dtm.tif in EPSG:32632; a mosaic "
+            "holds grids of one CRS") in done.stderr, done.stderr
+    assert not (tmp_path / "dtm" / "m.vrt").exists() and (tmp_path / "dtm" / "swiss_dtm.tif").exists()
