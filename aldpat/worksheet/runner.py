@@ -10,9 +10,12 @@ skips a job whose fingerprint and outputs are unchanged. A job that was started 
 recorded as finished (the run was killed) runs again and may replace the outputs it had already
 renamed into place -- they are its own, as long as the job is the one that was killed (the same
 fingerprint) and none of its outputs was there before that run started; temporary files and
-scratch folders of writers no longer running are removed before every job. Because every output is renamed into place only
-when complete, a run killed at any instant and resumed ends with the same outputs as an
-uninterrupted one.
+scratch folders of writers no longer running are removed before every job. Because every output
+is renamed into place only when complete, a run killed at any instant and resumed ends with the
+same outputs as an uninterrupted one. A job that changed (an input made anew upstream) runs
+again and replaces the outputs the last runs recorded for the worksheet, unchanged since, as
+``make`` does; never another file without ``--overwrite``. Jobs are found in the state by
+number, and by fingerprint when a job inserted or removed has renumbered them.
 
 One run per worksheet at a time (:mod:`aldpat.worksheet.lock`). The state, the log and the
 report are aldpat's own files beside the worksheet: one of the user's under such a name is
@@ -251,15 +254,17 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
         if resume and (entry is None or entry.get("status") != RUNNING):  # killed under another number?
             entry = killed_before.get(fingerprint(job), entry)
         rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
+        replaces_its_own = resume and _replaces_only_its_last_outputs(job, written_before)
         if rerun_after_kill and entry is not None and not _outputs_are_its_own(entry, job):
             rerun_after_kill = False
-            log.warning(f"{job.label}: the job killed in the last run was another (the worksheet, its parameters or "
-                        "its inputs changed since) or found outputs already there; it runs again without replacing "
-                        f"what exists (--set job.{job.number}.overwrite=true replaces it)")
+            if not replaces_its_own:
+                log.warning(f"{job.label}: the job killed in the last run was another (the worksheet, its parameters "
+                            "or its inputs changed since) or found outputs already there; it runs again without "
+                            f"replacing what exists (--set job.{job.number}.overwrite=true replaces it)")
         run = job.run
         layers_override: dict[str, object] = {}
         _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any
-        if rerun_after_kill or (resume and _replaces_only_its_last_outputs(job, written_before)):
+        if rerun_after_kill or replaces_its_own:
             layers_override["overwrite"] = True
         if jobs is not None:
             layers_override["jobs"] = jobs
