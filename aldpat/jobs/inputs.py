@@ -11,6 +11,7 @@ or more.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -223,5 +224,8 @@ def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:
 
 
 def _rooted(item: str, base: Path | None) -> Path:
-    p = Path(item).expanduser()
+    """``item`` with a leading ``~`` the home folder, from ``base`` when relative. ``~user`` of a
+    user this machine does not know stays as written, as a shell leaves it (``Path.expanduser``
+    raises RuntimeError for it: a traceback for a typo)."""
+    p = Path(os.path.expanduser(item))
     return p if p.is_absolute() or base is None else base / p
