@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from aldpat.core.interpolate import BYTES_PER_NODE
-from aldpat.errors import ParamError
+from aldpat.core.paths import not_local
+from aldpat.errors import ParamError, shown
 from aldpat.filters.options import FilterOutputOption
 from aldpat.filters.registry import FILTERS
 from aldpat.io.geotiff import Raster
@@ -64,9 +65,9 @@ Points = Any  # a path, a laspy.LasData, an (N, 3) array or an (x, y, z) tuple
 def ground(points: Points, algorithm: str = "gapm", **params: Any) -> np.ndarray:
     """Which points are ground: a numpy bool array, one per point in the input's order.
 
-    ``points`` is a path (LAS, LAZ or ASCII, as ``aldpat filter`` reads it), a laspy ``LasData``,
-    an (N, 3) array of x, y, z or an ``(x, y, z)`` tuple of arrays. ``algorithm`` is a filter of
-    ``aldpat filter`` (``gapm`` by default: start with it) and ``params`` its parameters, named
+    ``points`` is a path (LAS, LAZ or ASCII, as ``aldpat filter`` reads it), a laspy ``LasData``
+    or its points (``las.points[keep]``), an (N, 3) array of x, y, z or an ``(x, y, z)`` tuple of
+    arrays. ``algorithm`` is a filter of ``aldpat filter`` (``gapm`` by default: start with it) and ``params`` its parameters, named
     as its ``--params`` file names them (``cell=1.5``, ``auto=True``). True is what ``aldpat
     filter ALGO --result classified`` writes as class 2 for the same points and parameters.
 
@@ -110,8 +111,11 @@ def dtm(points: Points, cell: float = 1.0, algorithm: str = "gapm", **params: An
     filter_layer: dict[str, Any] = {}
     if isinstance(given, Mapping):
         filter_layer.update(given)
+    elif isinstance(given, (str, os.PathLike)):
+        filter_layer.update(load_toml(_local_file(given, "dtm: filter_params")))
     elif given is not None:
-        filter_layer.update(load_toml(os.fspath(given)))
+        raise ParamError(f"dtm: filter_params: expected a mapping of the filter's parameters or the path of a TOML "
+                         f"file, got {type(given).__name__}")
     filter_layer.update(rest)
     if dtm_params.auto:
         filter_layer["auto"] = True
@@ -148,13 +152,26 @@ def filter_params(algorithm: str, values: Mapping[str, Any], where: str = "") ->
     return resolve(cls, [("call", values)], where=where).values
 
 
+def _local_file(path: str | os.PathLike, what: str) -> Path:
+    """``path`` as a local file's: a URL or a GDAL virtual file system path (``http://``,
+    ``/vsicurl/``) is refused by name -- ``Path`` would make ``http:/host/x.laz`` of it and the
+    error would name a file the caller never gave."""
+    text = os.fspath(path)
+    why = not_local(text) if isinstance(text, str) else "not a text path (bytes)"
+    if why is not None:
+        raise ParamError(f"{what}: {shown(text)} is {why}")
+    return Path(text)
+
+
 def _table(points: Points) -> tuple[PointTable, Any]:
     """``points`` as a table of x, y, z (and, from LAS, every attribute), with its CRS if it has one."""
     if isinstance(points, (str, os.PathLike)):
-        reader = open_points(Path(points))
+        reader = open_points(_local_file(points, "points"))
         return reader.read(), getattr(reader, "crs", None)
     if hasattr(points, "header") and hasattr(points, "points"):  # a laspy.LasData
         return las_table(points), _las_crs(points)
+    if type(points).__name__ == "ScaleAwarePointRecord":  # las.points[keep]: no header, so no CRS
+        return las_table(points), None
     if isinstance(points, tuple) and len(points) == 3:
         x, y, z = (_numbers(v, points) for v in points)
     else:
@@ -183,6 +200,8 @@ def _numbers(values: Any, points: Points) -> np.ndarray:
     them. Nothing can bring the digits back, so a warning says so and the points are filtered as
     given."""
     given = getattr(values, "dtype", None)
+    if given is not None and np.dtype(given).kind == "c":  # numpy would drop the imaginary parts with a warning
+        raise ParamError(f"points: expected real coordinates, got an array of {np.dtype(given).name}")
     try:
         out = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as err:

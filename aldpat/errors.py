@@ -77,6 +77,12 @@ class InputMissingError(AldpatError, FileNotFoundError):
     """An input file, list or glob names nothing that exists."""
 
 
+class NoSuchFile(InputMissingError):
+    """A file named as an input (itself, or by a line of an ``@list``) that does not exist -- not a
+    pattern matching nothing nor a folder without points: what it holds is missing from what the
+    run makes of all its inputs (:func:`aldpat.jobs.run.run_task`)."""
+
+
 class OutputExistsError(AldpatError, FileExistsError):
     """An output exists and ``--overwrite`` was not given."""
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import doctest
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -59,8 +60,20 @@ def test_every_form_of_points_gives_the_same_flags():
     las = laspy.read(STRIP)
     flags = aldpat.ground(str(STRIP))
     x, y, z = np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)
-    for points in (las, STRIP, np.column_stack([x, y, z]), (x, y, z), (list(x), list(y), list(z))):
+    for points in (las, STRIP, np.column_stack([x, y, z]), (x, y, z), (list(x), list(y), list(z)), las.points):
         np.testing.assert_array_equal(aldpat.ground(points), flags)
+
+
+def test_a_selection_of_a_las_files_points_is_points():
+    """``aldpat.ground(las.points[keep])`` -- a notebook's selection of a file's points -- was refused
+    with "argument of type 'NoneType' is not iterable": a point record carries the point format,
+    scales and offsets a header would give, and is taken as the LasData holding just those points."""
+    las = laspy.read(STRIP)
+    keep = np.asarray(las.z) < np.median(las.z) + 5
+    selected = laspy.LasData(las.header)
+    selected.points = las.points[keep]
+    np.testing.assert_array_equal(aldpat.ground(las.points[keep]), aldpat.ground(selected))
+    assert aldpat.dtm(las.points[keep], cell=5.0).array.shape == aldpat.dtm(selected, cell=5.0).array.shape
 
 
 def test_dtm_is_the_commands_dtm(tmp_path):
@@ -126,6 +139,11 @@ def test_dtm_takes_the_filters_parameters_and_its_own(tmp_path):
     (lambda: aldpat.dtm(STRIP, mosaic="x.vrt"), "mosaic: an option of the command 'aldpat dtm'"),
     (lambda: aldpat.dtm(STRIP, filter_params={"cell": -2}), "dtm: cell: -2 is out of range"),
     (lambda: aldpat.dtm(STRIP, algorithm="outlier"), "dtm: algorithm"),
+    (lambda: aldpat.ground("http://example.com/a.laz"), "points: 'http://example.com/a.laz' is a URL"),
+    (lambda: aldpat.ground("/vsicurl/https://example.com/a.laz"), "is a GDAL virtual file system path"),
+    (lambda: aldpat.ground(np.zeros((5, 3), complex)), "points: expected real coordinates, got an array of complex128"),
+    (lambda: aldpat.dtm(STRIP, filter_params=["cell", 2]), "dtm: filter_params: expected a mapping"),
+    (lambda: aldpat.dtm(STRIP, filter_params="s3://bucket/gapm.toml"), "dtm: filter_params: 's3://bucket/gapm.toml' is a URL"),
 ], ids=lambda v: v if isinstance(v, str) else "")
 def test_a_bad_parameter_is_refused_at_the_call_by_name(call, words):
     with pytest.raises(aldpat.ParamError) as caught:
@@ -275,3 +293,56 @@ def test_a_dtm_too_large_for_memory_is_refused_before_it_is_allocated():
     xyz = np.c_[rng.uniform(0, 100, 1000), rng.uniform(0, 100, 1000), rng.uniform(0, 1, 1000)]
     with pytest.raises(aldpat.AldpatError, match=r"99933 x 99617 grid .* of 0\.001 m cells needs .*use a larger cell"):
         aldpat.dtm(xyz, cell=0.001)
+
+
+@pytest.mark.parametrize("target", ["s3://bucket/dtm.tif", "/vsis3/bucket/dtm.tif", "https://example.com/dtm.tif",
+                                    "/vsimem/dtm.tif", ""])
+def test_a_raster_is_written_to_a_local_file_only(target, tmp_path, monkeypatch):
+    """``dem.write("s3://bucket/dtm.tif")`` went to GDAL, which asked for AWS credentials (and with
+    them would have written to the bucket), and left a local folder ``s3:/bucket`` behind: nothing
+    but a local file is written, and nothing is made for a name that is not one."""
+    monkeypatch.chdir(tmp_path)
+    rng = np.random.default_rng(0)
+    dem = aldpat.dtm(np.c_[rng.uniform(0, 50, 500), rng.uniform(0, 50, 500), rng.uniform(0, 1, 500)], cell=5.0)
+    with pytest.raises(aldpat.AldpatError, match="raster not written: .* is (a URL|a GDAL virtual|empty)"):
+        dem.write(target)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("fields, words", [
+    ({"array": np.zeros((2, 3, 4))}, "Raster: array: expected a 2-D array of heights"),
+    ({"array": np.zeros((0, 0))}, "Raster: array: expected a 2-D array"),
+    ({"array": [["a", "b"]]}, "Raster: array: expected a 2-D array"),
+    ({"transform": (1.0, 0.0)}, "Raster: transform: expected 6 finite numbers"),
+    ({"transform": (1.0, 0.0, 0.0, 0.0, -1.0, float("nan"))}, "Raster: transform: expected 6 finite numbers"),
+    ({"nodata": 1e300}, "Raster: nodata: expected a finite float32 value"),
+    ({"nodata": "blank"}, "Raster: nodata: expected a finite float32 value"),
+    ({"crs": "EPSG:0"}, "Raster: crs: unknown CRS 'EPSG:0'"),
+], ids=lambda v: v if isinstance(v, str) else "")
+def test_a_raster_made_by_hand_is_checked_field_by_field(fields, words):
+    """``aldpat.Raster`` is the API's: one made by hand with a 3-D array, a short transform or a CRS
+    as text failed when written, with numpy's "too many values to unpack", Affine's missing
+    arguments or "'str' object has no attribute 'to_wkt'". Each field is checked when it is made."""
+    good = {"array": np.zeros((2, 2), np.float32), "transform": (1.0, 0.0, 500.0, 0.0, -1.0, 100.0)}
+    with pytest.raises(aldpat.ParamError, match=re.escape(words)):
+        aldpat.Raster(**{**good, **fields})
+
+
+def test_a_raster_made_by_hand_takes_rows_as_lists_and_a_crs_as_text(tmp_path):
+    raster = aldpat.Raster(array=[[1.0, 2.0], [3.0, 4.0]], transform=(1, 0, 500, 0, -1, 100), crs="EPSG:32632")
+    assert raster.array.shape == (2, 2) and raster.crs.to_epsg() == 32632
+    import rasterio
+
+    with rasterio.open(raster.write(tmp_path / "hand.tif")) as ds:
+        assert ds.crs.to_epsg() == 32632 and ds.read(1).tolist() == [[1.0, 2.0], [3.0, 4.0]]
+
+
+def test_a_search_radius_beyond_the_points_reaches_the_grid_not_further():
+    """``aldpat.ground(points, algorithm="slope", search_radius=1e6)`` asked numpy for 29.1 TiB of
+    cell offsets (2,000,001 x 2,000,001) and raised its MemoryError; the command said "out of
+    memory". A search reaches no farther than the grid's cells: the flags are those of any radius
+    spanning the strip."""
+    las = laspy.read(STRIP)
+    xyz = np.c_[las.x, las.y, las.z][::4]
+    np.testing.assert_array_equal(aldpat.ground(xyz, algorithm="slope", search_radius=1e6),
+                                  aldpat.ground(xyz, algorithm="slope", search_radius=2000.0))

@@ -35,6 +35,7 @@ import numpy as np
 
 from aldpat._lazy import lazy_import
 from aldpat.core.lowest_grid import LowestGrid
+from aldpat.core.resources import check_memory
 from aldpat.errors import ParamError
 from aldpat.filters.marks import MARK_GROUND, MARK_NON_GROUND
 from aldpat.filters.options import PointFilterParams
@@ -78,11 +79,29 @@ class SlopeParams(CellHeightOption, ElevationLimitsOption, PointFilterParams):
                              f"{self.search_radius:g}")
 
 
-def _offsets(width: float, height: float, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+#: bytes a cell offset of the search takes while the offsets are made: its row and column
+#: (int64), its gap (float64), their copies kept and the order sorting them
+OFFSET_BYTES = 64
+
+
+def _reach(width: float, height: float, radius: float, shape: tuple[int, int]) -> tuple[int, int]:
+    """The rows and columns of cells a search of ``radius`` reaches, no more than the grid of
+    ``shape`` holds: a radius of 1,000 km over a strip's 600 x 220 cells needs 220 and 600, not a
+    window of 2,000,001 x 2,000,001 offsets (29 TiB)."""
+    rows, cols = shape
+    return min(math.ceil(radius / height), max(rows - 1, 0)), min(math.ceil(radius / width), max(cols - 1, 0))
+
+
+def _offsets(width: float, height: float, radius: float, reach: tuple[int, int]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cell offsets (dr, dc) that can hold a point within ``radius`` of a point of cell (0, 0),
-    with the smallest distance two such points can have, nearest first."""
-    kc = math.ceil(radius / width)
-    kr = math.ceil(radius / height)
+    up to ``reach`` rows and columns away (:func:`_reach`), with the smallest distance two such
+    points can have, nearest first. Their memory is checked first: over a large grid a radius
+    of many cells is refused by name, not met with numpy's MemoryError."""
+    kr, kc = reach
+    check_memory((2 * kr + 1) * (2 * kc + 1) * OFFSET_BYTES,
+                 f"a search radius of {radius:g} m over {width:g} x {height:g} m cells "
+                 f"({2 * kr + 1:,} x {2 * kc + 1:,} cell offsets)", "use a smaller search_radius or a larger cell")
     dr, dc = np.meshgrid(np.arange(-kr, kr + 1), np.arange(-kc, kc + 1), indexing="ij")
     gap = np.hypot(np.maximum(np.abs(dc) - 1, 0) * width, np.maximum(np.abs(dr) - 1, 0) * height)
     keep = gap <= radius
@@ -103,10 +122,10 @@ def steep_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: LowestGrid, 
     flat_lowest = grid.lowest.ravel()
     ci = grid.cell_index
     # lowest array element within reach of every cell: bounds how far a steep neighbour may be
-    kr, kc = math.ceil(p.search_radius / height), math.ceil(p.search_radius / width)
+    kr, kc = reach = _reach(width, height, p.search_radius, spec.shape)
     reach_min = ndimage.minimum_filter(np.where(grid.empty, np.inf, grid.z), size=(2 * kr + 1, 2 * kc + 1),
                                        mode="constant", cval=np.inf).ravel()
-    dr, dc, gap = _offsets(width, height, p.search_radius)
+    dr, dc, gap = _offsets(width, height, p.search_radius, reach)
     steep = np.zeros(n, bool)
     slope_kernels.steep_search(x, y, z, ci, flat_lowest, reach_min, dr.astype(np.int64), dc.astype(np.int64),
                                gap.astype(np.float64), rows, cols, p.min_distance ** 2, p.search_radius ** 2,

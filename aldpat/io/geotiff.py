@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 from aldpat.core.grid_extent import GridSpec, refuse_held_nodata
 from aldpat.core.paths import not_local
 from aldpat.core.threads import thread_budget
-from aldpat.errors import InputFormatError, UsageError, one_line
+from aldpat.errors import InputFormatError, ParamError, UsageError, one_line, shown
 from aldpat.io.atomic import atomic_output
 
 #: ``--grid-format`` / ``--to`` name -> file extension
@@ -72,6 +73,32 @@ class Raster:
     crs: Any = None
     nodata: float = DEFAULT_NODATA
 
+    def __post_init__(self) -> None:
+        """A raster made by hand (the class is the API's) is checked as a call's parameters are:
+        each bad field named, at once -- not numpy's, Affine's or GDAL's error when it is written.
+        A list of rows becomes an array, a CRS given as text (``"EPSG:32632"``) a ``pyproj.CRS``."""
+        from aldpat.core.crs import parse_crs
+
+        array = self.array if isinstance(self.array, np.ndarray) else np.asarray(self.array)
+        if array.ndim != 2 or 0 in array.shape or array.dtype.kind not in "fiu":
+            raise ParamError(f"Raster: array: expected a 2-D array of heights with a row and a column at least, "
+                             f"got {array.dtype} of shape {array.shape}")
+        transform = tuple(self.transform) if isinstance(self.transform, (tuple, list)) else ()
+        if len(transform) != 6 or not all(isinstance(v, (int, float, np.number)) and np.isfinite(v)
+                                          for v in transform):
+            raise ParamError(f"Raster: transform: expected 6 finite numbers (a, b, c, d, e, f), got {self.transform!r}")
+        try:
+            nodata = float(self.nodata)
+        except (TypeError, ValueError):
+            nodata = float("nan")
+        if not np.isfinite(nodata) or abs(nodata) > float(np.finfo(np.float32).max):
+            raise ParamError(f"Raster: nodata: expected a finite float32 value, got {self.nodata!r}")
+        object.__setattr__(self, "array", array)
+        object.__setattr__(self, "transform", tuple(float(v) for v in transform))
+        object.__setattr__(self, "nodata", nodata)
+        if self.crs is not None and not hasattr(self.crs, "to_wkt"):
+            object.__setattr__(self, "crs", parse_crs(self.crs, key="Raster: crs"))
+
     @classmethod
     def from_nodes(cls, values: np.ndarray, spec: GridSpec, *, crs: Any = None, nodata: float | None = None,
                    path: str | Path | None = None) -> Raster:
@@ -104,7 +131,12 @@ class Raster:
         (``.cog.tif``), as ``format`` (``geotiff`` or ``cog``) says or else by the extension:
         float32, deflate with the floating-point predictor, 256 x 256 tiles (a COG with its
         overviews), the CRS and nodata set; atomically, an existing file replaced only with
-        ``overwrite``."""
+        ``overwrite``. ``path`` is a local file: a URL or a GDAL virtual file system (``s3://``,
+        ``/vsicurl/``) is refused before GDAL is asked, which would reach the network for it (and
+        ``Path`` would make ``s3:`` a local folder)."""
+        why = not_local(os.fspath(path))
+        if why is not None:
+            raise UsageError(f"raster not written: {shown(os.fspath(path))} is {why}")
         path = Path(path)
         name = path.name.lower()
         if format is None:

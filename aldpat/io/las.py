@@ -341,17 +341,54 @@ def _table(record: Any, names: tuple[str, ...], decimals: dict[str, int]) -> Poi
     return PointTable(cols, record=record, meta={"decimals": decimals, "in_record": frozenset(cols)})
 
 
-def las_table(las: laspy.LasData) -> PointTable:
-    """The points of a laspy ``LasData`` in memory as :meth:`LasReader.read` reads a file's."""
+def las_table(las: laspy.LasData | laspy.ScaleAwarePointRecord) -> PointTable:
+    """The points of a laspy ``LasData`` in memory as :meth:`LasReader.read` reads a file's; or of
+    a point record alone (``las.points[keep]``, a selection a notebook makes), which carries the
+    point format, scales and offsets a header would give."""
+    if not hasattr(las, "header"):
+        return _table(las, *_columns(las))
     return _table(las.points, *_columns(las.header))
 
 
-def _columns(header: laspy.LasHeader) -> tuple[tuple[str, ...], dict[str, int]]:
+def _columns(header: laspy.LasHeader | laspy.ScaleAwarePointRecord) -> tuple[tuple[str, ...], dict[str, int]]:
     """The columns read from a LAS file (x, y, z and the attributes tasks use), and the decimals
     its scales give x, y, z."""
     dims = set(header.point_format.dimension_names)
     names = ("x", "y", "z") + tuple(d for d in _READ_DIMS if d in dims)
     return names, dict(zip("xyz", stored_decimals(header.scales, header.offsets), strict=True))
+
+
+def finest_scales(header: laspy.LasHeader, inputs: list[laspy.LasHeader]) -> np.ndarray:
+    """Per axis, the finest of the inputs' scales where every input's coordinates are exact at it
+    from ``header``'s offset (:func:`exact_axis`) and the 32-bit integers hold every input's
+    extent from that offset; else ``header``'s own. A tile stored at 0.001 m merged (or tiled)
+    after one at 0.01 m was rounded to centimetres (lasmerge and PDAL keep the first or a default
+    scale): ``merge`` and ``tile`` write their points at these scales."""
+    scales = np.array(header.scales, dtype=np.float64)
+    lowest = np.min([h.mins for h in inputs], axis=0)
+    highest = np.max([h.maxs for h in inputs], axis=0)
+    for k in range(3):
+        finer = min(float(h.scales[k]) for h in inputs)
+        reach = max(float(highest[k]) - float(header.offsets[k]), float(header.offsets[k]) - float(lowest[k]))
+        if finer < scales[k] and reach / finer < 2 ** 31 - 1 and all(
+                exact_axis(float(h.scales[k]), float(h.offsets[k]), finer, float(header.offsets[k])) for h in inputs):
+            scales[k] = finer
+    return scales
+
+
+def exact_axis(scale: float, offset: float, to_scale: float, to_offset: float) -> bool:
+    """Whether a coordinate stored at ``scale`` from ``offset`` keeps every digit stored again at
+    ``to_scale`` from ``to_offset`` (the scale a whole multiple of the other, the offsets apart by
+    whole steps)."""
+    ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
+    return ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) <= 1e-9 and abs(shift - round(shift)) <= 1e-6
+
+
+def exact_at(header: laspy.LasHeader, template: laspy.LasHeader) -> bool:
+    """Whether the coordinates stored under ``header`` keep every digit stored under ``template``'s
+    scales and offsets."""
+    return all(exact_axis(*axis) for axis in zip(header.scales, header.offsets, template.scales, template.offsets,
+                                                   strict=True))
 
 
 def stored_decimals(scales: Iterable[float], offsets: Iterable[float]) -> list[int]:

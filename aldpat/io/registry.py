@@ -9,9 +9,9 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
-from aldpat.errors import InputFormatError, InputMissingError, UsageError
+from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
 from aldpat.io.atomic import atomic_output
 from aldpat.io.las import LasReader, LasWriter
 from aldpat.io.table import PointTable
@@ -54,6 +54,8 @@ class PointReader(PointSource, Protocol):
 EXTENSIONS = {".txt": "text", ".xyz": "text", ".csv": "text", ".pts": "text", ".las": "las", ".laz": "las"}
 #: format name -> reader (mypy checks that each meets the PointReader contract)
 FORMATS: dict[str, Callable[..., PointReader]] = {"text": TextReader, "las": LasReader}
+#: a reader of either format (what :func:`holding_points` keeps it gives back)
+R = TypeVar("R", bound=PointReader)
 #: output format name -> default extension (``--out-format``)
 OUT_EXTENSIONS = {"text": ".txt", "csv": ".csv", "las": ".las", "laz": ".laz"}
 
@@ -85,6 +87,33 @@ def open_points(path: str | Path, *, format: str | None = None, layout: str = "p
     if fmt == "las" and layout == "altm9":
         raise UsageError("ALTM 9-column tapes are text files", path=path)
     return FORMATS[fmt](path, layout=layout, order=order)
+
+
+def holding_points(readers: list[R], warn: Callable[[str], None], what: str) -> list[R]:
+    """The readers of ``merge``'s inputs whose files hold points. A LAS tile whose header says it
+    holds none (emptied by a filter, a delivery's placeholder) adds nothing, as lasmerge and PDAL
+    take it: it is named in a warning and left out -- with its point format, extra bytes and CRS,
+    which it does not bring either -- instead of failing the merge of every other tile. When none
+    holds a point, the first is returned, whose reading says so. (``tile`` refuses an empty strip
+    among its inputs, as any input it cannot use: a strip of no points is a delivery's fault.)"""
+    full = [r for r in readers if r.count != 0]
+    for reader in readers:
+        if reader.count == 0:
+            warn(f"{reader.path.name}: holds no points: nothing of it is {what}")
+    return full or readers[:1]
+
+
+def one_crs(readers: list[PointReader], task: str) -> Any:
+    """The CRS the inputs of a task combining them into one product (``merge``, ``tile``) share, or
+    None when none names one; an input naming another than the first that does is a
+    :class:`DataError`: its coordinates are of another system, and written beside the others'
+    under one CRS they would lie where they are not (``--crs`` relabels, it does not re-project)."""
+    known = [r for r in readers if getattr(r, "crs", None) is not None]
+    for reader in known[1:]:
+        if reader.crs != known[0].crs:
+            raise DataError(f"its CRS differs from {known[0].path.name}'s: {task} inputs of one CRS (re-project "
+                            "with 'aldpat ortho-height --to-crs')", path=reader.path)
+    return known[0].crs if known else None
 
 
 def output_extension(source: Path | None, out_format: str | None) -> str:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aldpat.core.crs import crs_label
 from aldpat.core.tiles import MAX_BUFFER_TILES
 from aldpat.errors import AldpatError, DataError, UsageError
 from aldpat.io.registry import open_points
@@ -123,11 +124,14 @@ class OwnedPoints:
 def owned_points(path: Path, cores: list[TileRow], region: tuple[float, float, float, float], *,
                  fmt: str | None = None, keep: Keep = None) -> OwnedPoints:
     """The points of ``path`` inside one of ``cores`` and inside ``region`` (min x, max x, min y,
-    max y, closed), read chunk by chunk."""
+    max y, closed), read chunk by chunk. A file holding no points (a LAS tile whose header says 0)
+    owns none: it is a tile without data, not one that cannot be read, and its neighbours, which
+    read it for their buffers, go on without points from it."""
     x0, x1, y0, y1 = region
     xs, ys, zs, idx = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)], [np.zeros(0, np.int64)]
     start = 0
-    for chunk in open_points(path, format=fmt).chunks():
+    reader = open_points(path, format=fmt)
+    for chunk in (reader.chunks() if reader.count != 0 else ()):
         x, y = np.asarray(chunk.x, np.float64), np.asarray(chunk.y, np.float64)
         take = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
         owned = np.zeros(len(x), bool)
@@ -188,9 +192,18 @@ def tile_points(job: TileJob, reach: float, *, fmt: str | None = None, keep: Kee
             warn(f"{job.source.name}: no file {job.file_of(row).name} for the neighbouring tile "
                  f"{row.path.name}: its points near the edge are this tile's buffer points")
     parts = [owned_points(job.source, [job.row, *missing], region, fmt=fmt, keep=keep)]
+    own_crs = getattr(open_points(job.source, format=fmt), "crs", None)
     for row, path in present:
         if row in missing:
             continue
+        try:
+            other_crs = getattr(open_points(path, format=fmt), "crs", None)
+        except AldpatError:
+            other_crs = None  # said below, when its points are read
+        if own_crs is not None and other_crs is not None and other_crs != own_crs:
+            # its coordinates are of another system: as a tile that cannot be read, it is waited for
+            raise DataError(f"needs the points of its neighbouring tile {path.name} within {reach:g} m, whose CRS "
+                            f"({crs_label(other_crs)}) is not this tile's ({crs_label(own_crs)})", path=job.source)
         try:
             parts.append(owned_points(path, [row], region, fmt=fmt, keep=keep))
         except AldpatError:

@@ -3,6 +3,8 @@ file aldpat reads whole (``@list`` files) with a bound on its size."""
 
 from __future__ import annotations
 
+import os
+import stat
 import tomllib
 from pathlib import Path
 
@@ -19,10 +21,20 @@ def read_limited(path: str | Path, limit: int, *, what: str, errors: str = "stri
     """The UTF-8 text of ``path``, read with a bound: a file (or ``/dev/zero``, a pipe that never
     ends) longer than ``limit`` bytes is refused after reading ``limit`` bytes, never read on.
     ``errors="replace"`` keeps a byte that is not UTF-8 as one character. ``OSError`` (a missing
-    file) is the caller's to word."""
+    file) is the caller's to word.
+
+    A named pipe is opened without waiting for a writer (``open`` would wait for ever when nothing
+    is to write to it: ``aldpat run fifo.toml`` hung) and then read to its end as any file, so
+    that ``--params <(make-params)`` still reads what the command writes; one that nothing writes
+    to is refused by name."""
     path = Path(path)
-    with open(path, "rb") as fh:
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    pipe = stat.S_ISFIFO(os.fstat(fd).st_mode)
+    os.set_blocking(fd, True)
+    with os.fdopen(fd, "rb") as fh:
         data = fh.read(limit + 1)
+    if pipe and not data:
+        raise InputFormatError(f"{what} is a named pipe that nothing writes to", path=path)
     if len(data) > limit:
         raise InputFormatError(f"{what} larger than {limit >> 20} MB; is it the right file?", path=path)
     try:

@@ -43,7 +43,7 @@ from aldpat.core.units import TOPIC as UNITS_TOPIC
 from aldpat.errors import ParamError, UsageError
 from aldpat.io.atomic import remove_stale_temporaries_in
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.execute import Progress, doing, execute, job_names, report_result
+from aldpat.jobs.execute import Progress, doing, execute, job_name, report_result
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Task
 from aldpat.options import LOCAL_SCHEDULER, NO_SCHEDULER, check_scheduler
@@ -219,7 +219,7 @@ def run_on_cluster(task: Task, jobs: list[list[str]], run: ResolvedRun, command:
                 try:
                     results.append(fut.result())
                 except Exception as exc:  # noqa: BLE001  (the unit failed on every worker it was given to)
-                    results.append(JobResult(inputs=job, error=f"{job_names(job)}: cluster worker failed: "
+                    results.append(JobResult(inputs=job, error=f"{job_name(task, job)}: cluster worker failed: "
                                                                f"{type(exc).__name__}: {exc}"))
             report_result(results[-1], progress)
     except BaseException:

@@ -127,6 +127,14 @@ def job_names(job: list[str]) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
+def job_name(task: Task, job: list[str]) -> str:
+    """What a message calls a job: the input it makes its output of. A ``run_one`` task's job
+    lists the other inputs it reads after its own (``dtm``'s neighbours within its buffer: over
+    overlapping strips every other input), which are not what it makes; a ``run_all`` job is
+    all of its inputs."""
+    return job[0] if task.run_one is not None and job else job_names(job)
+
+
 class Progress(Protocol):
     """What shows a run's progress: the jobs planned, each job's result, and the units of work
     inside the jobs (their chunks, :mod:`aldpat.core.units`)."""

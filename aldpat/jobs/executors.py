@@ -10,7 +10,7 @@ from __future__ import annotations
 from aldpat import interrupt
 from aldpat.core.workers import WorkerPool
 from aldpat.jobs.context import JobResult
-from aldpat.jobs.execute import Progress, doing, execute, job_names, report_result
+from aldpat.jobs.execute import Progress, doing, execute, job_name, report_result
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Task
 
@@ -39,14 +39,16 @@ def run_in_processes(task: Task, jobs: list[list[str]], run: ResolvedRun, comman
         start = len(results)  # the run's results may hold a first pass's failures
         for job, fut in zip(jobs, futures, strict=False):  # in input order, so output and logs do not depend on -j
             def state(done: int = len(results) - start) -> str:
-                running = [job_names(j) for j, f in zip(jobs, futures, strict=False) if f.running()]
-                return doing(task, run, done, len(jobs), f"; running: {'; '.join(running)}")
+                # the pool counts as running the jobs it has queued for its workers too; they take
+                # them in order, so the first ``workers`` are those at work
+                running = [job_name(task, j) for j, f in zip(jobs, futures, strict=False) if f.running()][:workers]
+                return doing(task, run, done, len(jobs), f"; running: {', '.join(running)}")
 
             with interrupt.doing(state):
                 try:
                     results.append(fut.result())
                 except Exception as exc:  # noqa: BLE001  (a worker died, killed or out of memory: that job failed)
-                    results.append(JobResult(inputs=job, error=f"{job_names(job)}: worker process "
+                    results.append(JobResult(inputs=job, error=f"{job_name(task, job)}: worker process "
                                                                f"failed: {type(exc).__name__}: {exc}"))
             report_result(results[-1], progress)
     except BaseException:

@@ -11,11 +11,12 @@ or more.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
 from aldpat.core.paths import not_local
-from aldpat.errors import SHOWN, AldpatError, InputFormatError, InputMissingError, shown
+from aldpat.errors import SHOWN, AldpatError, InputFormatError, InputMissingError, NoSuchFile, shown
 from aldpat.io.atomic import TMP_MARK
 from aldpat.io.registry import EXTENSIONS
 from aldpat.io.tile_parameters import PARAMETER_FILE
@@ -138,7 +139,7 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
                 errors.append(exc)
                 continue
             except OSError:
-                errors.append(InputMissingError("cannot read input list", path=listfile))
+                errors.append(NoSuchFile("cannot read input list", path=listfile))
                 continue
             sub = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
             _expand(sub, listfile.parent, skipped, out, errors, (*lists, key))
@@ -168,7 +169,7 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
         elif path.exists():  # a pipe would block the batch until something writes to it
             errors.append(InputFormatError("is not a regular file (a pipe, a device or a socket)", path=path))
         else:
-            errors.append(InputMissingError("no such file", path=path))
+            errors.append(NoSuchFile("no such file", path=path))
 
 
 def pattern_files(pattern: Path) -> list[Path]:
@@ -223,5 +224,8 @@ def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:
 
 
 def _rooted(item: str, base: Path | None) -> Path:
-    p = Path(item).expanduser()
+    """``item`` with a leading ``~`` the home folder, from ``base`` when relative. ``~user`` of a
+    user this machine does not know stays as written, as a shell leaves it (``Path.expanduser``
+    raises RuntimeError for it: a traceback for a typo)."""
+    p = Path(os.path.expanduser(item))
     return p if p.is_absolute() or base is None else base / p

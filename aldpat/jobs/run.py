@@ -14,7 +14,7 @@ from typing import Any
 
 from aldpat.core import units
 from aldpat.core.workers import workers_to_start
-from aldpat.errors import UsageError
+from aldpat.errors import NoSuchFile, UsageError
 from aldpat.io.chunks import scratch_folder
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.context import JobResult, Written
@@ -78,6 +78,8 @@ class PlannedRun:
     input_errors: list[str]
     jobs: list[list[str]]  # the inputs of each job
     outputs: list[Planned]
+    #: of the input errors, the files named that do not exist (:class:`~aldpat.errors.NoSuchFile`)
+    lost: int = 0
 
 
 def plan_run(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
@@ -100,7 +102,7 @@ def plan_run(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     forget_folders()
     outputs = check_outputs(task, sources, run)  # before anything runs: no output replaces an input or another
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
-    return PlannedRun(run, sources, input_errors, jobs, outputs)
+    return PlannedRun(run, sources, input_errors, jobs, outputs, sum(isinstance(e, NoSuchFile) for e in errors))
 
 
 def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,
@@ -112,6 +114,15 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
     if task.inputs == "many" and not sources:
         return RunReport(task.key, [], input_errors)
+    if task.run_all is not None and plan.lost:
+        # one product of every input (merge, tile): made of those found, it would be put in place
+        # under its final name without a file the user named -- a merged site missing a tile -- as
+        # lasmerge and PDAL's merge stop at a file they cannot open; so it is not made at all, as
+        # when an input found cannot be read. (A pattern matching nothing, or a folder without
+        # points, names no file: the others are made, with its line.)
+        return RunReport(task.key, [JobResult(inputs=[str(s) for s in sources], error=(
+            f"{task.key} not run: {plan.lost} of its inputs cannot be found, and it makes one product of them all"))],
+            input_errors, run.params.values)
     if task.finish is not None and not (run.output is not None and run.output.values.overwrite):
         # the finish step writes its output (a mosaic) once every job is done: refused now, not
         # after the work, as each job refuses its own outputs before it reads anything

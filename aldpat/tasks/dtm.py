@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import cell_in_degrees, output_crs
+from aldpat.core.crs import cell_in_degrees, crs_label, output_crs
 from aldpat.core.data_gaps import GAP_CELLS, GAP_SPACINGS, Occupancy, blank_gaps, default_gap, mean_spacing
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import linear
@@ -213,10 +213,14 @@ def points_used(params: DtmParams, fparams: Any = None):
     return used
 
 
-def _buffer_points(ctx: JobContext, source: Path, region: Bounds, used, occupancy: Occupancy
+def _buffer_points(ctx: JobContext, source: Path, region: Bounds, used, occupancy: Occupancy, own_crs: Any = None
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x, y, z of the neighbours' points inside ``region`` that ``used`` selects, read chunk by
     chunk; every point inside ``region`` marks ``occupancy``.
+
+    A neighbour whose file names another CRS than ``own_crs`` (the input's own) takes no part
+    either, with a warning: its coordinates are of another system, and mixed with this input's
+    they would put its points where they are not (``merge`` refuses such inputs).
 
     A neighbour that cannot be read whole (truncated, a bad line) takes no part, with a warning
     naming it: its own job reports why, once, and this input's DTM is still made, as every
@@ -228,7 +232,14 @@ def _buffer_points(ctx: JobContext, source: Path, region: Bounds, used, occupanc
         near_y: list[np.ndarray] = []
         taken: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         try:
-            for chunk in units.counted(ctx.open_input(path).chunks(), f"read {path.name} (buffer)"):
+            neighbour = ctx.open_input(path)
+            other_crs = getattr(neighbour, "crs", None)
+            if own_crs is not None and other_crs is not None and other_crs != own_crs:
+                ctx.warn(f"{source.name}: the buffer leaves out the neighbouring input {path.name}, whose CRS "
+                         f"({crs_label(other_crs)}) is not this input's ({crs_label(own_crs)}); this DTM's edge "
+                         "towards it has only its own points")
+                continue
+            for chunk in units.counted(neighbour.chunks(), f"read {path.name} (buffer)"):
                 near = region.holds(chunk.x, chunk.y)
                 near_x.append(np.asarray(chunk.x[near], np.float64))
                 near_y.append(np.asarray(chunk.y[near], np.float64))
@@ -332,7 +343,7 @@ def _ground_in_memory(source: Path, reader, params: DtmParams, ctx: JobContext) 
     occupancy.add(table.x, table.y)
     used = points_used(params)
     own = table.take(used(table))
-    bx, by, bz = _buffer_points(ctx, source, region, used, occupancy)
+    bx, by, bz = _buffer_points(ctx, source, region, used, occupancy, getattr(reader, "crs", None))
     x = np.concatenate([np.asarray(own.x, np.float64), bx])
     y = np.concatenate([np.asarray(own.y, np.float64), by])
     z = np.concatenate([np.asarray(own.z, np.float64), bz])

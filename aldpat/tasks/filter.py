@@ -30,16 +30,17 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.crs import cell_in_degrees, output_crs
-from aldpat.errors import DataError, ParamError
+from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.marks import MARK_LOW_OUTLIER
 from aldpat.filters.streamed import streamable
 from aldpat.filters.survey import TAKING_PART_FIELDS, ground_flags, survey_classes, taking_part
 from aldpat.io.atomic import check_writable
 from aldpat.io.classified import GROUND, HIGH_NOISE, LOW_NOISE, UNCLASSIFIED, classes_of_table, for_point_format
-from aldpat.io.las import new_point_format
+from aldpat.io.las import BUFFER_DIMENSION, new_point_format
 from aldpat.io.prefetch import WriteBehind, read_ahead
 from aldpat.io.table import PointTable
+from aldpat.io.tile_project import find_tile_job
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
 from aldpat.jobs.task import Planned, Task
@@ -316,6 +317,8 @@ def filter_chunked(source: Path, params, ctx: JobContext, *, algorithm: str) -> 
     # --data-mode center and filters needing every point were refused with the parameters (check_filter_run)
     sources = [source, *ctx.neighbours]  # the catalog's other inputs (--catalog), else none
     readers = [ctx.open_input(s) for s in sources]
+    if ctx.neighbours:
+        _warn_buffered_tiles(readers, ctx)
     params = with_result(params, source, ctx, readers[0])
     plan = chunk_plan(algorithm, params)
     outputs = [_outputs(s, params, ctx, r, algorithm) for s, r in zip(sources, readers, strict=False)]
@@ -418,6 +421,30 @@ def _write_rows(writers: list, rows: PointTable, ground: np.ndarray) -> None:
     """A chunk's rows into each output: every row, or its ground or its object rows."""
     for writer, _, which in writers:
         writer.write(_part(rows, which, ground))
+
+
+def _warn_buffered_tiles(readers: list, ctx: JobContext) -> None:
+    """``--catalog`` over tiles holding buffer points (``aldpat tile --buffer``, marked
+    ``tile_buffer``): the catalog takes every input as one, so each buffer point is there twice,
+    once as the copy and once as the point its own tile holds -- two points where the survey has
+    one, for a filter's density, distances and triangles. Said once for the run, of the tiles
+    whose row in ``tile_parameter.txt`` has a buffer (tiles made with ``--buffer 0`` carry the
+    mark on none of their points)."""
+    def buffered(reader) -> bool:
+        if reader.format != "las" or BUFFER_DIMENSION not in reader.header.point_format.dimension_names:
+            return False
+        try:
+            tile = find_tile_job(reader.path, None)
+        except AldpatError:  # a tile parameter file of its own faults: the warning is no place for them
+            return False
+        return tile is not None and tile.row.buffer > 0
+
+    marked = [r.path.name for r in readers if buffered(r)]
+    if marked:
+        more = f" and {len(marked) - 3} more" if len(marked) > 3 else ""
+        ctx.warn(f"{', '.join(marked[:3])}{more}: tiles with buffer points ({BUFFER_DIMENSION}), which --catalog "
+                 "takes as points beside the ones they copy; give it the tiles without buffers (aldpat tile "
+                 "--buffer 0) or filter the tiles without --catalog")
 
 
 def plan_catalog(sources: list[Path], params, _input) -> list[list[str]]:

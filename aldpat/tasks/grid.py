@@ -24,11 +24,12 @@ import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import cell_in_degrees, output_crs
+from aldpat.core.crs import cell_in_degrees, crs_label, output_crs, parse_crs
 from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
@@ -489,12 +490,22 @@ def grid_mosaic(results: list[JobResult], params: GridParams, ctx: JobContext) -
     out = mosaic_outputs(params, ctx)[0].path
     tiles = []
     crs = params.crs
+    first: tuple[Path, Any] | None = None  # the first GeoTIFF naming a CRS, and its CRS
     for written in (w for r in results for w in r.outputs):
         path = Path(written.path)
         if path.suffix.lower() == ".tif":
             spec, nodata, wkt = geotiff_header(path)
             tiles.append(TileGrid(path, spec, float(DEFAULT_NODATA if nodata is None else nodata)))
             crs = crs or wkt
+            if wkt:
+                # a VRT places every grid in its one CRS: a grid of another would be drawn where it
+                # is not (gdalbuildvrt leaves such a file out); all the grids or no mosaic, as above
+                own = parse_crs(wkt)
+                if first is None:
+                    first = (path, own)
+                elif own != first[1]:
+                    raise DataError(f"mosaic not written: {path.name} is in {crs_label(own)}, {first[0].name} in "
+                                    f"{crs_label(first[1])}; a mosaic holds grids of one CRS", path=params.mosaic)
         else:
             _, spec = read_surfer(path)
             tiles.append(TileGrid(path, spec, params.nodata if params.nodata is not None else SURFER_BLANK))

@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.crs import output_crs
-from aldpat.errors import DataError
-from aldpat.io.las import BUFFER_DIMENSION, buffer_marks
-from aldpat.io.registry import detect_format
+from aldpat.errors import DataError, UsageError
+from aldpat.io.las import BUFFER_DIMENSION, buffer_marks, exact_at, finest_scales
+from aldpat.io.registry import EXTENSIONS, detect_format, holding_points, one_crs
 from aldpat.io.tile_project import find_tile_job, in_core
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -55,7 +55,7 @@ class MergeParams(FieldsOption, CrsOption):
 
 def _las_template(readers):
     """The output's LAS header: the first LAS input's, without the buffer mark, its scales made as
-    fine as the finest input's where that keeps every input exact (:func:`_finest_scales`); None
+    fine as the finest input's where that keeps every input exact (:func:`finest_scales`); None
     for text inputs."""
     first = next((r for r in readers if r.format == "las"), None)
     if first is None:
@@ -63,40 +63,8 @@ def _las_template(readers):
     header = copy.deepcopy(first.header)
     if BUFFER_DIMENSION in header.point_format.extra_dimension_names:
         header.remove_extra_dim(BUFFER_DIMENSION)  # its Extra Bytes record too, else it describes bytes no point has
-    header.scales = _finest_scales(header, [r.header for r in readers if r.format == "las"])
+    header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
     return header
-
-
-def _finest_scales(header, inputs) -> np.ndarray:
-    """Per axis, the finest of the inputs' scales where every input's coordinates are exact at it
-    from ``header``'s offset (:func:`_exact_axis`) and the 32-bit integers hold every input's
-    extent from that offset; else ``header``'s own. A tile stored at 0.001 m merged after one at
-    0.01 m was rounded to centimetres (lasmerge and PDAL keep the first or a default scale)."""
-    scales = np.array(header.scales, dtype=np.float64)
-    lowest = np.min([h.mins for h in inputs], axis=0)
-    highest = np.max([h.maxs for h in inputs], axis=0)
-    for k in range(3):
-        finer = min(float(h.scales[k]) for h in inputs)
-        reach = max(float(highest[k]) - float(header.offsets[k]), float(header.offsets[k]) - float(lowest[k]))
-        if finer < scales[k] and reach / finer < 2 ** 31 - 1 and all(
-                _exact_axis(float(h.scales[k]), float(h.offsets[k]), finer, float(header.offsets[k])) for h in inputs):
-            scales[k] = finer
-    return scales
-
-
-def _exact_axis(scale: float, offset: float, to_scale: float, to_offset: float) -> bool:
-    """Whether a coordinate stored at ``scale`` from ``offset`` keeps every digit stored again at
-    ``to_scale`` from ``to_offset`` (the scale a whole multiple of the other, the offsets apart by
-    whole steps)."""
-    ratio, shift = scale / to_scale, (offset - to_offset) / to_scale
-    return ratio >= 1 - 1e-9 and abs(ratio - round(ratio)) <= 1e-9 and abs(shift - round(shift)) <= 1e-6
-
-
-def _exact_at(header, template) -> bool:
-    """Whether the coordinates stored under ``header`` keep every digit stored under ``template``'s
-    scales and offsets."""
-    return all(_exact_axis(*axis) for axis in zip(header.scales, header.offsets, template.scales, template.offsets,
-                                                   strict=True))
 
 
 def _extra_kind(reader, name: str) -> str:
@@ -147,14 +115,20 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
 
 
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
-    """``-o FILE``: like every path, from where the command runs (a worksheet's folder)."""
+    """``-o FILE``: like every path, from where the command runs (a worksheet's folder). Its
+    extension is its format, so one that names no point format is refused here, with the plan --
+    before a worksheet's first job runs, and by ``--dry-run`` -- not when the points are written."""
     assert params.output is not None  # required
-    return [Planned(Path(params.output), named_by="output", rename="give -o another name")]
+    out = Path(params.output)
+    if out.suffix.lower() not in EXTENSIONS:
+        raise UsageError(f"output {out}: a merged point file's extension is its format: "
+                         f"{', '.join(sorted(set(EXTENSIONS)))}")
+    return [Planned(out, named_by="output", rename="give -o another name")]
 
 
 def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:
     out = merge_outputs(sources, params, ctx)[0].path
-    readers = [ctx.open_input(s) for s in sources]
+    readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "merged")
     template = _las_template(readers) if detect_format(out) == "las" else None
     if template is not None:
         kinds = {r.header.point_format.id for r in readers if r.format == "las"}
@@ -167,18 +141,15 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
             if reader.format == "las" and dropped:
                 ctx.warn(f"{reader.path.name}: its {', '.join(dropped)} are not written: the text inputs have none "
                          f"(x, y, z{' and intensity' if 'intensity' in names else ''} are)")
-    known = [r for r in readers if r.crs is not None]
-    for reader in readers:
-        if reader.crs is not None and reader.crs != known[0].crs:
-            raise DataError(f"its CRS differs from {known[0].path.name}'s: merge inputs of one CRS", path=reader.path)
+    shared = one_crs(readers, "merge")
     kept = copies = 0
     rescaled = []
-    with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, known[0].crs if known else None, out, ctx.warn),
+    with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, shared, out, ctx.warn),
                           template=template) as writer:
         for reader in readers:
             marked = reader.format == "las" and BUFFER_DIMENSION in reader.header.point_format.dimension_names
             tile = None if marked else find_tile_job(reader.path, params.tile_params)
-            if template is not None and reader.format == "las" and not _exact_at(reader.header, template):
+            if template is not None and reader.format == "las" and not exact_at(reader.header, template):
                 rescaled.append(reader.path.name)
             for chunk in reader.chunks():
                 marks = buffer_marks(chunk)

@@ -32,6 +32,7 @@ for their extent; LAS/LAZ headers hold it).
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import shutil
@@ -51,9 +52,9 @@ from aldpat.io.atomic import (
     remove_stale_temporaries,
     temp_name,
 )
-from aldpat.io.las import BUFFER_DIMENSION, LasWriter, buffer_marks
+from aldpat.io.las import BUFFER_DIMENSION, LasWriter, buffer_marks, exact_at, finest_scales
 from aldpat.io.rawtext import RawLines, passthrough_ok
-from aldpat.io.registry import output_extension
+from aldpat.io.registry import one_crs, output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
 from aldpat.io.tile_parameters import PARAMETER_FILE, number_text, read_parameter_rows, write_parameter_file
 from aldpat.jobs.context import JobContext
@@ -294,8 +295,23 @@ def tile_outputs(sources: list[Path], params: TileParams, ctx: JobContext) -> li
     return [Planned(folder / PARAMETER_FILE), Planned(folder / f"tile_*_*{glob_escape(ext)}", family=True)]
 
 
+def _tile_header(readers: list, ctx: JobContext):
+    """The tiles' LAS header: the first input's, at the finest scales that keep every LAS input's
+    coordinates exact (:func:`aldpat.io.las.finest_scales`, as ``merge`` takes them). The first
+    input's own scales rounded a second input stored at 0.001 m to its centimetres; an input that
+    no such scale keeps exact is named in a warning."""
+    header = copy.deepcopy(readers[0].header)
+    header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
+    rounded = [r.path.name for r in readers if r.format == "las" and not exact_at(r.header, header)]
+    if rounded:
+        ctx.warn(f"{', '.join(rounded)}: stored at scales or offsets that the tiles', from "
+                 f"{readers[0].path.name}, cannot hold exactly; their coordinates are rounded to its scales")
+    return header
+
+
 def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     readers = [ctx.open_input(s) for s in sources]
+    shared = one_crs(readers, "tile")
     first = readers[0]
     folder = ctx.output_dir(sources[0])
     ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs
@@ -325,10 +341,10 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     check_disk(sum(_tiled_bytes(r, ext) for r in readers) * layout.copies, folder,
                f"tiling {len(readers)} input(s) with {params.buffer:g} m buffers ({layout.copies:.1f} copies of "
                "each point)", "give --odir on a disk with room or a smaller --buffer", path=first.path)
-    template = first.header if first.format == "las" else None
+    template = _tile_header(readers, ctx) if first.format == "las" else None
     sink = TileSink(folder, ext, names + ((BUFFER_DIMENSION,) if ext in (".las", ".laz") else ()),
                     delimiter=ctx.delimiter, overwrite=ctx.overwrite, append=params.append, template=template,
-                    crs=output_crs(params.crs, first.crs, folder / f"tile_*{ext}", ctx.warn))
+                    crs=output_crs(params.crs, shared, folder / f"tile_*{ext}", ctx.warn))
     total = outside = copies = 0
     try:
         for group, only in enumerate(tile_groups(readers, layout, sink)):

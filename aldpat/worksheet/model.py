@@ -18,10 +18,11 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.errors import ParamError, UsageError, shown
+from aldpat.io.sidefiles import KEEP, other_names
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.inputs import expand_inputs
-from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, real
+from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, path_parameter_files, real
 from aldpat.jobs.registry import get_task
 from aldpat.jobs.resolve import ResolvedRun, load_params_file, resolve_run
 from aldpat.jobs.task import Planned, Task
@@ -30,6 +31,8 @@ JOB_KEYS = ("task", "algorithm", "inputs", "params")
 TOP_KEYS = ("settings", "job")
 #: ``[settings]`` keys of the run itself, not of its jobs: ``report = true`` writes the HTML report
 RUN_SETTINGS = ("report",)
+#: the files a run writes beside its worksheet (``<stem>.state.json``...), and what they are
+RUN_FILES = ((".state.json", "run state"), (".log", "log"), (".lock", "lock"), (".html", "report"))
 
 
 @dataclass
@@ -41,6 +44,7 @@ class Job:
     run: ResolvedRun
     depends_on: set[int] = field(default_factory=set)
     planned: list[Planned] = field(default_factory=list)  # its outputs, as far as known before it runs
+    params_file: Path | None = None  # its ``params = "FILE.toml"``
 
     @property
     def label(self) -> str:
@@ -112,11 +116,20 @@ def parse_set(items: tuple[str, ...] | list[str]) -> list[tuple[str, int | None,
 
 
 def _rebase(value: Any, folder: Path) -> Any:
-    if isinstance(value, str) and value and not value.startswith("@") and not Path(value).expanduser().is_absolute():
-        return str(folder / value)
-    if isinstance(value, str) and value.startswith("@") and not Path(value[1:]).is_absolute():
-        return "@" + str(folder / value[1:])
-    return value
+    """A path of the worksheet (an input, ``@list``, or a path parameter) as the run takes it:
+    relative to the worksheet's folder, and a leading ``~`` the home folder, as a shell expands it
+    on a command line -- for every path, not for the inputs alone (an ``odir = "~/out"`` made a
+    folder named ``~`` wherever the run was started). ``$VAR`` is left as it is: a worksheet is
+    data, and what it names may not depend on the environment of whoever runs it."""
+    if not isinstance(value, str) or not value:
+        return value
+    at = "@" if value.startswith("@") else ""
+    path = value[len(at):]
+    if path.startswith("~"):
+        path = os.path.expanduser(path)
+    if Path(path).is_absolute():
+        return at + path
+    return at + str(folder / path)
 
 
 def load_worksheet(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *,
@@ -200,8 +213,9 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path,
     if applicable:
         layers.append(("settings", rebased(applicable, folder)))
     params = raw.get("params")
+    params_file = None
     if isinstance(params, str):
-        pfile = Path(_rebase(params, folder))
+        pfile = params_file = Path(_rebase(params, folder))
         try:
             layers.append(("params file", load_params_file(task, pfile, lambda m: rebased(m, pfile.parent))))
         except UsageError as exc:
@@ -223,7 +237,7 @@ def _load_job(number: int, raw: dict, settings: dict, folder: Path, wpath: Path,
         scheduler_for(run.run.values.scheduler, run.run.sources["scheduler"])
     except UsageError as exc:
         raise UsageError(f"{where}{exc.message}", path=wpath) from None
-    return Job(number, task, raw, inputs, run)
+    return Job(number, task, raw, inputs, run, params_file=params_file)
 
 
 def _check_settings(settings: dict, jobs: list[Job], wpath: Path) -> None:
@@ -307,27 +321,46 @@ class _Planned:
         return jobs, files
 
 
+def run_files(wpath: Path) -> dict[str, str]:
+    """The worksheet and the files its run writes beside it (under aldpat's other names too, and
+    the previous logs), by real path: what each is. No job's output may be one of them -- the
+    worksheet replaced by a job's points is the project lost, and a job's output under the
+    state's or the log's name would be taken for the run's, or the run's for it."""
+    files = {real(wpath): "the worksheet itself"}
+    for suffix, what in RUN_FILES:
+        for name in other_names(wpath.with_name(wpath.stem + suffix)):
+            files[real(name)] = f"the worksheet's {what}"
+            if suffix == ".log":
+                files.update({real(name.with_name(f"{name.name}.{k}")): "a log of the worksheet's earlier runs"
+                              for k in range(1, KEEP + 1)})
+    return files
+
+
 def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
     """Each job depends on the earlier jobs that write what its inputs name; an input that matches
     nothing and is not written by an earlier job is an error now, not later. And no job may write
     an output that replaces an input it or an earlier job reads as an original (not an earlier
-    job's output), or an output of another job (:mod:`aldpat.jobs.outputs`)."""
+    job's output) -- a file of its inputs, its ``params`` file, a file a path parameter reads (a
+    polygon, a reference) --, an output of another job (:mod:`aldpat.jobs.outputs`), or the
+    worksheet and the files its run keeps beside it (:func:`run_files`)."""
     forget_folders()
     planned = _Planned()
     originals = Reads()
     readers: dict[str, int] = {}  # realpath of an original input -> the first job reading it
-    # what the run itself reads: the worksheet and the jobs' parameter files. merge-boundary's
-    # ``output = "w.toml"`` with ``overwrite = true`` replaced the worksheet being run (exit 0)
-    run_reads = Reads()
-    run_reads.add(wpath)
-    for job in jobs:
-        if isinstance(job.raw.get("params"), str):
-            run_reads.add(Path(_rebase(job.raw["params"], wpath.parent)))
+    reserved = run_files(wpath)
+
+    def read_as_original(f: Path, number: int) -> None:
+        if not planned.exact.get(real(f)) and not any(
+                fam.matches(f) for _, fam in planned.families.get(real(f.parent), ())):
+            originals.add(f)
+            readers.setdefault(real(f), number)
     for job in jobs:
         where = f"job {job.number}: "
         sources: list[Path] = []
         unnamed = False  # reads files of earlier jobs not known by name: writes under names not known
         for pattern in job.inputs:
+            if pattern.startswith("@"):  # the list file is read too
+                read_as_original(Path(pattern[1:]), job.number)
             producers, made = planned.writers_of(pattern.lstrip("@")) if not pattern.startswith("@") else (set(), [])
             job.depends_on |= producers
             unnamed |= bool(producers) and not made
@@ -335,10 +368,7 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
             if errors and not producers:
                 raise UsageError(f"{where}inputs: {errors[0]}", path=wpath)
             for f in found:
-                if not planned.exact.get(real(f)) and not any(
-                        fam.matches(f) for _, fam in planned.families.get(real(f.parent), ())):
-                    originals.add(f)
-                    readers.setdefault(real(f), job.number)
+                read_as_original(f, job.number)
             sources += found + made
         unique = {real(f): f for f in reversed(sources)}  # each file once, the first spelling
         sources = [unique[k] for k in dict.fromkeys(real(f) for f in sources)]
@@ -346,10 +376,12 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
             job.planned = check_outputs(job.task, sources, job.run)
         except UsageError as exc:
             raise UsageError(f"{where}{exc.message}", path=wpath) from None
+        for f in [*([job.params_file] if job.params_file is not None else []),
+                  *path_parameter_files(job.run, job.planned)]:
+            read_as_original(f, job.number)
         for out in job.planned:
-            read = run_reads.replaced_by(out)
-            if read is not None:
-                what = "the worksheet being run" if real(read) == real(wpath) else f"the parameter file {read}"
+            what = None if out.family else reserved.get(real(out.path))
+            if what is not None:
                 raise UsageError(f"{where}output {out.path} would replace {what}; give the job another output name",
                                  path=wpath)
             victim = originals.replaced_by(out)

@@ -8,10 +8,14 @@ parameter, each input's path, size and modification time) and of what it wrote (
 size and modification time) in ``<worksheet-stem>.state.json``, written atomically. ``--resume``
 skips a job whose fingerprint and outputs are unchanged. A job that was started but never
 recorded as finished (the run was killed) runs again and may replace the outputs it had already
-renamed into place -- they are its own; temporary files and scratch folders of writers no
-longer running are removed before every job. Because every output is renamed into place only
-when complete, a run killed at any instant and resumed ends with the same outputs as an
-uninterrupted one.
+renamed into place -- they are its own, as long as the job is the one that was killed (the same
+fingerprint) and none of its outputs was there before that run started; temporary files and
+scratch folders of writers no longer running are removed before every job. Because every output
+is renamed into place only when complete, a run killed at any instant and resumed ends with the
+same outputs as an uninterrupted one. A job that changed (an input made anew upstream) runs
+again and replaces the outputs the last runs recorded for the worksheet, unchanged since, as
+``make`` does; never another file without ``--overwrite``. Jobs are found in the state by
+number, and by fingerprint when a job inserted or removed has renumbered them.
 
 One run per worksheet at a time (:mod:`aldpat.worksheet.lock`). The state, the log and the
 report are aldpat's own files beside the worksheet: one of the user's under such a name is
@@ -29,7 +33,7 @@ import logging
 import os
 import re
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -123,6 +127,72 @@ def _unchanged(entry: dict | None, job: Job) -> bool:
     return True
 
 
+def _existing_outputs(job: Job, run: ResolvedRun) -> list[str]:
+    """The outputs of ``job`` known by name that exist as it starts, when it may not replace them:
+    should the run be killed, they are not its own to replace when it is resumed."""
+    parts = (run.params, run.output)
+    if any(getattr(part.values, "overwrite", False) for part in parts if part is not None):
+        return []
+    return [str(out.path) for out in job.planned if not out.family and os.path.lexists(out.path)]
+
+
+def _outputs_are_its_own(entry: dict, job: Job) -> bool:
+    """Whether a job recorded as Running (its run was killed) may replace the outputs it finds when
+    it runs again: only when it is the job that was killed -- the worksheet edited meanwhile may
+    point it at a folder of someone else's files -- and none of its outputs existed before that
+    run started (those were refused then, and are not its own)."""
+    if entry.get("fingerprint") != fingerprint(job):
+        return False
+    existed = entry.get("existed", [])
+    return not (isinstance(existed, list) and any(os.path.lexists(str(p)) for p in existed))
+
+
+def _finished_as(job: Job, entry: dict | None, done_before: dict[str, dict]) -> dict | None:
+    """The state entry of the last run saying ``job`` finished, unchanged since: the one under its
+    number, or else one under another number with its fingerprint -- a job inserted before it, or
+    one removed, renumbers the jobs after it, which are not changed by that and are not run again
+    (they would find their own outputs and fail, and block what reads them)."""
+    if entry is not None and _unchanged(entry, job):
+        return entry
+    other = done_before.get(fingerprint(job))
+    return other if other is not None and _unchanged(other, job) else None
+
+
+def _written(entries: Iterable[dict]) -> dict[str, list]:
+    """The outputs the jobs of the last runs wrote, as recorded when each finished: path -> its
+    signature then (path, size, modification time)."""
+    out: dict[str, list] = {}
+    for entry in entries:
+        for sig in entry.get("outputs", []):
+            if isinstance(sig, list) and len(sig) == 3 and isinstance(sig[0], str):
+                out[sig[0]] = sig
+    return out
+
+
+def _replaces_only_its_last_outputs(job: Job, written: dict[str, list]) -> bool:
+    """Whether every output of ``job`` that exists is one the worksheet's last runs wrote and that
+    nothing changed since (its size and time as recorded): a job run again by ``--resume``
+    because its inputs or parameters changed -- an upstream job made its inputs anew -- then
+    replaces what it made itself, as ``make`` does, instead of failing on it ("output exists")
+    and blocking what reads it. A file of anyone else's, or one changed since, is never replaced
+    without ``--overwrite``. True only when there is something to replace."""
+    found = False
+    for out in job.planned:
+        paths = ([p for p in out.path.parent.glob(out.path.name) if out.matches(p)]
+                 if out.family and out.path.parent.is_dir() else [out.path])
+        for path in paths:
+            if not os.path.lexists(path):
+                continue
+            sig = written.get(str(Path(path).resolve()))
+            try:
+                if sig is None or os.path.islink(path) or _file_sig(path) != sig:
+                    return False
+            except OSError:
+                return False
+            found = True
+    return found
+
+
 def _remove_stray_temporaries(job: Job) -> None:
     """Temporaries and scratch folders of writers no longer running, where the job writes and
     where its chunks spill (``tmpdir``)."""
@@ -152,6 +222,11 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
     _say_where_side_files_go(ws)
     rotate(log_path(ws), LOG_MARK)  # the last run's log is kept as .log.1
     state = _load_state(ws) if resume else {}
+    done_before = {e["fingerprint"]: e for e in state.values()
+                   if isinstance(e, dict) and e.get("status") == DONE and isinstance(e.get("fingerprint"), str)}
+    written_before = _written(done_before.values())
+    killed_before = {e["fingerprint"]: e for e in state.values()
+                     if isinstance(e, dict) and e.get("status") == RUNNING and isinstance(e.get("fingerprint"), str)}
     if not resume:
         with contextlib.suppress(OSError):
             state_path(ws).unlink()
@@ -169,20 +244,27 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             _notify(on_status, status)
             continue
         entry = state.get(str(job.number))
-        if resume and entry is not None and _unchanged(entry, job):
+        finished = _finished_as(job, entry, done_before) if resume else None
+        if finished is not None:
             status.state, status.message = SKIPPED, "unchanged since it last finished (--resume)"
-            status.outputs = [sig[0] for sig in entry.get("outputs", [])]
+            status.outputs = [sig[0] for sig in finished.get("outputs", [])]
+            state[str(job.number)] = finished
             _notify(on_status, status)
             continue
-        # its own outputs, which the killed run may have renamed into place, are replaced; only
-        # the same job's: one edited since (another odir, suffix or parameter) writes where the
-        # killed run never did, and with --overwrite forced it replaced a user's file there
-        rerun_after_kill = (resume and entry is not None and entry.get("status") == RUNNING
-                            and entry.get("fingerprint") == fingerprint(job))
+        if resume and (entry is None or entry.get("status") != RUNNING):  # killed under another number?
+            entry = killed_before.get(fingerprint(job), entry)
+        rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
+        replaces_its_own = resume and _replaces_only_its_last_outputs(job, written_before)
+        if rerun_after_kill and entry is not None and not _outputs_are_its_own(entry, job):
+            rerun_after_kill = False
+            if not replaces_its_own:
+                log.warning(f"{job.label}: the job killed in the last run was another (the worksheet, its parameters "
+                            "or its inputs changed since) or found outputs already there; it runs again without "
+                            f"replacing what exists (--set job.{job.number}.overwrite=true replaces it)")
         run = job.run
         layers_override: dict[str, object] = {}
         _remove_stray_temporaries(job)  # a killed run's temporaries and scratch, of this job or any
-        if rerun_after_kill:
+        if rerun_after_kill or replaces_its_own:
             layers_override["overwrite"] = True
         if jobs is not None:
             layers_override["jobs"] = jobs
@@ -190,7 +272,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             run = _with_overrides(job, layers_override)
         status.state = RUNNING
         _notify(on_status, status)
-        state[str(job.number)] = {"status": RUNNING, "fingerprint": fingerprint(job)}
+        state[str(job.number)] = {"status": RUNNING, "fingerprint": fingerprint(job),
+                                  "existed": _existing_outputs(job, run)}
         _save_state(ws, state)
         start = time.perf_counter()
         try:
@@ -222,6 +305,8 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
         _save_state(ws, state)
         write_worksheet_log(ws, statuses, command)
         _notify(on_status, status)
+    if resume:  # the jobs skipped under other numbers than the last run's are found under theirs next time
+        _save_state(ws, state)
     write_worksheet_log(ws, statuses, command)
     return statuses
 

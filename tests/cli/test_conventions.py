@@ -181,3 +181,15 @@ def test_logs_of_jobs_sharing_an_output_stem_accumulate(tmp_path, samp24):
     log = (tmp_path / "samp24.log").read_text()
     assert log.count("task: convert") == 2
     assert "samp24.laz  (7492 points)" in log and "samp24.csv  (7492 points)" in log
+
+
+def test_a_tilde_of_a_user_this_machine_does_not_know_is_a_missing_file(tmp_path):
+    """``aldpat info '~nosuchuser/a.txt'`` ended in a traceback ("Could not determine home
+    directory", pathlib's RuntimeError); as a shell leaves such a ``~`` as written, it is an input
+    that matches nothing, in one line, and the other inputs run."""
+    from tests.cli.fresh import DATA, aldpat
+
+    done = aldpat("info", "~nosuchuser/a.txt", "~nosuchuser/*.txt", DATA / "samp24.txt", cwd=tmp_path)
+    assert done.returncode == 1 and "7,492" in done.stdout
+    assert "~nosuchuser/a.txt: no such file" in done.stderr
+    assert "~nosuchuser/*.txt: no file matches this pattern" in done.stderr

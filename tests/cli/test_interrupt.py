@@ -310,3 +310,22 @@ def test_an_interrupted_first_pass_says_no_output_was_written():
     assert doing(task, SimpleNamespace(stage="first"), 4, 16) == (
         "dtm, first pass (4 of 16 inputs' ground classes found, no output written yet)")
     assert doing(task, SimpleNamespace(stage="main"), 4, 16, " on local:2") == "dtm (4 of 16 inputs done on local:2)"
+
+
+def test_an_interrupted_run_names_the_inputs_at_work_once_each(tmp_path):
+    """``dtm`` over overlapping strips: each job reads every other strip as its buffer. An
+    interruption listed, for every job the pool had queued (three to five with ``-j 2``), all the
+    inputs it reads -- a line of up to 1,900 characters naming each strip several times. It names
+    the inputs whose outputs were being made now, as many as the workers."""
+    strips = tmp_path / "strips"
+    strips.mkdir()
+    for k in range(24):
+        os.link(REPO / "tests" / "data" / "fsite5_strip.laz", strips / f"s{k:02d}.laz")
+    code, err, _ = start_and_signal(["dtm", strips, "--cell", "2", "-j", "2", "--odir", tmp_path / "dtm"],
+                                    tmp_path / "dtm", signal.SIGTERM)
+    line = next(ln for ln in err.splitlines() if "interrupted by SIGTERM" in ln)
+    assert code == 128 + signal.SIGTERM and "Traceback" not in err
+    running = line.split("running: ")[1].split(")")[0].split(", ")
+    assert 1 <= len(running) <= 2 and len(set(running)) == len(running), line
+    assert all(name.startswith(str(strips)) and name.endswith(".laz") for name in running), line
+    assert len(line) < 400, line

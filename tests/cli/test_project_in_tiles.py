@@ -146,6 +146,29 @@ def test_a_tile_that_cannot_be_read_fails_with_the_tiles_that_need_it_and_no_oth
     assert leftovers(tmp_path) == []
 
 
+def test_a_tile_holding_no_points_is_a_tile_without_data_not_one_that_cannot_be_read(tmp_path):
+    """A LAS tile of zero points (a tile emptied by an earlier filter or a delivery's placeholder)
+    failed as "no points in file", and with it every tile within the buffer of it and every tile
+    needing their ground classes: 6 of 10. It adds no points now: every tile is made, the empty one
+    from its neighbours' points near its edges, as identical on the shared edges as any; ``merge``
+    of the tiles leaves it out with a warning, as lasmerge does."""
+    from tests.cli.fresh import DATA
+
+    aldpat("tile", DATA / "samp24.txt", "--width", "30", "--height", "40", "--out-format", "laz", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    empty = tmp_path / "tiles" / "tile_513720_5403120.laz"
+    las = laspy.read(empty)
+    las.points = las.points[:0]
+    las.write(empty)
+    aldpat("dtm", "tiles", "--cell", "1", "--buffer", "10", "--odir", "dtm", cwd=tmp_path).ok()
+    tifs = sorted((tmp_path / "dtm").glob("*.tif"))
+    assert len(tifs) == 10 and shared_nodes(tifs)[1] == 0
+    done = aldpat("merge", "tiles", "-o", "all.laz", cwd=tmp_path).ok()
+    assert "tile_513720_5403120.laz: holds no points: nothing of it is merged" in done.stderr
+    held = sum(laspy.open(p).header.point_count for p in (tmp_path / "tiles").glob("tile_*.laz"))
+    assert 0 < laspy.open(tmp_path / "all.laz").header.point_count <= held
+
+
 def test_a_buffer_of_many_tiles_is_refused_once_before_anything_runs(tmp_path):
     """As ``tile`` refuses such buffers: with 40 m tiles a 200 m buffer would make every tile's DTM
     or grid read the points of the tiles five tiles around it, the project again for every tile.
@@ -188,3 +211,40 @@ def test_a_rerun_of_dtm_over_tiles_makes_the_missing_dtms(tmp_path):
     aldpat("dtm", "tiles", "--cell", "2", "--odir", "dtm", "--mosaic", "dtm/dtm.vrt", "--overwrite", cwd=tmp_path).ok()
     assert (tmp_path / "dtm" / "dtm.vrt").exists()
     assert leftovers(tmp_path) == []
+
+
+def test_catalog_over_tiles_with_buffers_says_their_copies_are_taken_twice(tmp_path):
+    """``filter --catalog`` takes every input as one: tiles made with a buffer hold copies of their
+    neighbours' points, which it took as points beside the ones they copy -- 33,429 points of a
+    site of 20,643 -- without a word. It says so once, and not of tiles made without buffers."""
+    source = shutil.copy(SITES["fsite5"], tmp_path / "site.laz")
+    for folder, buffer in (("buffered", "30"), ("plain", "0")):
+        aldpat("tile", source, "--width", "250", "--height", "250", "--buffer", buffer, "--odir", folder,
+               cwd=tmp_path).ok()
+        done = aldpat("filter", "pm", folder, "--catalog", "--chunk", "200", "--odir", f"{folder}_pm",
+                      cwd=tmp_path).ok()
+        said = [ln for ln in done.stderr.splitlines() if "which --catalog takes as points beside" in ln]
+        assert len(said) == (1 if buffer != "0" else 0), done.stderr
+
+
+def test_a_tile_of_another_crs_is_waited_for_as_one_that_cannot_be_read(tmp_path):
+    """A tile of the project replaced by one labelled with another CRS gave its points to its
+    neighbours' DTMs as if they were of theirs; each tile within the buffer of it now fails naming
+    it and both CRSs, as for a tile that cannot be read, and the tiles farther away are made."""
+    import pyproj
+
+    source = shutil.copy(SITES["fsite5"], tmp_path / "site.laz")
+    aldpat("tile", source, "--width", "150", "--height", "150", "--buffer", "10", "--odir", "tiles",
+           cwd=tmp_path).ok()
+    tiles = sorted((tmp_path / "tiles").glob("tile_*.laz"))
+    other = tiles[0]  # a corner: the tiles farther away do not wait for it
+    las = laspy.read(other)
+    header = laspy.LasHeader(point_format=las.header.point_format, version=las.header.version)
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    laspy.LasData(header, las.points).write(other)
+    done = aldpat("dtm", "tiles", "--cell", "2", "--buffer", "10", "--odir", "dtm", cwd=tmp_path)
+    assert done.returncode == 1
+    assert re.search(rf"needs the points of its neighbouring tile {other.name} within 10 m, whose CRS "
+                     r"\(EPSG:2056\) is not this tile's \(EPSG:32632\)", done.stderr), done.stderr
+    assert len(list((tmp_path / "dtm").glob("*.tif"))) > 0

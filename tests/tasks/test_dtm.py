@@ -265,3 +265,52 @@ def test_no_default_dtm_carries_a_pit_from_a_single_low_point(tmp_path):
         depths[label] = float(np.ma.median(ring) - z[r - 1:r + 2, c - 1:c + 2].min())
     assert depths["default"] < 1.0, depths  # the ground's own relief over 3 m
     assert depths["off"] > 100.0, depths
+
+
+def test_a_neighbouring_input_of_another_crs_is_no_buffer(tmp_path):
+    """``dtm strip.laz other.laz`` took the other input's points within --buffer into the strip's
+    DTM whatever its CRS: coordinates of another system, as if they were the strip's. Such a
+    neighbour is left out of the buffer with a warning naming both CRSs (merge refuses them)."""
+    import laspy
+    import pyproj
+
+    from tests.cli.fresh import TEST_DATA, aldpat
+
+    strip = TEST_DATA / "fsite5_strip.laz"
+    las = laspy.read(strip)
+    header = laspy.LasHeader(point_format=las.header.point_format, version=las.header.version)
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    points = las.points.copy()
+    points["Z"] = points["Z"] + round(50 / las.header.scales[2])  # were it taken, the strip's edges would rise
+    other = laspy.LasData(header, points)
+    other.write(tmp_path / "swiss.laz")
+    done = aldpat("dtm", strip, tmp_path / "swiss.laz", "--cell", "5", "--odir", tmp_path / "both", cwd=tmp_path).ok()
+    assert ("fsite5_strip.laz: the buffer leaves out the neighbouring input swiss.laz, whose CRS (EPSG:2056) is not "
+            "this input's (EPSG:32632)") in done.stderr
+    aldpat("dtm", strip, "--cell", "5", "--odir", tmp_path / "alone", cwd=tmp_path).ok()
+    with rasterio.open(tmp_path / "both" / "fsite5_strip_dtm.tif") as a, \
+            rasterio.open(tmp_path / "alone" / "fsite5_strip_dtm.tif") as b:
+        np.testing.assert_array_equal(a.read(1), b.read(1))
+
+
+def test_a_mosaic_of_grids_of_two_crss_is_not_written(tmp_path):
+    """``dtm utm.laz swiss.laz --mosaic m.vrt`` wrote a VRT holding both DTMs under the first one's
+    CRS, the second drawn where it is not (gdalbuildvrt leaves such a grid out). As for a grid
+    that failed, the mosaic is not written: one line naming both grids and their CRSs."""
+    import laspy
+    import pyproj
+
+    from tests.cli.fresh import TEST_DATA, aldpat
+
+    las = laspy.read(TEST_DATA / "fsite5_strip.laz")
+    header = laspy.LasHeader(point_format=las.header.point_format, version=las.header.version)
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    laspy.LasData(header, las.points.copy()).write(tmp_path / "swiss.laz")
+    done = aldpat("dtm", TEST_DATA / "fsite5_strip.laz", tmp_path / "swiss.laz", "--cell", "10", "--odir",
+                  tmp_path / "dtm", "--mosaic", tmp_path / "dtm" / "m.vrt", cwd=tmp_path)
+    assert done.returncode == 1
+    assert ("m.vrt: mosaic not written: swiss_dtm.tif is in EPSG:2056, fsite5_strip_dtm.tif in EPSG:32632; a mosaic "
+            "holds grids of one CRS") in done.stderr, done.stderr
+    assert not (tmp_path / "dtm" / "m.vrt").exists() and (tmp_path / "dtm" / "swiss_dtm.tif").exists()

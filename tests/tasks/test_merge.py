@@ -206,3 +206,26 @@ def test_merged_tiles_describe_only_the_extra_bytes_their_points_hold(tmp_path, 
     if vendor_extra:
         order_a, order_b = np.lexsort((source.Z, source.Y, source.X)), np.lexsort((back.Z, back.Y, back.X))
         assert np.array_equal(np.asarray(source.amplitude)[order_a], np.asarray(back.amplitude)[order_b])
+
+
+@pytest.mark.parametrize("task, args, product", [
+    ("merge", ["-o", "site.laz"], "site.laz"),
+    ("tile", ["--width", "300", "--height", "300", "--odir", "tiles"], "tiles"),
+])
+@pytest.mark.parametrize("missing", ["nosuch.laz", "@list.txt"])
+def test_one_product_of_every_input_is_not_made_without_one_of_them(tmp_path, task, args, product, missing):
+    """``merge a.laz nosuch.laz -o site.laz`` wrote site.laz of a.laz's points alone under its
+    final name, and said "merge of 2 inputs failed": a merged site without a tile, which the next
+    run would not replace without --overwrite. As lasmerge stops at a file it cannot open (and as
+    merge already stopped at an input it cannot read), nothing is made when a file named (on the
+    command line or in an @list) does not exist. A pattern matching nothing names no file: the
+    others are made, with its line (tests/cli/test_bad_inputs.py)."""
+    from tests.cli.fresh import aldpat
+
+    (tmp_path / "a.laz").write_bytes(STRIP.read_bytes())
+    (tmp_path / "list.txt").write_text("nosuch.laz\n")
+    done = aldpat(task, "a.laz", missing, *args, cwd=tmp_path)
+    assert done.returncode == 1 and f"{task} of 2 inputs failed" in done.stderr, done.stderr
+    assert "nosuch.laz: no such file" in done.stderr and not (tmp_path / product).exists()
+    aldpat(task, "a.laz", *args, cwd=tmp_path).ok()  # once every input is there, as before
+    assert (tmp_path / product).exists()

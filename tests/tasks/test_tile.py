@@ -220,3 +220,49 @@ def test_append_refuses_another_layout_and_writes_the_sizes_given(tmp_path):
            "--odir", "odd", cwd=tmp_path).ok()
     rows = (tmp_path / "odd" / "tile_parameter.txt").read_text().splitlines()
     assert all(line.split()[-3:] == ["33.3", "25", "7.5"] for line in rows)
+
+
+def test_las_inputs_at_finer_scales_are_tiled_exactly(tmp_path):
+    """``tile coarse.laz fine.laz``: the tiles took the first input's header, and the second input's
+    millimetres were rounded to its centimetres, every point of it moved. The tiles take the finest
+    scales that keep every input exact, as ``merge`` does."""
+    import laspy
+
+    strip = laspy.read(Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz")  # 0.01 m
+    x = np.asarray(strip.x)
+    east = x >= np.median(x)
+    coarse = laspy.LasData(strip.header)
+    coarse.points = strip.points[~east]
+    coarse.write(tmp_path / "coarse.laz")
+    header = laspy.LasHeader(point_format=strip.header.point_format.id, version=strip.header.version)
+    header.scales, header.offsets = [0.001] * 3, strip.header.offsets
+    fine = laspy.LasData(header)
+    fine.x, fine.y, fine.z = x[east] + 0.0037, np.asarray(strip.y)[east] + 0.0041, np.asarray(strip.z)[east]
+    fine.write(tmp_path / "fine.laz")
+    report = get_task("tile")([tmp_path / "coarse.laz", tmp_path / "fine.laz"], width=300.0, height=300.0,
+                              odir=str(tmp_path / "tiles"))
+    assert report.exit_code == 0
+    tiles = [laspy.read(p) for p in sorted((tmp_path / "tiles").glob("tile_*.laz"))]
+    held = {(round(float(a), 4), round(float(b), 4)) for t in tiles for a, b in zip(t.x, t.y, strict=True)}
+    for source in (coarse, laspy.read(tmp_path / "fine.laz")):
+        assert all((round(float(a), 4), round(float(b), 4)) in held for a, b in zip(source.x, source.y, strict=True))
+
+
+def test_inputs_of_two_crss_are_not_tiled_together(tmp_path):
+    """``tile utm.laz swiss.laz`` wrote tiles under the first input's CRS holding the second's
+    coordinates too, of another system; as ``merge`` refuses such inputs, ``tile`` does, writing
+    nothing."""
+    import laspy
+    import pyproj
+
+    strip = laspy.read(Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz")  # EPSG:32632
+    header = laspy.LasHeader(point_format=strip.header.point_format.id, version=strip.header.version)
+    header.scales, header.offsets = strip.header.scales, strip.header.offsets
+    header.add_crs(pyproj.CRS.from_epsg(2056))
+    laspy.LasData(header, strip.points.copy()).write(tmp_path / "swiss.laz")
+    strip.write(tmp_path / "utm.laz")
+    report = get_task("tile")([tmp_path / "utm.laz", tmp_path / "swiss.laz"], width=300.0, height=300.0,
+                              odir=str(tmp_path / "tiles"))
+    assert report.exit_code == 1
+    assert "swiss.laz: its CRS differs from utm.laz's: tile inputs of one CRS" in report.results[0].error
+    assert not (tmp_path / "tiles").exists() or not list((tmp_path / "tiles").iterdir())

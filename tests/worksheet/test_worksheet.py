@@ -164,7 +164,7 @@ def test_resume_after_a_kill_finishes_the_interrupted_job(project):
     assert sorted(x.name for x in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
 
 
-def test_resume_after_a_kill_replaces_only_what_the_killed_job_wrote(project):
+def test_a_killed_job_edited_before_its_resume_keeps_a_users_file_where_it_now_writes(project):
     """A killed job resumed after the worksheet was edited (another odir) is another job: its
     outputs are not the killed run's, and a file of the user's where it now writes stays."""
     from aldpat.worksheet.runner import _save_state, fingerprint
@@ -200,3 +200,191 @@ def test_run_from_the_command_line_reports_statuses(project):
     assert proc.returncode == 0, proc.stderr
     assert "job 1 convert: Running" in proc.stderr and "job 1 convert: Done: 2 outputs" in proc.stderr
     assert "job 2 info: Done" in proc.stderr and "7,492" in proc.stdout
+
+
+def test_resume_after_a_kill_replaces_only_what_the_killed_job_wrote(project):
+    """A job recorded as Running (its run was killed) may replace the outputs it finds when resumed,
+    as they are its own -- but not when the worksheet was edited meanwhile to point it at someone
+    else's files, nor files that were there before the killed run started."""
+    from aldpat.worksheet.runner import _save_state, fingerprint
+
+    killed = load_worksheet(sheet(project, CONVERT_THEN_INFO.replace('odir = "laz"', 'odir = "old"')
+                                  .replace("laz/*.laz", "old/*.laz")))
+    ws_path = sheet(project, CONVERT_THEN_INFO)  # edited after the kill: another odir
+    (project / "laz").mkdir()
+    (project / "laz" / "a.laz").write_bytes(b"someone else's file")
+    _save_state(killed, {"1": {"status": "Running", "fingerprint": fingerprint(killed.jobs[0])}})
+    proc = subprocess.run(ALDPAT + ["run", str(ws_path), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert "a.laz: output exists" in proc.stderr and "--set job.1.overwrite=true" in proc.stderr
+    assert (project / "laz" / "a.laz").read_bytes() == b"someone else's file"
+    # the same job, killed, but a.laz was there before it started: still not its own
+    ws = load_worksheet(ws_path)
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]),
+                           "existed": [str(project / "laz" / "a.laz")]}})
+    proc = subprocess.run(ALDPAT + ["run", str(ws_path), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 1 and (project / "laz" / "a.laz").read_bytes() == b"someone else's file"
+    # what the killed job wrote itself is replaced: the run finishes
+    (project / "laz" / "a.laz").unlink()
+    run_worksheet(load_worksheet(sheet(project, CONVERT_THEN_INFO.replace("raw/*.txt", "raw/b.txt"), "b.toml")))
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]), "existed": []}})
+    statuses = run_worksheet(load_worksheet(ws_path), resume=True)
+    assert [s.state for s in statuses] == [DONE, DONE]
+
+
+BOUNDARY_THEN = """
+    [settings]
+    overwrite = true
+
+    [[job]]
+    task = "strip-boundary"
+    inputs = ["raw/a.txt"]
+    odir = "bounds"
+
+    [[job]]
+    task = "{task}"
+    inputs = ["{inputs}"]
+    {key} = "{value}"
+
+    [[job]]
+    task = "merge-boundary"
+    inputs = ["bounds/a_Bound.txt"]
+    output = "{victim}"
+"""
+
+
+@pytest.mark.parametrize("task, inputs, key, value, victim, message", [
+    ("info", "raw/b.txt", "json", "true", "job.toml", "would replace the worksheet itself"),
+    ("info", "raw/b.txt", "json", "true", "job.state.json", "would replace the worksheet's run state"),
+    ("info", "raw/b.txt", "json", "true", "job.log.2", "would replace a log of the worksheet's earlier runs"),
+    ("polygon-extract", "raw/b.txt", "polygon", "poly.txt", "poly.txt", "poly.txt, which job 2 reads"),
+    ("thin", "raw/b.txt", "params", "thin.toml", "thin.toml", "thin.toml, which job 2 reads"),
+    ("info", "@list.txt", "json", "true", "list.txt", "list.txt, which job 2 reads"),
+])
+def test_no_job_replaces_the_worksheet_its_files_or_what_a_job_reads(project, task, inputs, key, value, victim,
+                                                                     message):
+    """The worksheet, the files its run keeps beside it, a job's parameter file and the files its
+    path parameters read are read by the run: no job's output replaces them, with or without
+    --overwrite (merge-boundary writes any name it is given)."""
+    (project / "poly.txt").write_text("513800,5403000\n514000,5403000\n514000,5403200\n")
+    (project / "thin.toml").write_text("cell = 5.0\n")
+    (project / "list.txt").write_text("raw/a.txt\n")
+    body = BOUNDARY_THEN.format(task=task, inputs=inputs, key=key, value=value, victim=victim)
+    body = body.replace('json = "true"', "json = true")
+    p = sheet(project, body)
+    before = {name: (project / name).read_bytes() for name in ("job.toml", "poly.txt", "thin.toml", "list.txt")}
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and not (project / "bounds").exists()
+    assert {name: (project / name).read_bytes() for name in before} == before
+
+
+def test_a_tilde_is_the_home_folder_in_every_path_of_a_worksheet(project, tmp_path_factory):
+    """``odir = "~/out"`` made a folder named ``~`` in the folder the run was started from (the
+    inputs' ``~`` was expanded, the other paths' not); it is the home folder now, as a shell makes
+    it. ``$HOME`` is not expanded: a worksheet is data, not a shell line."""
+    home, elsewhere = tmp_path_factory.mktemp("home"), tmp_path_factory.mktemp("cwd")
+    shutil.copy(project / "raw" / "a.txt", home / "a.txt")
+    p = sheet(project, """
+        [[job]]
+        task = "thin"
+        inputs = ["~/a.txt"]
+        odir = "~/out"
+        cell = 5.0
+    """)
+    env = {**os.environ, "HOME": str(home)}
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, cwd=elsewhere, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert (home / "out" / "a_thin.txt").is_file() and list(elsewhere.iterdir()) == []
+    p = sheet(project, '[[job]]\ntask = "thin"\ninputs = ["$HOME/a.txt"]\ncell = 5.0\n')
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, cwd=elsewhere, env=env)
+    assert proc.returncode == 2 and "$HOME/a.txt: no such file" in proc.stderr
+
+
+def test_a_merge_output_of_no_point_format_is_refused_before_the_first_job(project):
+    """``merge -o x.toml`` passed ``--dry-run`` and a worksheet's check, and failed only when it
+    came to write ("unknown extension '.toml'"), after the jobs before it had run."""
+    proc = subprocess.run(ALDPAT + ["merge", "raw/a.txt", "-o", "x.toml", "--dry-run"], check=False,
+                          capture_output=True, text=True, cwd=project)
+    assert proc.returncode == 2 and "output x.toml: a merged point file's extension is its format" in proc.stderr
+    p = sheet(project, CONVERT_THEN_INFO + '\n[[job]]\ntask = "merge"\ninputs = ["laz/*.laz"]\noutput = "all.toml"\n')
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and "job 3: output" in proc.stderr and "all.toml: a merged point file's" in proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and not (project / "laz").exists()
+
+
+def test_a_named_pipe_nothing_writes_to_is_refused_not_waited_for(project):
+    """``aldpat run fifo.toml`` (or ``params = "fifo.toml"``, an ``@fifo`` input list) waited for
+    ever for a writer; it is refused in one line. A pipe something writes to is read as before."""
+    os.mkfifo(project / "fifo.toml")
+    proc = subprocess.run(ALDPAT + ["run", str(project / "fifo.toml")], check=False, capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 2 and "fifo.toml: TOML file is a named pipe that nothing writes to" in proc.stderr
+    p = sheet(project, '[[job]]\ntask = "thin"\ninputs = ["raw/a.txt"]\nparams = "fifo.toml"\n')
+    proc = subprocess.run(ALDPAT + ["run", str(p)], check=False, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and "job 1: params:" in proc.stderr and "named pipe" in proc.stderr
+    proc = subprocess.run(ALDPAT + ["thin", "@fifo.toml", "--dry-run"], check=False, capture_output=True, text=True,
+                          timeout=60, cwd=project)
+    assert proc.returncode == 1 and "input list is a named pipe that nothing writes to" in proc.stderr
+    proc = subprocess.run(["bash", "-c", f"{' '.join(ALDPAT)} thin raw/a.txt --params <(echo 'cell = 7.0') --dry-run"],
+                          check=False, capture_output=True, text=True, timeout=60, cwd=project)
+    assert proc.returncode == 0 and "cell = 7    # params file" in proc.stdout, proc.stderr
+
+
+def test_resume_after_a_job_is_inserted_or_removed_skips_the_unchanged_jobs(project):
+    """The run state knew a job by its number: a job inserted before the others made ``--resume``
+    run each of them again, under its new number -- each failed on its own outputs ("output
+    exists") and blocked the jobs reading them. A job that finished unchanged is found by what it
+    runs now, under any number, and the state keeps it under its new one."""
+    p = sheet(project, CONVERT_THEN_INFO)
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE, DONE]
+    mtime = os.stat(project / "laz" / "a.laz").st_mtime_ns
+    sheet(project, '[[job]]\ntask = "info"\ninputs = ["raw/b.txt"]\n' + textwrap.dedent(CONVERT_THEN_INFO))
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "job 2 convert: Skipped" in proc.stderr and "job 3 info: Skipped" in proc.stderr
+    sheet(project, CONVERT_THEN_INFO)  # and removed again
+    assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED, SKIPPED]
+    assert os.stat(project / "laz" / "a.laz").st_mtime_ns == mtime
+
+
+def test_resume_replaces_what_a_changed_job_wrote_itself_and_nothing_else(project):
+    """A job run again by --resume because its input changed (or an upstream job made its inputs
+    anew) failed on its own outputs of the last run ("output exists") and blocked the jobs
+    reading them, unless the worksheet said overwrite: resuming after mending a raw file needed
+    --overwrite on every job. It replaces what it wrote itself, unchanged since; a file of
+    anyone else's or changed since is refused as ever."""
+    p = sheet(project, CONVERT_THEN_INFO.replace('task = "info"\n    inputs = ["laz/*.laz"]',
+                                                 'task = "thin"\n    inputs = ["laz/*.laz"]\n    odir = "thin"\n'
+                                                 '    cell = 5.0'))
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE, DONE]
+    with open(project / "raw" / "a.txt", "a") as fh:
+        fh.write("513866.46\t5403124.79\t310.77\t0\n")
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 0 and "job 2 thin: Done" in proc.stderr, proc.stderr
+    assert laspy_count(project / "laz" / "a.laz") == 7493
+    (project / "thin" / "b_thin.laz").write_bytes(b"edited by hand")
+    os.utime(project / "raw" / "b.txt")
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 1 and "b_thin.laz: output exists" in proc.stderr, proc.stderr
+    assert (project / "thin" / "b_thin.laz").read_bytes() == b"edited by hand"
+
+
+def laspy_count(path) -> int:
+    import laspy
+
+    return laspy.open(path).header.point_count
+
+
+def test_resume_after_a_kill_and_an_inserted_job_finishes_the_killed_one(project):
+    """The job a kill left Running is found by what it runs when a job inserted before it has
+    renumbered it: it finishes, replacing what it had written, instead of failing on it."""
+    from aldpat.worksheet.runner import _save_state, fingerprint
+
+    ws = load_worksheet(sheet(project, CONVERT_THEN_INFO))
+    run_worksheet(load_worksheet(sheet(project, CONVERT_THEN_INFO.replace("raw/*.txt", "raw/a.txt"), "a.toml")))
+    _save_state(ws, {"1": {"status": "Running", "fingerprint": fingerprint(ws.jobs[0]), "existed": []}})
+    p = sheet(project, '[[job]]\ntask = "info"\ninputs = ["raw/b.txt"]\n' + textwrap.dedent(CONVERT_THEN_INFO))
+    statuses = run_worksheet(load_worksheet(p), resume=True)
+    assert [s.state for s in statuses] == [DONE, DONE, DONE], [s.message for s in statuses]
+    assert sorted(x.name for x in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
