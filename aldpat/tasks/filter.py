@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.compiled import load_compiler_in_background
 from aldpat.core.crs import cell_in_degrees, output_crs
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
@@ -196,6 +197,7 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     if params.chunk is not None:
         filter_chunked(source, params, ctx, algorithm=algorithm)
         return
+    load_compiler_in_background()  # while the points are read: every filter runs compiled loops
     reader = ctx.open_input(source)
     cell = getattr(params, "cell", None)  # a filter without a cell of its own has none to misread
     if cell is not None and (degrees := cell_in_degrees(params.crs, reader.crs, cell, source.name)) is not None:

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import units
+from aldpat.core.compiled import load_compiler_in_background
 from aldpat.core.crs import cell_in_degrees, crs_label, output_crs, parse_crs
 from aldpat.core.grid_extent import (
     GridSpec,
@@ -248,6 +249,7 @@ def check_spread(x: np.ndarray, y: np.ndarray, method: str, source: Path | None,
 
 
 def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
+    load_compiler_in_background()  # while the points are read: the gridders are compiled loops
     tile = find_tile_job(source, params.tile_params) if not params.bounds else None  # --bounds: that range
     if tile is not None:
         grid_over_tiles(tile, params, ctx)
