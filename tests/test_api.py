@@ -341,8 +341,11 @@ def test_a_search_radius_beyond_the_points_reaches_the_grid_not_further():
     """``aldpat.ground(points, algorithm="slope", search_radius=1e6)`` asked numpy for 29.1 TiB of
     cell offsets (2,000,001 x 2,000,001) and raised its MemoryError; the command said "out of
     memory". A search reaches no farther than the grid's cells: the flags are those of any radius
-    spanning the strip."""
+    spanning the strip (600 x 220 cells). A radius of more than 1,000 cells is refused by name
+    before any work: each point would be compared with millions of cells."""
     las = laspy.read(STRIP)
     xyz = np.c_[las.x, las.y, las.z][::4]
-    np.testing.assert_array_equal(aldpat.ground(xyz, algorithm="slope", search_radius=1e6),
-                                  aldpat.ground(xyz, algorithm="slope", search_radius=2000.0))
+    np.testing.assert_array_equal(aldpat.ground(xyz, algorithm="slope", search_radius=999.0),
+                                  aldpat.ground(xyz, algorithm="slope", search_radius=650.0))
+    with pytest.raises(aldpat.ParamError, match="at most 1,000 cells"):
+        aldpat.ground(xyz, algorithm="slope", search_radius=1e6)

@@ -564,14 +564,14 @@ def data_loss_cases(root: Path) -> list[Hostile]:
     sheet = _worksheet(ws / "itself.toml", [{"task": "merge-boundary", "inputs": ["a.txt"], "output": "itself.toml",
                                              "overwrite": True}])
     cases.append(Hostile("data loss", "a worksheet job writes the worksheet itself", ["run", sheet], root, 2,
-                         r"job 1: output .*itself\.toml would replace the worksheet being run", _unchanged(sheet)))
+                         r"job 1: output .*itself\.toml would replace the worksheet itself", _unchanged(sheet)))
     params = ws / "p.toml"
     params.write_text("cell = 2.0\n")
     sheet = _worksheet(ws / "params.toml", [{"task": "thin", "inputs": ["a.txt"], "params": "p.toml", "odir": "pt"},
                                             {"task": "merge-boundary", "inputs": ["a.txt"], "output": "p.toml",
                                              "overwrite": True}])
     cases.append(Hostile("data loss", "a worksheet job writes another job's parameter file", ["run", sheet], root, 2,
-                         r"job 2: output .*p\.toml would replace the parameter file .*p\.toml", _unchanged(params)))
+                         r"job 2: output .*p\.toml would replace .*p\.toml, which job 1 reads", _unchanged(params)))
     own = ws / "own.toml"
     own.write_text('delimiter = "space"\n')
     cases.append(Hostile("data loss", "-o names the command's own --params file", ["merge-boundary", a, "-o", own,
