@@ -6,6 +6,11 @@ Compiling takes seconds, so the machine code is cached beside the module or, whe
 is installed read-only, in the user's cache directory; where neither can be written (a locked
 down cluster node without a home directory) numba refuses to cache when the function is
 defined, and it is then compiled in each process instead of failing the import.
+
+The compiler itself takes a fraction of a second to load in each process: a run starts loading it
+on a thread while it reads its input (:func:`load_compiler_in_background`). And a loop over a large
+grid that reads its cells out of order waits on memory for each: :func:`prefetch` lets it ask for
+the cells it will read next (a hint, which changes no result).
 """
 
 from __future__ import annotations
