@@ -79,9 +79,34 @@ def install() -> None:
     for sig in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)):
         if sig is not None:
             signal.signal(sig, _raise)
+    sys.unraisablehook = _unraisable
 
 
 _stopping = False
+
+#: seconds after a callback swallowed an interruption before it is asked for again
+AGAIN_AFTER = 0.05
+
+
+def _unraisable(unraisable: Any) -> None:
+    """``sys.unraisablehook``: an :class:`Interrupted` raised inside a callback from C code is
+    asked for again, without a word, once the callback is done; anything else goes to Python's
+    own hook.
+
+    A signal's handler raises where the main thread happens to be, and that may be a callback from
+    C: LLVM's, compiling a numba loop of a fresh installation (its object cache callback), or a
+    codec's. C cannot take the exception, so Python printed it as "Exception ignored in ..." with
+    a traceback, and dropped it -- the run went on, and a worker ignored the SIGTERMs after it. A
+    moment later, the signal is sent again (from a thread: the handler then runs back in Python's
+    own code, and raises there)."""
+    if isinstance(unraisable.exc_value, Interrupted):
+        global _stopping
+        _stopping = False  # the worker's handler raises again
+        again = threading.Timer(AGAIN_AFTER, os.kill, (os.getpid(), unraisable.exc_value.signum))
+        again.daemon = True
+        again.start()
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _raise_in_worker(signum: int, frame: FrameType | None) -> None:
@@ -110,6 +135,7 @@ def install_in_worker(run: int) -> None:
     _die_with_parent()
     threading.Thread(target=_watch_parent, args=(os.getppid(), run), name="aldpat-parent-watch",
                      daemon=True).start()
+    sys.unraisablehook = _unraisable
     if hasattr(signal, "pthread_sigmask"):  # held back while the pool started this worker
         signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPPING)
 

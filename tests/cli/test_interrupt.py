@@ -329,3 +329,31 @@ def test_an_interrupted_run_names_the_inputs_at_work_once_each(tmp_path):
     assert 1 <= len(running) <= 2 and len(set(running)) == len(running), line
     assert all(name.startswith(str(strips)) and name.endswith(".laz") for name in running), line
     assert len(line) < 400, line
+
+
+@pytest.mark.parametrize("where", ["run", "worker"])
+def test_an_interruption_inside_a_callback_from_c_is_raised_again_without_a_word(where):
+    """A signal's handler may raise inside a callback from C (LLVM's, compiling a numba loop of a
+    fresh installation): C cannot take the exception, and Python printed "Exception ignored in"
+    with a traceback and dropped it, so the run went on. The interruption is raised again once the
+    callback returns, and nothing is printed for it."""
+    code = (
+        "import ctypes, os, signal, sys, time\n"
+        "from aldpat import interrupt\n"
+        + ("interrupt.install()\n" if where == "run" else
+           "interrupt.install_in_worker(os.getppid())\ninterrupt._activity.append('a job')\n")
+        + "@ctypes.CFUNCTYPE(None)\n"
+        "def callback():\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    time.sleep(1)  # the handler raises in here, inside the callback\n"
+        "try:\n"
+        "    callback()\n"
+        "    time.sleep(5)\n"
+        "    print('went on')\n"
+        "except interrupt.Interrupted as exc:\n"
+        "    print('interrupted by', exc.signal_name)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=60,
+                          cwd=REPO)
+    assert done.stdout.strip() == "interrupted by SIGTERM", (done.stdout, done.stderr)
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr, done.stderr
