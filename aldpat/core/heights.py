@@ -30,6 +30,7 @@ A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` n
 from __future__ import annotations
 
 import logging
+import os
 import struct
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -156,7 +157,9 @@ def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
     """
     local_grids_only()
     text = str(geoid)
-    path = Path(text).expanduser()
+    # os.path's expansion leaves a user this machine does not know as written, as a shell does
+    # (Path.expanduser raises for one)
+    path = Path(os.path.expanduser(text))
     if path.is_file():
         if path.suffix.lower() == ".gtx":
             check_gtx_header(path)

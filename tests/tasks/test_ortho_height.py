@@ -148,3 +148,12 @@ def test_a_las_in_degrees_goes_back_to_utm(tmp_path):
     for axis in "xy":
         assert np.abs(np.asarray(source[axis]) - np.asarray(back[axis])).max() < 0.01
     assert np.abs(np.asarray(source.z) - np.asarray(back.z)).max() <= 0.011
+
+
+def test_a_geoid_under_an_unknown_users_home_is_named_missing(tmp_path, runner, cli):
+    # a shell leaves ~nosuchuser as written; Path.expanduser raised RuntimeError with a traceback
+    src = utm_points(tmp_path)
+    res = runner.invoke(cli, ["ortho-height", str(src), "--crs", "15N", "--geoid", "~nosuchuser-aldpat/g.gtx"])
+    assert res.exit_code == 2, res.output
+    assert "geoid: ~nosuchuser-aldpat/g.gtx: no such geoid grid file" in res.output
+    assert "Traceback" not in res.output and not (tmp_path / "strip_Ortho.txt").exists()
