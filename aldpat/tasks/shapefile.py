@@ -46,7 +46,11 @@ def shapefile_outputs(sources: list[Path], params: ShapefileParams, ctx: JobCont
         out = ctx.output_path(sources[0], "", ".shp")
     else:
         raise UsageError("several merged files go into one shapefile: name it with -o FILE.shp")
-    out = out if out.suffix.lower() == ".shp" else out.with_suffix(".shp")
+    if out.suffix.lower() != ".shp":
+        if out.suffix and params.output:
+            # another extension is a slip (m.txt): writing m.shp beside it was not what was asked
+            raise UsageError(f"output: a shapefile is named FILE.shp, not {out.suffix!r} ({out.name})")
+        out = out.with_name(out.name + ".shp")  # -o strips: strips.shp, as pyshp and ogr2ogr name it
     named_by, rename = ("output", "give -o another name") if params.output else (None, "give --odir or -o")
     return [Planned(out.with_suffix(ext), named_by=named_by, rename=rename)
             for ext in SHAPEFILE_PARTS + ((".prj",) if params.crs else ())]

@@ -165,3 +165,18 @@ def test_no_usable_strip_is_the_data_s_fault_not_a_usage_error(tmp_path):
     merged.write_text("500000 4000000 100 1 a.txt\n")
     done = aldpat("shapefile", merged, "-o", tmp_path / "one.shp")
     assert done.returncode == 1 and "one.txt: no strip with a usable boundary" in done.stderr
+
+
+def test_an_output_named_with_another_extension_is_refused_and_one_without_gets_shp(tmp_path, bounds):
+    """``-o m.txt`` wrote m.shp (and its .shx, .dbf) beside it without a word; a name without an
+    extension is the shapefile's stem, as pyshp and ogr2ogr take it."""
+    from tests.cli.fresh import aldpat
+
+    merged = tmp_path / "merged.txt"
+    assert aldpat("merge-boundary", *bounds, "-o", merged).returncode == 0
+    done = aldpat("shapefile", merged, "-o", tmp_path / "m.txt")
+    assert done.returncode == 2 and "output: a shapefile is named FILE.shp, not '.txt' (m.txt)" in done.stderr
+    assert not list(tmp_path.glob("m.*"))
+    done = aldpat("shapefile", merged, "-o", tmp_path / "strips")
+    assert done.returncode == 0, done.stderr
+    assert len(pyshp.Reader(str(tmp_path / "strips.shp")).shapes()) == 2
