@@ -486,7 +486,7 @@ def resolve(params_cls: type, layers: Sequence[tuple[str, Mapping[str, Any]]], w
                 if allow_unknown:
                     continue
                 raise unknown_key_error(raw_key, smap, where)
-            values[key] = convert(spec, raw, where)  # in range: checked once, when the instance is made
+            values[key] = convert(spec, raw, where + _from(source))  # in range: checked when the instance is made
             sources[key] = source
     for name, spec in smap.items():
         if spec.required and values[name] is None:
@@ -496,8 +496,15 @@ def resolve(params_cls: type, layers: Sequence[tuple[str, Mapping[str, Any]]], w
         if not isinstance(obj, Checked):
             check_values(obj)
     except ParamError as exc:
-        raise ParamError(f"{where}{exc.message}") from None
+        named = exc.message.split(":", 1)[0]
+        raise ParamError(f"{where}{_from(sources.get(named, ''))}{exc.message}") from None
     return Resolved(obj, sources)
+
+
+def _from(source: str) -> str:
+    """Where a worksheet's ``[settings]`` gave a value, said before its error: every job takes it
+    from there, and "job 1: cell" sent the user to a job that does not name it."""
+    return "[settings] " if source == "settings" else ""
 
 
 class Checked:

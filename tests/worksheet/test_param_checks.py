@@ -88,6 +88,23 @@ def test_a_path_holding_a_nul_is_refused_naming_job_and_key(tmp_path, samp24):
     assert "tp\\x00.txt' is a name holding a NUL character" in proc.stderr, proc.stderr
 
 
+
+@pytest.mark.parametrize("value, message", [("-3", "cell: -3 is out of range (must be > 0)"),
+                                            ('"x"', "cell: expected a number, got 'x'")])
+def test_a_bad_settings_value_is_said_to_come_from_settings(tmp_path, samp24, value, message):
+    """A ``[settings]`` value every job takes was reported as "job 1: cell: ...", sending the
+    user to a job that does not name it; a job's own value is still its job's."""
+    shutil.copy(samp24, tmp_path / "a.txt")
+    sheet = tmp_path / "job.toml"
+    sheet.write_text(f'[settings]\ncell = {value}\n\n[[job]]\ntask = "grid"\ninputs = ["a.txt"]\n')
+    proc = subprocess.run(ALDPAT + ["run", str(sheet), "--dry-run"], check=False, capture_output=True, text=True,
+                          cwd=tmp_path)
+    assert proc.returncode == 2 and f"job 1: [settings] {message}" in proc.stderr, proc.stderr
+    sheet.write_text(f'[[job]]\ntask = "grid"\ninputs = ["a.txt"]\ncell = {value}\n')
+    proc = subprocess.run(ALDPAT + ["run", str(sheet), "--dry-run"], check=False, capture_output=True, text=True,
+                          cwd=tmp_path)
+    assert proc.returncode == 2 and f"job 1: {message}" in proc.stderr, proc.stderr
+
 def _geoid() -> Path:
     return Path(__file__).resolve().parents[1] / "data" / "egm96_15_nga1.gtx"
 
