@@ -110,8 +110,38 @@ def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
              resolved: ResolvedRun | None = None) -> RunReport:
     """Expand inputs, resolve parameters, run the jobs (in a pool with ``jobs`` > 1)."""
     plan = plan_run(task, inputs, layers, base=base, resolved=resolved)
-    run, sources, input_errors, jobs = plan.run, plan.sources, plan.input_errors, plan.jobs
     command = command or f"aldpat {task.key} " + " ".join(map(str, inputs))
+    made = _missing_folders(plan.run)
+    try:
+        return _run_planned(task, plan, command, progress)
+    finally:
+        _remove_if_empty(made)
+
+
+def _missing_folders(run: ResolvedRun) -> list[Path]:
+    """The output folder (``--odir``) and those of its parents that do not exist yet, innermost
+    first: what the jobs create, and a run that writes nothing removes again."""
+    odir = getattr(run.output.values, "odir", None) if run.output is not None else None
+    missing: list[Path] = []
+    folder = Path(odir).absolute() if odir else None
+    while folder is not None and not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    return missing
+
+
+def _remove_if_empty(folders: list[Path]) -> None:
+    """Remove each of ``folders`` the run left empty, as mkdir's own `-p` would not: a refused or
+    failed run leaves no empty ``--odir`` behind (one that holds anything stays)."""
+    for folder in folders:
+        try:
+            folder.rmdir()  # only an empty folder: a file or a log in it keeps it
+        except OSError:
+            return  # not empty (or not removable): its parents are not empty either
+
+
+def _run_planned(task: Task, plan: PlannedRun, command: str, progress: Progress | None) -> RunReport:
+    run, sources, input_errors, jobs = plan.run, plan.sources, plan.input_errors, plan.jobs
     if task.inputs == "many" and not sources:
         return RunReport(task.key, [], input_errors)
     if task.run_all is not None and plan.lost:
