@@ -74,7 +74,14 @@ def chunk_plan(algorithm: str, params: GroundParams | PointFilterParams) -> Chun
     else:
         raise ParamError(f"chunk_buffer: {algorithm} has no bounded reach to size an auto buffer; give the buffer in metres")
     lattice = ChunkLattice(cells * cell, buffer_cells * cell, origin)
-    lattice.check_copies()
+    try:
+        lattice.check_copies()
+    except ParamError as exc:
+        if params.chunk is not None and not math.isclose(params.chunk, lattice.size):
+            # the message names the rounded size, which the user never typed: say where it came from
+            raise ParamError(f"{exc.message} (the --chunk {params.chunk:g} m given, rounded to whole cells of "
+                             f"{cell:g} m)") from None
+        raise
     return ChunkPlan(lattice, cells, buffer_cells)
 
 

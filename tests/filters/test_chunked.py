@@ -265,6 +265,9 @@ def test_ground_filter_takes_every_point_it_is_given():
     ("pm", {"data_mode": "center"}, "chunk: --data-mode center writes one point per cell"),
     ("slope", {"data_mode": "center"}, "chunk: --data-mode center writes one point per cell"),
     ("pm", {"chunk": 1.0}, r"--chunk 1 m with a \d+ m buffer copies every point into"),
+    # a size below a cell is refused at the cell it was rounded to, which the message says it was
+    ("gapm", {"chunk": 0.001}, (r"--chunk 0\.75 m with a [\d.]+ m buffer copies every point into [\d,]+ chunks "
+                               r"\(at most 100\); .* \(the --chunk 0\.001 m given, rounded to whole cells of 0\.75 m\)")),
 ])
 def test_the_rules_of_chunks_are_checked_with_the_parameters(algorithm, options, message):
     """Refused as the run's parameters are resolved (a worksheet job's number in front), before
