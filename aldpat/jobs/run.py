@@ -131,8 +131,8 @@ def _missing_folders(run: ResolvedRun) -> list[Path]:
 
 
 def _remove_if_empty(folders: list[Path]) -> None:
-    """Remove each of ``folders`` the run left empty, as mkdir's own `-p` would not: a refused or
-    failed run leaves no empty ``--odir`` behind (one that holds anything stays)."""
+    """Remove each of ``folders`` (innermost first) the run left empty: a refused or failed run
+    leaves no empty ``--odir`` behind, and one that holds anything stays."""
     for folder in folders:
         try:
             folder.rmdir()  # only an empty folder: a file or a log in it keeps it

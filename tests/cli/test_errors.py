@@ -131,7 +131,6 @@ def test_output_folder_not_writable(tmp_path, samp24):
     assert "cannot create output folder" in proc.stderr
 
 
-
 def test_a_run_that_writes_nothing_leaves_no_new_output_folder(tmp_path, samp24):
     """A refused ``thin`` left the empty ``--odir`` (and its new parents) it had made; a folder
     that existed stays, and a run that writes keeps the folder it made."""
@@ -143,6 +142,7 @@ def test_a_run_that_writes_nothing_leaves_no_new_output_folder(tmp_path, samp24)
     assert (tmp_path / "kept").is_dir()
     assert run("thin", samp24, "--cell", "1", "--odir", tmp_path / "new" / "a").returncode == 0
     assert [p.suffix for p in sorted((tmp_path / "new" / "a").iterdir())] == [".log", ".txt"]
+
 
 @pytest.mark.parametrize("content, line", [("cell = \n", 1), ("a = 1\nb = [1, 2\n", 2)])
 def test_toml_syntax_error_in_a_params_file(tmp_path, samp24, content, line):

@@ -88,7 +88,6 @@ def test_a_path_holding_a_nul_is_refused_naming_job_and_key(tmp_path, samp24):
     assert "tp\\x00.txt' is a name holding a NUL character" in proc.stderr, proc.stderr
 
 
-
 @pytest.mark.parametrize("value, message", [("-3", "cell: -3 is out of range (must be > 0)"),
                                             ('"x"', "cell: expected a number, got 'x'")])
 def test_a_bad_settings_value_is_said_to_come_from_settings(tmp_path, samp24, value, message):
@@ -104,6 +103,7 @@ def test_a_bad_settings_value_is_said_to_come_from_settings(tmp_path, samp24, va
     proc = subprocess.run(ALDPAT + ["run", str(sheet), "--dry-run"], check=False, capture_output=True, text=True,
                           cwd=tmp_path)
     assert proc.returncode == 2 and f"job 1: {message}" in proc.stderr, proc.stderr
+
 
 def _geoid() -> Path:
     return Path(__file__).resolve().parents[1] / "data" / "egm96_15_nga1.gtx"
