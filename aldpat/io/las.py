@@ -60,6 +60,13 @@ RETURN_DIMENSIONS = ("return_number", "number_of_returns")
 #: LAS 1.2 point format -> the LAS 1.4 format with the same attributes (LAS 1.4 R15, section 2.6:
 #: 6 adds the time 0 lacks, 7 is 3's colour, 9 and 10 are 4's and 5's wave packets)
 FORMAT_14 = {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}
+#: point format -> what its records hold beyond the fields every format has, and its record's bytes
+#: (LAS 1.4 R15, tables 7-17)
+FORMAT_FIELDS = {0: (frozenset(), 20), 1: (frozenset({"time"}), 28), 2: (frozenset({"colour"}), 26),
+                 3: (frozenset({"time", "colour"}), 34), 4: (frozenset({"time", "wave"}), 57),
+                 5: (frozenset({"time", "colour", "wave"}), 63), 6: (frozenset({"time"}), 30),
+                 7: (frozenset({"time", "colour"}), 36), 8: (frozenset({"time", "colour", "infrared"}), 38),
+                 9: (frozenset({"time", "wave"}), 59), 10: (frozenset({"time", "colour", "infrared", "wave"}), 67)}
 #: degrees of one unit of a LAS 1.4 scan angle (formats 6-10); formats 0-5 store whole degrees
 SCAN_ANGLE_UNIT = 0.006
 
@@ -499,15 +506,66 @@ def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
     """A copy of ``header`` as LAS 1.4 with the point format of the same attributes
     (:data:`FORMAT_14`; formats 6-10 kept), extra-byte dimensions and VLRs kept: the LAS
     :class:`LasWriter` writes a format 0-5 source's points into converts each attribute."""
+    return with_point_format(header, FORMAT_14.get(header.point_format.id, header.point_format.id))
+
+
+def with_point_format(header: laspy.LasHeader, point_format_id: int) -> laspy.LasHeader:
+    """A copy of ``header`` of point format ``point_format_id`` (LAS 1.4 for formats 6-10, else
+    its own version, 1.2 at least), its extra-byte dimensions and VLRs kept."""
     import laspy
 
     header = copy.deepcopy(header)
-    old = header.point_format
-    point_format = laspy.PointFormat(FORMAT_14.get(old.id, old.id))
-    for dim in old.extra_dimensions:
+    point_format = laspy.PointFormat(point_format_id)
+    for dim in header.point_format.extra_dimensions:
         point_format.dimensions.append(dim)
-    header.set_version_and_point_format(laspy.header.Version(1, 4), point_format)
+    version = laspy.header.Version(1, 4) if point_format_id >= 6 \
+        else max(header.version, laspy.header.Version(1, 2), key=lambda v: (v.major, v.minor))
+    header.set_version_and_point_format(version, point_format)
     return header
+
+
+def holding_formats_of(header: laspy.LasHeader, readers: list[LasReader], crs: Any) -> laspy.LasHeader:
+    """``header`` (of the first of ``readers``), or a copy of it of the point format of fewest bytes
+    holding the attributes of every reader's points (:func:`holding_every`: formats 3 and 6 give
+    7) where their formats differ, as a user asks PDAL's writer or las2las for; made LAS 1.4, its
+    ``crs`` is then recorded as the WKT formats 6-10 take. Waveform packets point into their own
+    file's waveform data, which the output does not hold: inputs with them are refused
+    (:class:`DataError`) beside inputs of another format."""
+    kinds = sorted({r.header.point_format.id for r in readers})
+    if len(kinds) <= 1:
+        return header
+    waves = next((r for r in readers if "wave" in FORMAT_FIELDS[r.header.point_format.id][0]), None)
+    if waves is not None:
+        raise DataError(f"LAS inputs of point formats {kinds}: its point format {waves.header.point_format.id}'s "
+                        "waveform packets point into its own waveform data, which the output does not hold; give "
+                        "it with files of its own format only", path=waves.path)
+    merged = holding_every(kinds)
+    if merged == header.point_format.id:
+        return header
+    upgraded = merged >= 6 > header.point_format.id
+    header = with_point_format(header, merged)
+    if upgraded and crs is not None:
+        set_crs(header, crs)  # formats 6-10 record their CRS as WKT, not in GeoTIFF keys
+    return header
+
+
+def common_columns(readers: list[LasReader]) -> tuple[str, ...]:
+    """The first reader's columns that every reader has: of LAS files of point formats apart, the
+    time one lacks is left out of the table, and :class:`LasWriter` copies each point's own
+    record, every attribute, into the output's format."""
+    return tuple(n for n in readers[0].names if all(n in r.names for r in readers))
+
+
+def holding_every(point_formats: Iterable[int]) -> int:
+    """The point format of fewest bytes whose records hold every attribute of points of
+    ``point_formats``: one of LAS 1.2's (0-5) when all are, else one of LAS 1.4's (6-10), whose
+    classes, returns and scan angle hold a 0-5 point's (LAS 1.4 R15, section 2.6). Formats 3 and
+    6 give 7 (3's colour, 6's record), 1 and 2 give 3, as lasmerge and PDAL would be told to
+    write by hand."""
+    formats = set(point_formats)
+    wanted = frozenset().union(*(FORMAT_FIELDS[f][0] for f in formats))
+    family = range(6, 11) if max(formats) >= 6 else range(6)
+    return min((f for f in family if wanted <= FORMAT_FIELDS[f][0]), key=lambda f: FORMAT_FIELDS[f][1])
 
 
 #: the stored integers the first points of a file may take from its offset: half the 32-bit range,

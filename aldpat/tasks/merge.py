@@ -12,12 +12,15 @@ or the one beside the input listing it). A file that is neither is taken whole.
 
 Streamed chunk by chunk: memory does not depend on the inputs' size. A LAS/LAZ output takes the
 first LAS input's header (point format, offsets, VLRs) with the finest scales that keep every
-input's coordinates exact (a tile at 0.001 m after one at 0.01 m: 0.001 m); inputs stored at
+input's coordinates exact (a tile at 0.001 m after one at 0.01 m: 0.001 m) and, where the inputs'
+point formats differ, the format of fewest bytes holding the attributes of each (LAS 1.2's 3 and
+LAS 1.4's 6 give LAS 1.4's 7; PDAL and las2las write whatever format they are told); inputs stored at
 other scales or offsets are stored again at its (with a warning when that may round a
 coordinate: offsets apart by less than a step, or integers that cannot hold the finer scale over
 the merged extent), and the merged
 file has no ``tile_buffer`` dimension: it holds no buffer point. Inputs must share one CRS and
-their columns, whatever their order: LAS into LAS one point format and the same extra dimensions;
+their columns, whatever their order: LAS into LAS the same extra dimensions (and no waveform
+packets in a merge of formats apart: they point into each file's own waveform data);
 otherwise intensity in every input or in none (``--fields xyz`` merges x, y and z alone).
 """
 
@@ -32,7 +35,7 @@ import numpy as np
 
 from aldpat.core.crs import output_crs
 from aldpat.errors import DataError, UsageError
-from aldpat.io.las import BUFFER_DIMENSION, buffer_marks, exact_at, finest_scales
+from aldpat.io.las import BUFFER_DIMENSION, buffer_marks, common_columns, exact_at, finest_scales, holding_formats_of
 from aldpat.io.registry import EXTENSIONS, detect_format, holding_points, one_crs
 from aldpat.io.tile_project import find_tile_job, in_core
 from aldpat.jobs.context import JobContext
@@ -53,10 +56,11 @@ class MergeParams(FieldsOption, CrsOption):
                                     path=True, metavar="FILE", level="advanced")
 
 
-def _las_template(readers):
+def _las_template(readers, crs):
     """The output's LAS header: the first LAS input's, without the buffer mark, its scales made as
-    fine as the finest input's where that keeps every input exact (:func:`finest_scales`); None
-    for text inputs."""
+    fine as the finest input's where that keeps every input exact (:func:`finest_scales`), of the
+    point format that holds every input's attributes (:func:`holding_formats_of`); None for text
+    inputs. ``crs``: the inputs' one CRS, written as WKT when the format becomes one of LAS 1.4's."""
     first = next((r for r in readers if r.format == "las"), None)
     if first is None:
         return None
@@ -64,6 +68,7 @@ def _las_template(readers):
     if BUFFER_DIMENSION in header.point_format.extra_dimension_names:
         header.remove_extra_dim(BUFFER_DIMENSION)  # its Extra Bytes record too, else it describes bytes no point has
     header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
+    header = holding_formats_of(header, [r for r in readers if r.format == "las"], crs)
     return header
 
 
@@ -79,8 +84,8 @@ def _extra_kind(reader, name: str) -> str:
 
 def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
     """The columns of the merged file, the same whatever the order of the inputs: every LAS input's
-    (LAS inputs into a LAS file, of one point format, whose whole records are copied: their extra
-    dimensions must agree, but for the buffer mark), else x, y, z and, with ``--fields xyzi``, intensity when every input has it.
+    (LAS inputs into a LAS file, whose whole records are copied: their extra dimensions must
+    agree, but for the buffer mark), else x, y, z and, with ``--fields xyzi``, intensity when every input has it.
     Where some inputs hold a column the others lack, a :class:`DataError` names both: the first
     input's columns once decided, silently leaving out what later inputs held."""
     first = readers[0]
@@ -104,7 +109,7 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
                 if mine != their:
                     raise DataError(f"its extra dimension {name} is {their}, {mine} in {first.path.name}: LAS inputs "
                                     "merged into one LAS file hold the same extra dimensions", path=reader.path)
-        return first.names
+        return common_columns(readers)
     if fields == "xyzi":
         having = [r for r in readers if "intensity" in r.names]
         lacking = [r for r in readers if "intensity" not in r.names]
@@ -112,6 +117,18 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
             raise DataError(f"has no intensity column and {having[0].path.name} has one; use --fields xyz to "
                             "merge x, y and z alone", path=lacking[0].path)
     return point_names(first, fields)
+
+
+def _say_mixed_times(readers, template, warn) -> None:
+    """A warning where LAS inputs' GPS times are of two kinds (seconds of the GPS week, or adjusted
+    standard GPS time: the header's global encoding, LAS 1.4 R15 table 5): the merged file's header
+    says the first input's kind, and the others' times are copied as they are, not converted."""
+    kinds = {r.path.name: r.header.global_encoding.gps_time_type for r in readers
+             if r.format == "las" and "gps_time" in r.header.point_format.dimension_names}
+    if len(set(kinds.values())) > 1:
+        other = next(name for name, kind in kinds.items() if kind != template.global_encoding.gps_time_type)
+        warn(f"{other}: its GPS times are of another kind (week seconds or adjusted standard time) than the first "
+             "input's, which the merged header records; they are copied as they are, not converted")
 
 
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
@@ -129,19 +146,21 @@ def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> 
 def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None:
     out = merge_outputs(sources, params, ctx)[0].path
     readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "merged")
-    template = _las_template(readers) if detect_format(out) == "las" else None
+    shared = one_crs(readers, "merge")
+    template = _las_template(readers, shared) if detect_format(out) == "las" else None
     if template is not None:
-        kinds = {r.header.point_format.id for r in readers if r.format == "las"}
+        kinds = sorted({r.header.point_format.id for r in readers if r.format == "las"})
         if len(kinds) > 1:
-            raise DataError(f"LAS inputs of point formats {sorted(kinds)}: a LAS file holds one", path=sources[0])
+            ctx.note(f"LAS inputs of point formats {kinds} written as point format {template.point_format.id} (LAS "
+                     f"{template.version}), which holds the attributes of each")
     names = _merged_names(readers, params.fields, las_out=template is not None)
     if template is not None:
+        _say_mixed_times(readers, template, ctx.warn)
         for reader in readers:
             dropped = [n for n in reader.names if n not in names and n != BUFFER_DIMENSION]
             if reader.format == "las" and dropped:
                 ctx.warn(f"{reader.path.name}: its {', '.join(dropped)} are not written: the text inputs have none "
                          f"(x, y, z{' and intensity' if 'intensity' in names else ''} are)")
-    shared = one_crs(readers, "merge")
     kept = copies = 0
     rescaled = []
     with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, shared, out, ctx.warn),

@@ -38,6 +38,7 @@ import math
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,15 @@ from aldpat.io.atomic import (
     remove_stale_temporaries,
     temp_name,
 )
-from aldpat.io.las import BUFFER_DIMENSION, LasWriter, buffer_marks, exact_at, finest_scales
+from aldpat.io.las import (
+    BUFFER_DIMENSION,
+    LasWriter,
+    buffer_marks,
+    common_columns,
+    exact_at,
+    finest_scales,
+    holding_formats_of,
+)
 from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import one_crs, output_extension
 from aldpat.io.textfmt import BLOCK_ROWS, format_block
@@ -295,13 +304,17 @@ def tile_outputs(sources: list[Path], params: TileParams, ctx: JobContext) -> li
     return [Planned(folder / PARAMETER_FILE), Planned(folder / f"tile_*_*{glob_escape(ext)}", family=True)]
 
 
-def _tile_header(readers: list, ctx: JobContext):
+def _tile_header(readers: list, crs: Any, ctx: JobContext):
     """The tiles' LAS header: the first input's, at the finest scales that keep every LAS input's
     coordinates exact (:func:`aldpat.io.las.finest_scales`, as ``merge`` takes them). The first
     input's own scales rounded a second input stored at 0.001 m to its centimetres; an input that
     no such scale keeps exact is named in a warning."""
     header = copy.deepcopy(readers[0].header)
     header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
+    header = holding_formats_of(header, readers, crs)
+    if header.point_format.id != readers[0].header.point_format.id:
+        ctx.note(f"LAS inputs of point formats {sorted({r.header.point_format.id for r in readers})} tiled as point "
+                 f"format {header.point_format.id} (LAS {header.version}), which holds the attributes of each")
     rounded = [r.path.name for r in readers if r.format == "las" and not exact_at(r.header, header)]
     if rounded:
         ctx.warn(f"{', '.join(rounded)}: stored at scales or offsets that the tiles', from "
@@ -316,10 +329,10 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     folder = ctx.output_dir(sources[0])
     ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs
     if ext in (".las", ".laz"):
-        formats = {r.header.point_format.id for r in readers if r.format == "las"}
-        if len(formats) > 1 or (formats and any(r.format != "las" for r in readers)):
-            raise DataError("LAS/LAZ tiles need inputs of one point format", path=sources[0])
-        names = first.names
+        if any(r.format != "las" for r in readers):
+            raise DataError("is text: LAS/LAZ tiles take LAS/LAZ inputs only (--out-format text tiles them all as text)",
+                            path=next(r.path for r in readers if r.format != "las"))
+        names = common_columns(readers)
     else:
         names = point_names(first, params.fields)
         for reader in readers[1:]:
@@ -341,7 +354,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     check_disk(sum(_tiled_bytes(r, ext) for r in readers) * layout.copies, folder,
                f"tiling {len(readers)} input(s) with {params.buffer:g} m buffers ({layout.copies:.1f} copies of "
                "each point)", "give --odir on a disk with room or a smaller --buffer", path=first.path)
-    template = _tile_header(readers, ctx) if first.format == "las" else None
+    template = _tile_header(readers, shared, ctx) if first.format == "las" else None
     sink = TileSink(folder, ext, names + ((BUFFER_DIMENSION,) if ext in (".las", ".laz") else ()),
                     delimiter=ctx.delimiter, overwrite=ctx.overwrite, append=params.append, template=template,
                     crs=output_crs(params.crs, shared, folder / f"tile_*{ext}", ctx.warn))

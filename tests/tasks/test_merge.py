@@ -229,3 +229,106 @@ def test_one_product_of_every_input_is_not_made_without_one_of_them(tmp_path, ta
     assert "nosuch.laz: no such file" in done.stderr and not (tmp_path / product).exists()
     aldpat(task, "a.laz", *args, cwd=tmp_path).ok()  # once every input is there, as before
     assert (tmp_path / product).exists()
+
+
+def _vendor_tile(path: Path, point_format: int, keep: np.ndarray, classes: int, seed: int) -> laspy.LasData:
+    """STRIP's points ``keep`` as a vendor's file of ``point_format`` (LAS 1.2 for 0-5, 1.4 for
+    6-10): a noise class, withheld points, scan angles, times, and colour where the format has it."""
+    rng = np.random.default_rng(seed)
+    source = laspy.read(STRIP)
+    las = laspy.convert(source, point_format_id=point_format, file_version="1.4" if point_format >= 6 else "1.2")
+    las.points = las.points[keep]
+    n = len(las.points)
+    las.classification = np.where(rng.random(n) < 0.1, classes, las.classification)
+    las.withheld = rng.random(n) < 0.05
+    angles = rng.integers(-20, 21, n)
+    if point_format >= 6:
+        las.scan_angle = np.round(angles / 0.006).astype(np.int16)
+        las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD  # LAS 1.4 R15, table 5
+    else:
+        las.scan_angle_rank = angles.astype(np.int8)
+    las.gps_time = rng.uniform(1e5, 2e5, n)
+    if "red" in las.point_format.dimension_names:
+        las.red, las.green, las.blue = (rng.integers(0, 65536, n, dtype=np.uint16) for _ in range(3))
+    las.header.add_crs(source.header.parse_crs())
+    las.write(path)
+    return laspy.read(path)
+
+
+def test_las_12_and_14_tiles_merge_into_the_format_holding_both(tmp_path):
+    """A vendor's LAS 1.2 point format 3 tile and a LAS 1.4 point format 6 tile (a class above
+    31) were refused ("a LAS file holds one"). They merge into LAS 1.4 format 7 -- 3's colour in
+    6's record --, every point with its class, flags, scan angle, time and colour, the CRS as the
+    WKT a format 6-10 file records; in either order. Waveform packets cannot be merged across
+    formats: they point into their own file's waveform data."""
+    from tests.cli.fresh import aldpat, leftovers
+
+    n = laspy.open(STRIP).header.point_count
+    old = _vendor_tile(tmp_path / "old.las", 3, np.arange(0, n // 2), 7, 1)
+    new = _vendor_tile(tmp_path / "new.laz", 6, np.arange(n // 2, n), 40, 2)
+    for order in (["old.las", "new.laz"], ["new.laz", "old.las"]):
+        done = aldpat("merge", *order, "-o", "m.laz", "--overwrite", "-v", cwd=tmp_path).ok()
+        assert f"{order[1]}: its GPS times are of another kind" in done.stderr  # week seconds and standard time
+        merged = laspy.read(tmp_path / "m.laz")
+        assert (merged.header.version.major, merged.header.version.minor, merged.point_format.id) == (1, 4, 7)
+        assert merged.header.global_encoding.wkt and merged.header.parse_crs().to_epsg() == 32632
+        assert merged.header.vlrs.get("GeoKeyDirectoryVlr") == []  # no GeoTIFF keys beside the WKT
+        assert merged.header.point_count == n
+        log = (tmp_path / "m.log").read_text()
+        assert "point formats [3, 6] written as point format 7 (LAS 1.4)" in log
+
+        def rows(las, colour: bool):
+            names = ["X", "Y", "Z", "intensity", "return_number", "number_of_returns", "classification",
+                     "withheld", "gps_time"]
+            columns = [np.asarray(las[name]) for name in names]
+            degrees = las.scan_angle_rank if "scan_angle_rank" in las.point_format.dimension_names \
+                else np.round(las.scan_angle * 0.006)
+            columns.append(np.asarray(degrees, np.int64))
+            columns += [np.asarray(las[c]) if colour else np.zeros(len(las.points), np.uint16)
+                        for c in ("red", "green", "blue")]
+            return np.sort(np.rec.fromarrays(columns))
+
+        assert np.array_equal(rows(merged, True), np.sort(np.concatenate([rows(old, True), rows(new, False)])))
+        assert {7, 40} <= set(np.unique(merged.classification).tolist())
+
+    one = laspy.convert(laspy.read(STRIP), point_format_id=1)
+    one.write(tmp_path / "one.las")
+    wave = laspy.convert(laspy.read(STRIP), point_format_id=4)
+    wave.write(tmp_path / "wave.las")
+    done = aldpat("merge", "one.las", "wave.las", "-o", "w.las", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    assert "wave.las: LAS inputs of point formats [1, 4]: its point format 4's waveform packets" in done.stderr
+    assert not (tmp_path / "w.las").exists()
+    assert leftovers(tmp_path) == []
+
+
+def test_a_project_of_las_12_and_14_strips_tiles_filters_and_merges_back(tmp_path):
+    """Tiling refused strips of two point formats ("LAS/LAZ tiles need inputs of one point
+    format"), the first step of the tile -> filter -> merge workflow on a project flown twice.
+    The tiles take the format holding both (3 and 6: 7), the filter keeps it, and the merge
+    gives every point of both strips once, its time and colour kept; a text strip among LAS
+    ones is refused, naming it."""
+    from tests.cli.fresh import aldpat
+
+    n = laspy.open(STRIP).header.point_count
+    old = _vendor_tile(tmp_path / "old.las", 3, np.arange(0, n, 2), 7, 3)
+    new = _vendor_tile(tmp_path / "new.laz", 6, np.arange(1, n, 2), 18, 4)
+    done = aldpat("tile", "old.las", "new.laz", "--width", "150", "--height", "150", "--buffer", "20",
+                  "--odir", "tiles", "-v", cwd=tmp_path).ok()
+    assert "point formats [3, 6] tiled as point format 7 (LAS 1.4)" in done.stderr
+    tiles = sorted((tmp_path / "tiles").glob("tile_*.las"))
+    assert len(tiles) > 1 and {laspy.open(t).header.point_format.id for t in tiles} == {7}
+    aldpat("filter", "pm", "tiles", "--result", "classified", "--odir", "ground", cwd=tmp_path).ok()
+    aldpat("merge", "ground", "-o", "site.laz", cwd=tmp_path).ok()
+    site = laspy.read(tmp_path / "site.laz")
+    assert site.point_format.id == 7 and site.header.point_count == n
+    key = np.sort(np.rec.fromarrays([site.X, site.Y, site.Z, site.gps_time, site.red]))
+    held = np.sort(np.concatenate([np.rec.fromarrays([old.X, old.Y, old.Z, old.gps_time, old.red]),
+                                   np.rec.fromarrays([new.X, new.Y, new.Z, new.gps_time,
+                                                      np.zeros(len(new.points), np.uint16)])]))
+    assert np.array_equal(key, held)  # every point once, its time and colour (none in format 6) kept
+    assert {7, 18} <= set(np.unique(site.classification).tolist())  # the vendor's noise kept as noise
+
+    (tmp_path / "strip.txt").write_text("513000.5 5402000.5 10.25\n")
+    done = aldpat("tile", "old.las", "strip.txt", "--odir", "mixed", cwd=tmp_path)
+    assert done.returncode == 1 and "strip.txt: is text: LAS/LAZ tiles take LAS/LAZ inputs only" in done.stderr
