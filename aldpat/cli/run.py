@@ -44,7 +44,7 @@ def _parse_only(values: tuple[str, ...]) -> set[int] | None:
 @click.option("--only", multiple=True, metavar="N[,N...]", help="run only these jobs (numbers from 1)")
 @click.option("--set", "overrides", multiple=True, metavar="job.N.key=VALUE",
               help="override a key of job N (or settings.key=VALUE) for this run")
-@click.option("-j", "--jobs", type=click.IntRange(min=0), default=None,
+@click.option("-j", "--jobs", type=int, default=None,
               help="worker processes per job (0 = all cores), overriding the worksheet")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="run the jobs on this Dask cluster (tcp://host:8786, or local:N); a worksheet may name an "
@@ -67,6 +67,8 @@ def run_command(ctx: click.Context, worksheet: str, resume: bool, dry_run: bool,
         ws = load_worksheet(worksheet, overrides, scheduler=scheduler)
         selected = _parse_only(only)
         report = report or ws.wants_report
+        if jobs is not None and jobs < 0:  # in the words a task's own -j is refused in
+            raise UsageError(f"jobs: {jobs} is out of range (must be >= 0)")
         if selected and max(selected) > len(ws.jobs):
             raise UsageError(f"--only {max(selected)}: the worksheet has {len(ws.jobs)} jobs")
     except UsageError as exc:

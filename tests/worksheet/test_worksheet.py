@@ -122,8 +122,10 @@ def test_only_set_and_dry_run(project):
     (["--only", "\u00b2"], "expected job numbers such as 2 or 2,3"),  # a digit to str.isdigit, not to int
     (["--set", "job.\u00b2.cell=2"], "expected job.N.key=value"),
     (["--set", "job.0.cell=2"], "--set job.0: the worksheet has 2 jobs"),
+    # in the words a task's own -j is refused in (click's three-line usage block before)
+    (["-j", "-1"], "aldpat: error: jobs: -1 is out of range (must be >= 0)"),
 ])
-def test_job_numbers_that_name_no_job_are_refused_in_one_line(project, args, message):
+def test_run_options_naming_no_job_or_a_negative_count_are_refused_in_one_line(project, args, message):
     p = sheet(project, CONVERT_THEN_INFO)
     proc = subprocess.run(ALDPAT + ["run", str(p), *args], check=False, capture_output=True, text=True)
     assert proc.returncode == 2 and message in proc.stderr, proc.stderr
