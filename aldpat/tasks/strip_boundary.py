@@ -37,12 +37,33 @@ class StripBoundaryParams(CellHeightOption, OriginOption, CrsOption):
 
 
 def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
-    """The closed boundary ring of a strip (columns x y z intensity) and the scan used."""
+    """The closed boundary ring of a strip (columns x y z intensity) and the scan used.
+
+    Raises :class:`DataError` where the occupied cells make no polygon (fewer than three
+    boundary points): saying whether the strip is narrower than a cell -- its points on one line,
+    a profile, which no cell size gives an area -- or only sparse for the cells."""
     scan = BoundaryScan(*params.cell_shape(), params.origin)
     for chunk in reader.chunks():
         intensity = chunk["intensity"] if "intensity" in chunk else None  # noqa: SIM401  (a PointTable, no .get)
         scan.add(chunk.x, chunk.y, chunk.z, intensity)
-    return scan.ring(params.scan), scan.direction(params.scan)
+    ring = scan.ring(params.scan)
+    corners = len(ring["x"]) - 1
+    if corners < 3:
+        found = f"{corners} boundary point{'s' if corners != 1 else ''}"
+        width, height = (float(hi - lo) for lo, hi in zip(scan.lo, scan.hi, strict=True))
+        cell_w, cell_h = params.cell_shape()
+        if max(width, height) == 0.0:
+            why = "its points lie at one position"
+        elif min(width, height) == 0.0:
+            why = (f"its points lie on one line ({width:g} m by {height:g} m): a profile has no area, whatever the "
+                   "cells")
+        elif width < cell_w or height < cell_h:
+            why = (f"the strip, {width:g} m by {height:g} m, is narrower than one {cell_w:g} x {cell_h:g} m cell; use "
+                   "smaller cells")
+        else:
+            why = "use smaller cells"
+        raise DataError(f"too few occupied cells for a boundary polygon ({found}): {why}", path=reader.path)
+    return ring, scan.direction(params.scan)
 
 
 def strip_boundary_outputs(source: Path, params: StripBoundaryParams, ctx: JobContext) -> list[Planned]:
@@ -52,9 +73,6 @@ def strip_boundary_outputs(source: Path, params: StripBoundaryParams, ctx: JobCo
 def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     ring, direction = boundary_of(reader, params)
-    if len(ring["x"]) < 4:
-        raise DataError(f"too few occupied cells for a boundary ({len(ring['x']) - 1} boundary points); "
-                        "use smaller cells", path=source)
     names = ("x", "y", "z", "intensity")
     ring["intensity"] = np.rint(ring["intensity"]).astype(np.int64)
     out = ctx.outputs_for(source)[0].path

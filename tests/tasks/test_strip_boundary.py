@@ -53,3 +53,26 @@ def test_too_few_cells_is_reported(tmp_path):
     np.savetxt(src, [[1.0, 1.0, 1.0], [1.1, 1.1, 1.0]], fmt="%.2f")
     report = get_task("strip-boundary")([src], cell=5.0)
     assert report.exit_code == 1 and "too few occupied cells" in report.results[0].error
+
+
+def test_a_profile_or_a_strip_narrower_than_a_cell_says_which(tmp_path):
+    """Points along one line (a profile) and a strip narrower than a cell were both told "use
+    smaller cells": no cell size gives a profile an area. Each now says which it is, in a fresh
+    process; the narrow strip at smaller cells has its ring."""
+    from tests.cli.fresh import aldpat
+
+    x = np.arange(0.0, 100.0, 0.5)
+    np.savetxt(tmp_path / "profile.txt", np.c_[x, np.full_like(x, 10.0), np.ones_like(x)], fmt="%.2f")
+    np.savetxt(tmp_path / "narrow.txt", np.c_[x, 10.0 + (x % 2.0), np.ones_like(x)], fmt="%.2f")
+    np.savetxt(tmp_path / "point.txt", [[5.0, 5.0, 1.0]], fmt="%.2f")
+    for name, why in (("profile", ("(2 boundary points): its points lie on one line (99.5 m by 0 m): a profile has "
+                                  "no area, whatever the cells")),
+                      ("narrow", ("(2 boundary points): the strip, 99.5 m by 1.5 m, is narrower than one 5 x 5 m "
+                                 "cell; use smaller cells")),
+                      ("point", "(1 boundary point): its points lie at one position")):
+        done = aldpat("strip-boundary", f"{name}.txt", cwd=tmp_path)
+        assert done.returncode == 1 and f"{name}.txt: too few occupied cells for a boundary polygon {why}" \
+            in done.stderr, done.stderr
+        assert not (tmp_path / f"{name}_Bound.txt").exists()
+    aldpat("strip-boundary", "narrow.txt", "--cell", "0.5", cwd=tmp_path).ok()
+    assert len(np.loadtxt(tmp_path / "narrow_Bound.txt")) >= 4
