@@ -30,7 +30,6 @@ A point the geoid grid does not cover raises :class:`~aldpat.errors.DataError` n
 from __future__ import annotations
 
 import logging
-import os
 import struct
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -40,6 +39,7 @@ from numpy.typing import ArrayLike
 
 from aldpat._lazy import lazy_import
 from aldpat.core.crs import compound, horizontal_part, parse_crs, vertical_part
+from aldpat.core.paths import expand_home
 from aldpat.errors import DataError, InputMissingError, UsageError
 
 if TYPE_CHECKING:
@@ -157,9 +157,7 @@ def geoid_transformer(geoid: str | Path) -> tuple[pyproj.Transformer, str]:
     """
     local_grids_only()
     text = str(geoid)
-    # os.path's expansion leaves a user this machine does not know as written, as a shell does
-    # (Path.expanduser raises for one)
-    path = Path(os.path.expanduser(text))
+    path = Path(expand_home(text))
     if path.is_file():
         if path.suffix.lower() == ".gtx":
             check_gtx_header(path)

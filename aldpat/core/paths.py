@@ -43,3 +43,12 @@ def names_folder(text: str) -> bool:
     a folder: one that exists, or a name ending in a separator, ``.`` or ``..``."""
     text = str(text).strip()
     return text.endswith(("/", "\\")) or os.path.basename(text) in (".", "..") or os.path.isdir(text)
+
+
+def expand_home(text: str) -> str:
+    """``text`` with a leading ``~`` or ``~user`` the home folder, as a shell expands it on a command
+    line; a ``~user`` this machine does not know stays as written, as a shell leaves it
+    (``Path.expanduser`` raises RuntimeError for one: a traceback for a typo). ``$VAR`` is left as
+    it is: what a worksheet or a parameter file names may not depend on the environment of whoever
+    runs it."""
+    return os.path.expanduser(text)

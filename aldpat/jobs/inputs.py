@@ -11,11 +11,10 @@ or more.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable
 from pathlib import Path
 
-from aldpat.core.paths import not_local
+from aldpat.core.paths import expand_home, not_local
 from aldpat.errors import SHOWN, AldpatError, InputFormatError, InputMissingError, NoSuchFile, shown
 from aldpat.io.atomic import TMP_MARK
 from aldpat.io.registry import EXTENSIONS
@@ -224,8 +223,7 @@ def _folder_files(folder: Path) -> tuple[list[Path], list[Path]]:
 
 
 def _rooted(item: str, base: Path | None) -> Path:
-    """``item`` with a leading ``~`` the home folder, from ``base`` when relative. ``~user`` of a
-    user this machine does not know stays as written, as a shell leaves it (``Path.expanduser``
-    raises RuntimeError for it: a traceback for a typo)."""
-    p = Path(os.path.expanduser(item))
+    """``item`` with a leading ``~`` the home folder (:func:`aldpat.core.paths.expand_home`), from
+    ``base`` when relative."""
+    p = Path(expand_home(item))
     return p if p.is_absolute() or base is None else base / p

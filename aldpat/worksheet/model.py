@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from aldpat.core.paths import expand_home
 from aldpat.errors import ParamError, UsageError, shown
 from aldpat.io.sidefiles import KEEP, other_names
 from aldpat.io.toml import load_toml
@@ -125,8 +126,7 @@ def _rebase(value: Any, folder: Path) -> Any:
         return value
     at = "@" if value.startswith("@") else ""
     path = value[len(at):]
-    if path.startswith("~"):
-        path = os.path.expanduser(path)
+    path = expand_home(path)
     if Path(path).is_absolute():
         return at + path
     return at + str(folder / path)
