@@ -549,6 +549,43 @@ def holding_formats_of(header: laspy.LasHeader, readers: list[LasReader], crs: A
     return header
 
 
+def same_extra_dimensions(readers: list[LasReader], doing: str) -> None:
+    """Refuse (:class:`DataError`, naming both files) LAS ``readers`` whose extra-byte dimensions
+    differ from the first's -- in name, or in kind -- but for the buffer mark: their records go
+    whole into one header's format (``doing``: "merged into one LAS file"), where a dimension one
+    lacks was left out of the others' points, or made up as zeros for its own, and a later one's
+    float32 0.75 was written into the first's int16 as 0 -- without a word."""
+    first = readers[0]
+
+    def extra(reader: LasReader) -> set[str]:
+        return set(reader.header.point_format.extra_dimension_names) - {BUFFER_DIMENSION}
+
+    own = extra(first)
+    for reader in readers[1:]:
+        theirs = extra(reader)
+        if theirs != own:
+            more, fewer = sorted(theirs - own), sorted(own - theirs)
+            differ = "; ".join(part for part in (f"has {', '.join(more)}" if more else "",
+                                                  f"lacks {', '.join(fewer)}" if fewer else "") if part)
+            raise DataError(f"{differ} (extra bytes), unlike {first.path.name}: LAS inputs {doing} hold the same "
+                            "extra dimensions", path=reader.path)
+        for name in sorted(own):
+            mine, their = _extra_kind(first, name), _extra_kind(reader, name)
+            if mine != their:
+                raise DataError(f"its extra dimension {name} is {their}, {mine} in {first.path.name}: LAS inputs "
+                                f"{doing} hold the same extra dimensions", path=reader.path)
+
+
+def _extra_kind(reader: LasReader, name: str) -> str:
+    """An extra dimension's type as a message says it: ``float32``, ``3 x float64``, ``int16
+    scaled 0.01``."""
+    dim = reader.header.point_format.dimension_by_name(name)
+    kind = f"{dim.num_elements} x {dim.dtype.base}" if dim.num_elements > 1 else str(dim.dtype)
+    if dim.scales is not None or dim.offsets is not None:
+        kind += f" scaled {np.asarray(dim.scales).tolist()} offset {np.asarray(dim.offsets).tolist()}"
+    return kind
+
+
 def common_columns(readers: list[LasReader]) -> tuple[str, ...]:
     """The first reader's columns that every reader has: of LAS files of point formats apart, the
     time one lacks is left out of the table, and :class:`LasWriter` copies each point's own

@@ -35,7 +35,15 @@ import numpy as np
 
 from aldpat.core.crs import output_crs
 from aldpat.errors import DataError, UsageError
-from aldpat.io.las import BUFFER_DIMENSION, buffer_marks, common_columns, exact_at, finest_scales, holding_formats_of
+from aldpat.io.las import (
+    BUFFER_DIMENSION,
+    buffer_marks,
+    common_columns,
+    exact_at,
+    finest_scales,
+    holding_formats_of,
+    same_extra_dimensions,
+)
 from aldpat.io.registry import EXTENSIONS, detect_format, holding_points, one_crs
 from aldpat.io.tile_project import find_tile_job, in_core
 from aldpat.jobs.context import JobContext
@@ -72,16 +80,6 @@ def _las_template(readers, crs):
     return header
 
 
-def _extra_kind(reader, name: str) -> str:
-    """An extra dimension's type as a message says it: ``float32``, ``3 x float64``, ``int16
-    scaled 0.01``."""
-    dim = reader.header.point_format.dimension_by_name(name)
-    kind = f"{dim.num_elements} x {dim.dtype.base}" if dim.num_elements > 1 else str(dim.dtype)
-    if dim.scales is not None or dim.offsets is not None:
-        kind += f" scaled {np.asarray(dim.scales).tolist()} offset {np.asarray(dim.offsets).tolist()}"
-    return kind
-
-
 def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
     """The columns of the merged file, the same whatever the order of the inputs: every LAS input's
     (LAS inputs into a LAS file, whose whole records are copied: their extra dimensions must
@@ -90,25 +88,7 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
     input's columns once decided, silently leaving out what later inputs held."""
     first = readers[0]
     if las_out and all(r.format == "las" for r in readers):
-        def extra(reader) -> set[str]:
-            return set(reader.header.point_format.extra_dimension_names) - {BUFFER_DIMENSION}
-
-        own = extra(first)
-        for reader in readers[1:]:
-            theirs = extra(reader)
-            if theirs != own:
-                more, fewer = sorted(theirs - own), sorted(own - theirs)
-                differ = "; ".join(part for part in (f"has {', '.join(more)}" if more else "",
-                                                      f"lacks {', '.join(fewer)}" if fewer else "") if part)
-                raise DataError(f"{differ} (extra bytes), unlike {first.path.name}: LAS inputs merged into one LAS "
-                                "file hold the same extra dimensions", path=reader.path)
-            # of the same kind too: the first input's decided, and a later one's float32 0.75 was
-            # written into an int16 as 0, its int16 30000 into an int8 wrapped, without a word
-            for name in sorted(own):
-                mine, their = _extra_kind(first, name), _extra_kind(reader, name)
-                if mine != their:
-                    raise DataError(f"its extra dimension {name} is {their}, {mine} in {first.path.name}: LAS inputs "
-                                    "merged into one LAS file hold the same extra dimensions", path=reader.path)
+        same_extra_dimensions(readers, "merged into one LAS file")
         return common_columns(readers)
     if fields == "xyzi":
         having = [r for r in readers if "intensity" in r.names]

@@ -61,6 +61,7 @@ from aldpat.io.las import (
     exact_at,
     finest_scales,
     holding_formats_of,
+    same_extra_dimensions,
 )
 from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import one_crs, output_extension
@@ -332,6 +333,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
         if any(r.format != "las" for r in readers):
             raise DataError("is text: LAS/LAZ tiles take LAS/LAZ inputs only (--out-format text tiles them all as text)",
                             path=next(r.path for r in readers if r.format != "las"))
+        same_extra_dimensions(readers, "tiled together")
         names = common_columns(readers)
     else:
         names = point_names(first, params.fields)

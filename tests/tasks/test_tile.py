@@ -248,6 +248,32 @@ def test_las_inputs_at_finer_scales_are_tiled_exactly(tmp_path):
         assert all((round(float(a), 4), round(float(b), 4)) in held for a, b in zip(source.x, source.y, strict=True))
 
 
+def test_las_inputs_of_other_extra_dimensions_are_not_tiled_together(tmp_path):
+    """The tiles took the first input's extra dimensions: a second input's height_above_ground was
+    left out without a word, and, the other way round, the plain input's points were given
+    height_above_ground 0 -- a value no one measured. Both orders are refused, naming the files,
+    as ``merge`` refuses them, in a fresh process, and no tile is written."""
+    import laspy
+
+    from tests.cli.fresh import aldpat
+
+    strip = Path(__file__).resolve().parents[1] / "data" / "fsite5_strip.laz"
+    laspy.read(strip).write(tmp_path / "plain.las")
+    extra = laspy.read(strip)
+    extra.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.float32))
+    extra.height_above_ground = np.full(len(extra.points), 0.75, np.float32)
+    extra.X = extra.X + 30000  # beside the other strip
+    extra.write(tmp_path / "extra.las")
+    for order, why in ((["plain.las", "extra.las"], ("extra.las: has height_above_ground (extra bytes), unlike "
+                                                    "plain.las")),
+                       (["extra.las", "plain.las"], ("plain.las: lacks height_above_ground (extra bytes), unlike "
+                                                    "extra.las"))):
+        done = aldpat("tile", *order, "--width", "200", "--height", "200", "--odir", "tiles", cwd=tmp_path)
+        assert done.returncode == 1, done.stderr
+        assert f"{why}: LAS inputs tiled together hold the same extra dimensions" in done.stderr
+        assert not (tmp_path / "tiles").exists()
+
+
 def test_inputs_of_two_crss_are_not_tiled_together(tmp_path):
     """``tile utm.laz swiss.laz`` wrote tiles under the first input's CRS holding the second's
     coordinates too, of another system; as ``merge`` refuses such inputs, ``tile`` does, writing
