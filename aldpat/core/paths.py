@@ -5,6 +5,7 @@ what it names may not reach the network or read through archives and raw-file dr
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 
@@ -52,3 +53,37 @@ def expand_home(text: str) -> str:
     it is: what a worksheet or a parameter file names may not depend on the environment of whoever
     runs it."""
     return os.path.expanduser(text)
+
+
+@functools.lru_cache(maxsize=1024)
+def folds_case(folder: str) -> bool:
+    """Whether names differing only in case name one file in ``folder`` (macOS's APFS and HFS+ and
+    Windows' NTFS and FAT by default; Linux file systems do not), found without writing anything:
+    a name with letters in the nearest folder that exists -- one of its entries, or else its own
+    name in its parent -- is looked up with its case swapped. False where nothing tells (no name
+    with letters, or nothing readable)."""
+    at = os.path.abspath(folder)
+    while not os.path.isdir(at) and os.path.dirname(at) != at:
+        at = os.path.dirname(at)
+    try:
+        with os.scandir(at) as entries:
+            for k, entry in enumerate(entries):
+                if k >= 64:
+                    break
+                if entry.name.swapcase() != entry.name:
+                    return _same_file(entry.path, os.path.join(at, entry.name.swapcase()))
+    except OSError:
+        pass
+    while os.path.dirname(at) != at:
+        name = os.path.basename(at)
+        if name.swapcase() != name:
+            return _same_file(at, os.path.join(os.path.dirname(at), name.swapcase()))
+        at = os.path.dirname(at)
+    return False
+
+
+def _same_file(path: str, other: str) -> bool:
+    try:
+        return os.path.samefile(path, other)
+    except OSError:
+        return False

@@ -24,6 +24,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from aldpat.core.paths import folds_case
 from aldpat.errors import UsageError
 from aldpat.io.atomic import not_replaceable
 from aldpat.jobs.context import JobContext, JobResult
@@ -161,6 +162,7 @@ def check_outputs(task: Task, sources: list[Path], run: ResolvedRun) -> list[Pla
 def check_planned(planned: list[Planned], reads: Reads, *, where: str = "") -> None:
     """The checks of :func:`check_outputs` on a plan, against the files ``reads``."""
     mine: dict[str, Planned] = {}
+    folded: dict[str, str] = {}  # casefolded path -> the path of the first output so named
     for out in planned:
         victim = reads.replaced_by(out)
         if victim is not None:
@@ -172,11 +174,26 @@ def check_planned(planned: list[Planned], reads: Reads, *, where: str = "") -> N
         if kind is not None:
             raise UsageError(f"{where}output {out.path} is {kind}, not a file: no output replaces one")
         key = real(out.path)
-        other = mine.get(key)
+        twin = case_twin(key, folded)
+        other = mine.get(key if twin is None else twin)
         if other is not None and not (other.source is None and out.source is None):
-            raise UsageError(f"{where}{_from(other)} and {_from(out)} would both write {out.path}; {out.rename} "
-                             "so that each has its own name")
+            told = "" if twin is None else f" (and {other.path}: names apart in case only are one file there)"
+            raise UsageError(f"{where}{_from(other)} and {_from(out)} would both write {out.path}{told}; "
+                             f"{out.rename} so that each has its own name")
         mine[key] = out
+        folded.setdefault(key.casefold(), key)
+
+
+def case_twin(key: str, folded: dict[str, str]) -> str | None:
+    """The path in ``folded`` (casefolded path -> path) naming the file ``key`` names, another
+    spelling of it in case, where its folder's file system folds case (:func:`folds_case`:
+    ``A_pm.txt`` and ``a_pm.txt`` from ``d1/A.txt`` and ``d2/a.txt`` on macOS or Windows are
+    one file, the second would replace the first); else None. Only a name that matches another
+    but for case is probed."""
+    other = folded.get(key.casefold())
+    if other is None or other == key:
+        return None
+    return other if folds_case(os.path.dirname(key)) else None
 
 
 def _from(out: Planned) -> str:

@@ -23,7 +23,15 @@ from aldpat.io.sidefiles import KEEP, other_names
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.inputs import expand_inputs
-from aldpat.jobs.outputs import Reads, check_outputs, forget_folders, literal_prefix, path_parameter_files, real
+from aldpat.jobs.outputs import (
+    Reads,
+    case_twin,
+    check_outputs,
+    forget_folders,
+    literal_prefix,
+    path_parameter_files,
+    real,
+)
 from aldpat.jobs.registry import get_task
 from aldpat.jobs.resolve import ResolvedRun, load_params_file, resolve_run
 from aldpat.jobs.task import Planned, Task
@@ -264,6 +272,7 @@ class _Planned:
 
     def __init__(self) -> None:
         self.exact: dict[str, tuple[int, Planned]] = {}  # realpath -> (job, output)
+        self.folded: dict[str, str] = {}  # casefolded realpath -> the realpath of the first so named
         self.names: dict[str, list[str]] = {}  # folder -> sorted names of exact outputs
         self.families: dict[str, list[tuple[int, Planned]]] = {}  # folder -> (job, family)
         self.by_folder: dict[str, set[int]] = {}  # folder -> jobs writing there
@@ -288,6 +297,14 @@ class _Planned:
             if key not in self.exact:
                 bisect.insort(self.names.setdefault(folder, []), os.path.basename(key))
             self.exact[key] = (number, out)
+            self.folded.setdefault(key.casefold(), key)
+
+    def writer(self, out: Planned) -> tuple[int, Planned] | None:
+        """The job and its output that write the file ``out`` would write: by its path, or by
+        another spelling in case where the folder's file system folds case (:func:`case_twin`)."""
+        key = real(out.path)
+        twin = case_twin(key, self.folded)
+        return self.exact.get(key if twin is None else twin)
 
     def writers_of(self, item: str) -> tuple[set[int], list[Path]]:
         """The jobs that write what the input ``item`` (a file, a folder or a pattern) names, and
@@ -390,8 +407,9 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
                 raise UsageError(f"{where}output {out.path} would replace {victim}, which job {reader} reads; give "
                                  "the job another --odir or --suffix", path=wpath)
             if not out.family and not getattr(job.run.params.values, "append", False):
-                other = planned.exact.get(real(out.path))
+                other = planned.writer(out)
                 if other is not None and other[0] != job.number:
-                    raise UsageError(f"{where}output {out.path} is also written by job {other[0]}; give the jobs "
-                                     "their own --odir or --suffix", path=wpath)
+                    spelt = "" if other[1].path.name == out.path.name else f" (as {other[1].path.name})"
+                    raise UsageError(f"{where}output {out.path} is also written by job {other[0]}{spelt}; give the "
+                                     "jobs their own --odir or --suffix", path=wpath)
         planned.add(job.number, job.planned, job.output_places(), unnamed)

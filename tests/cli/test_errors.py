@@ -254,3 +254,34 @@ def test_unknown_command_suggests(tmp_path):
 def test_a_missing_required_option_is_a_usage_error(samp24, args, message):
     proc = run(*[a.format(samp24=samp24) for a in args])
     assert proc.returncode == 2 and message in proc.stderr
+
+
+def test_outputs_apart_in_case_only_are_one_file_where_the_folder_folds_case(tmp_path, samp24, monkeypatch):
+    """``filter pm d1/A.txt d2/a.txt --odir o`` writes A_pm.txt and a_pm.txt: two files here, one
+    on macOS's or Windows' file systems, where the second replaced the first without a word. A run
+    and a worksheet are refused where the output folder folds case (found by looking a name up
+    with its case swapped: nothing is written to find out), and run as before where it does not."""
+    from aldpat.core import paths
+    from aldpat.errors import UsageError
+    from aldpat.jobs import outputs
+    from aldpat.tasks import get_task
+    from aldpat.worksheet.model import load_worksheet
+    from tests.cli.fresh import aldpat
+
+    for folder, name in (("d1", "A.txt"), ("d2", "a.txt")):
+        (tmp_path / folder).mkdir()
+        shutil.copy(samp24, tmp_path / folder / name)
+    assert not paths.folds_case(str(tmp_path))  # this machine's file system keeps case apart
+    aldpat("filter", "pm", "d1/A.txt", "d2/a.txt", "--odir", "o", cwd=tmp_path).ok()
+    assert sorted(p.name for p in (tmp_path / "o").glob("*_pm.txt")) == ["A_pm.txt", "a_pm.txt"]
+
+    monkeypatch.setattr(outputs, "folds_case", lambda folder: True)  # as on macOS or Windows
+    with pytest.raises(UsageError, match=r"A\.txt and .*a\.txt would both write .*a_pm\.txt \(and .*A_pm\.txt: "
+                                         r"names apart in case only are one file there\)"):
+        get_task("filter pm")([tmp_path / "d1" / "A.txt", tmp_path / "d2" / "a.txt"], odir=str(tmp_path / "folded"))
+    assert not (tmp_path / "folded").exists()
+    sheet = tmp_path / "jobs.toml"
+    sheet.write_text('[[job]]\ntask = "filter pm"\ninputs = ["d1/A.txt"]\nodir = "w"\n\n'
+                     '[[job]]\ntask = "filter pm"\ninputs = ["d2/a.txt"]\nodir = "w"\n')
+    with pytest.raises(UsageError, match=r"job 2: output .*a_pm\.txt is also written by job 1 \(as A_pm\.txt\)"):
+        load_worksheet(sheet)
