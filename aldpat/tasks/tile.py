@@ -330,11 +330,14 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     folder = ctx.output_dir(sources[0])
     ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs
     if ext in (".las", ".laz"):
-        if any(r.format != "las" for r in readers):
-            raise DataError("is text: LAS/LAZ tiles take LAS/LAZ inputs only (--out-format text tiles them all as text)",
+        las_inputs = [r for r in readers if r.format == "las"]
+        if las_inputs and len(las_inputs) < len(readers):  # text inputs alone make LAS tiles of their own
+            raise DataError(f"is text, beside the LAS input {las_inputs[0].path.name}: LAS/LAZ tiles of LAS inputs "
+                            "take LAS/LAZ inputs only (--out-format text tiles them all as text)",
                             path=next(r.path for r in readers if r.format != "las"))
-        same_extra_dimensions(readers, "tiled together")
-        names = common_columns(readers)
+        if las_inputs:
+            same_extra_dimensions(readers, "tiled together")
+        names = common_columns(readers) if las_inputs else first.names
     else:
         names = point_names(first, params.fields)
         for reader in readers[1:]:

@@ -331,4 +331,4 @@ def test_a_project_of_las_12_and_14_strips_tiles_filters_and_merges_back(tmp_pat
 
     (tmp_path / "strip.txt").write_text("513000.5 5402000.5 10.25\n")
     done = aldpat("tile", "old.las", "strip.txt", "--odir", "mixed", cwd=tmp_path)
-    assert done.returncode == 1 and "strip.txt: is text: LAS/LAZ tiles take LAS/LAZ inputs only" in done.stderr
+    assert done.returncode == 1 and "strip.txt: is text, beside the LAS input old.las: LAS/LAZ tiles of LAS inputs take" in done.stderr
