@@ -18,7 +18,7 @@ import logging
 import math
 import os
 import struct
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -57,9 +57,6 @@ EXTRA_DESCRIPTIONS = {BUFFER_DIMENSION: "1: buffer, a neighbour's point"}
 COPC_USER = "copc"
 #: The return columns of a point table and the LAS dimensions they set.
 RETURN_DIMENSIONS = ("return_number", "number_of_returns")
-#: LAS 1.2 point format -> the LAS 1.4 format with the same attributes (LAS 1.4 R15, section 2.6:
-#: 6 adds the time 0 lacks, 7 is 3's colour, 9 and 10 are 4's and 5's wave packets)
-FORMAT_14 = {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}
 #: point format -> what its records hold beyond the fields every format has, and its record's bytes
 #: (LAS 1.4 R15, tables 7-17)
 FORMAT_FIELDS = {0: (frozenset(), 20), 1: (frozenset({"time"}), 28), 2: (frozenset({"colour"}), 26),
@@ -503,10 +500,11 @@ def holding_crs(header: laspy.LasHeader, crs: Any) -> laspy.LasHeader:
 
 
 def as_las14(header: laspy.LasHeader) -> laspy.LasHeader:
-    """A copy of ``header`` as LAS 1.4 with the point format of the same attributes
-    (:data:`FORMAT_14`; formats 6-10 kept), extra-byte dimensions and VLRs kept: the LAS
-    :class:`LasWriter` writes a format 0-5 source's points into converts each attribute."""
-    return with_point_format(header, FORMAT_14.get(header.point_format.id, header.point_format.id))
+    """A copy of ``header`` as LAS 1.4 with the point format of the same attributes (LAS 1.4 R15,
+    section 2.6: 0, 1 -> 6; 2, 3 -> 7; 4 -> 9; 5 -> 10, the formats of :func:`holding_every` beside
+    6; formats 6-10 kept), extra-byte dimensions and VLRs kept: the LAS :class:`LasWriter` writes a
+    format 0-5 source's points into converts each attribute."""
+    return with_point_format(header, holding_every((header.point_format.id, 6)))
 
 
 def with_point_format(header: laspy.LasHeader, point_format_id: int) -> laspy.LasHeader:
@@ -524,13 +522,15 @@ def with_point_format(header: laspy.LasHeader, point_format_id: int) -> laspy.La
     return header
 
 
-def holding_formats_of(header: laspy.LasHeader, readers: list[LasReader], crs: Any) -> laspy.LasHeader:
+def holding_formats_of(header: laspy.LasHeader, readers: list[LasReader], crs: Any,
+                       note: Callable[[str], None], doing: str) -> laspy.LasHeader:
     """``header`` (of the first of ``readers``), or a copy of it of the point format of fewest bytes
     holding the attributes of every reader's points (:func:`holding_every`: formats 3 and 6 give
     7) where their formats differ, as a user asks PDAL's writer or las2las for; made LAS 1.4, its
     ``crs`` is then recorded as the WKT formats 6-10 take. Waveform packets point into their own
     file's waveform data, which the output does not hold: inputs with them are refused
-    (:class:`DataError`) beside inputs of another format."""
+    (:class:`DataError`) beside inputs of another format. Where the formats differ, ``note`` is
+    told which format the output takes (``doing``: "written", "tiled")."""
     kinds = sorted({r.header.point_format.id for r in readers})
     if len(kinds) <= 1:
         return header
@@ -540,12 +540,13 @@ def holding_formats_of(header: laspy.LasHeader, readers: list[LasReader], crs: A
                         "waveform packets point into its own waveform data, which the output does not hold; give "
                         "it with files of its own format only", path=waves.path)
     merged = holding_every(kinds)
-    if merged == header.point_format.id:
-        return header
-    upgraded = merged >= 6 > header.point_format.id
-    header = with_point_format(header, merged)
-    if upgraded and crs is not None:
-        set_crs(header, crs)  # formats 6-10 record their CRS as WKT, not in GeoTIFF keys
+    if merged != header.point_format.id:
+        upgraded = merged >= 6 > header.point_format.id
+        header = with_point_format(header, merged)
+        if upgraded and crs is not None:
+            set_crs(header, crs)  # formats 6-10 record their CRS as WKT, not in GeoTIFF keys
+    note(f"LAS inputs of point formats {kinds} {doing} as point format {merged} (LAS {header.version}), which holds "
+         "the attributes of each")
     return header
 
 

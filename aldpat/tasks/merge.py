@@ -64,11 +64,12 @@ class MergeParams(FieldsOption, CrsOption):
                                     path=True, metavar="FILE", level="advanced")
 
 
-def _las_template(readers, crs):
+def _las_template(readers, crs, note):
     """The output's LAS header: the first LAS input's, without the buffer mark, its scales made as
     fine as the finest input's where that keeps every input exact (:func:`finest_scales`), of the
     point format that holds every input's attributes (:func:`holding_formats_of`); None for text
-    inputs. ``crs``: the inputs' one CRS, written as WKT when the format becomes one of LAS 1.4's."""
+    inputs. ``crs``: the inputs' one CRS, written as WKT when the format becomes one of LAS 1.4's;
+    ``note`` is told the format where the inputs' differ."""
     first = next((r for r in readers if r.format == "las"), None)
     if first is None:
         return None
@@ -76,7 +77,7 @@ def _las_template(readers, crs):
     if BUFFER_DIMENSION in header.point_format.extra_dimension_names:
         header.remove_extra_dim(BUFFER_DIMENSION)  # its Extra Bytes record too, else it describes bytes no point has
     header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
-    header = holding_formats_of(header, [r for r in readers if r.format == "las"], crs)
+    header = holding_formats_of(header, [r for r in readers if r.format == "las"], crs, note, "written")
     return header
 
 
@@ -127,12 +128,7 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
     out = merge_outputs(sources, params, ctx)[0].path
     readers = holding_points([ctx.open_input(s) for s in sources], ctx.warn, "merged")
     shared = one_crs(readers, "merge")
-    template = _las_template(readers, shared) if detect_format(out) == "las" else None
-    if template is not None:
-        kinds = sorted({r.header.point_format.id for r in readers if r.format == "las"})
-        if len(kinds) > 1:
-            ctx.note(f"LAS inputs of point formats {kinds} written as point format {template.point_format.id} (LAS "
-                     f"{template.version}), which holds the attributes of each")
+    template = _las_template(readers, shared, ctx.note) if detect_format(out) == "las" else None
     names = _merged_names(readers, params.fields, las_out=template is not None)
     if template is not None:
         _say_mixed_times(readers, template, ctx.warn)

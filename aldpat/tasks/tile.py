@@ -312,10 +312,7 @@ def _tile_header(readers: list, crs: Any, ctx: JobContext):
     no such scale keeps exact is named in a warning."""
     header = copy.deepcopy(readers[0].header)
     header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
-    header = holding_formats_of(header, readers, crs)
-    if header.point_format.id != readers[0].header.point_format.id:
-        ctx.note(f"LAS inputs of point formats {sorted({r.header.point_format.id for r in readers})} tiled as point "
-                 f"format {header.point_format.id} (LAS {header.version}), which holds the attributes of each")
+    header = holding_formats_of(header, readers, crs, ctx.note, "tiled")
     rounded = [r.path.name for r in readers if r.format == "las" and not exact_at(r.header, header)]
     if rounded:
         ctx.warn(f"{', '.join(rounded)}: stored at scales or offsets that the tiles', from "
