@@ -550,6 +550,19 @@ def holding_formats_of(header: laspy.LasHeader, readers: list[LasReader], crs: A
     return header
 
 
+def say_mixed_gps_times(readers: list, template: laspy.LasHeader, warn: Callable[[str], None], doing: str) -> None:
+    """A warning where LAS ``readers``' GPS times are of two kinds (seconds of the GPS week, or
+    adjusted standard GPS time: the header's global encoding, LAS 1.4 R15 table 5): the output's
+    header (``template``) says the first input's kind, and the others' times are copied as they
+    are, not converted (``doing``: "merged", "tiled")."""
+    kinds = {r.path.name: r.header.global_encoding.gps_time_type for r in readers
+             if r.format == "las" and "gps_time" in r.header.point_format.dimension_names}
+    if len(set(kinds.values())) > 1:
+        other = next(name for name, kind in kinds.items() if kind != template.global_encoding.gps_time_type)
+        warn(f"{other}: its GPS times are of another kind (week seconds or adjusted standard time) than the first "
+             f"input's, which the {doing} header records; they are copied as they are, not converted")
+
+
 def same_extra_dimensions(readers: list[LasReader], doing: str) -> None:
     """Refuse (:class:`DataError`, naming both files) LAS ``readers`` whose extra-byte dimensions
     differ from the first's -- in name, or in kind -- but for the buffer mark: their records go

@@ -43,6 +43,7 @@ from aldpat.io.las import (
     finest_scales,
     holding_formats_of,
     same_extra_dimensions,
+    say_mixed_gps_times,
 )
 from aldpat.io.registry import EXTENSIONS, detect_format, holding_points, one_crs
 from aldpat.io.tile_project import find_tile_job, in_core
@@ -100,18 +101,6 @@ def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
     return point_names(first, fields)
 
 
-def _say_mixed_times(readers, template, warn) -> None:
-    """A warning where LAS inputs' GPS times are of two kinds (seconds of the GPS week, or adjusted
-    standard GPS time: the header's global encoding, LAS 1.4 R15 table 5): the merged file's header
-    says the first input's kind, and the others' times are copied as they are, not converted."""
-    kinds = {r.path.name: r.header.global_encoding.gps_time_type for r in readers
-             if r.format == "las" and "gps_time" in r.header.point_format.dimension_names}
-    if len(set(kinds.values())) > 1:
-        other = next(name for name, kind in kinds.items() if kind != template.global_encoding.gps_time_type)
-        warn(f"{other}: its GPS times are of another kind (week seconds or adjusted standard time) than the first "
-             "input's, which the merged header records; they are copied as they are, not converted")
-
-
 def merge_outputs(sources: list[Path], params: MergeParams, ctx: JobContext) -> list[Planned]:
     """``-o FILE``: like every path, from where the command runs (a worksheet's folder). Its
     extension is its format, so one that names no point format is refused here, with the plan --
@@ -131,7 +120,7 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
     template = _las_template(readers, shared, ctx.note) if detect_format(out) == "las" else None
     names = _merged_names(readers, params.fields, las_out=template is not None)
     if template is not None:
-        _say_mixed_times(readers, template, ctx.warn)
+        say_mixed_gps_times(readers, template, ctx.warn, "merged")
         for reader in readers:
             dropped = [n for n in reader.names if n not in names and n != BUFFER_DIMENSION]
             if reader.format == "las" and dropped:

@@ -62,6 +62,7 @@ from aldpat.io.las import (
     finest_scales,
     holding_formats_of,
     same_extra_dimensions,
+    say_mixed_gps_times,
 )
 from aldpat.io.rawtext import RawLines, passthrough_ok
 from aldpat.io.registry import one_crs, output_extension
@@ -313,6 +314,7 @@ def _tile_header(readers: list, crs: Any, ctx: JobContext):
     header = copy.deepcopy(readers[0].header)
     header.scales = finest_scales(header, [r.header for r in readers if r.format == "las"])
     header = holding_formats_of(header, readers, crs, ctx.note, "tiled")
+    say_mixed_gps_times(readers, header, ctx.warn, "tiled")
     rounded = [r.path.name for r in readers if r.format == "las" and not exact_at(r.header, header)]
     if rounded:
         ctx.warn(f"{', '.join(rounded)}: stored at scales or offsets that the tiles', from "

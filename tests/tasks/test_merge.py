@@ -316,6 +316,9 @@ def test_a_project_of_las_12_and_14_strips_tiles_filters_and_merges_back(tmp_pat
     done = aldpat("tile", "old.las", "new.laz", "--width", "150", "--height", "150", "--buffer", "20",
                   "--odir", "tiles", "-v", cwd=tmp_path).ok()
     assert "point formats [3, 6] tiled as point format 7 (LAS 1.4)" in done.stderr
+    # week seconds (format 3's LAS 1.2) beside adjusted standard time: copied, and said, as merge says it
+    assert "new.laz: its GPS times are of another kind" in done.stderr
+    assert "than the first input's, which the tiled header records" in done.stderr
     tiles = sorted((tmp_path / "tiles").glob("tile_*.las"))
     assert len(tiles) > 1 and {laspy.open(t).header.point_format.id for t in tiles} == {7}
     aldpat("filter", "pm", "tiles", "--result", "classified", "--odir", "ground", cwd=tmp_path).ok()
