@@ -85,13 +85,15 @@ def _las_template(readers, crs, note):
 def _merged_names(readers, fields: str, *, las_out: bool) -> tuple[str, ...]:
     """The columns of the merged file, the same whatever the order of the inputs: every LAS input's
     (LAS inputs into a LAS file, whose whole records are copied: their extra dimensions must
-    agree, but for the buffer mark), else x, y, z and, with ``--fields xyzi``, intensity when every input has it.
+    agree, but for the buffer mark, text inputs beside them or not), else x, y, z and, with ``--fields xyzi``, intensity when every input has it.
     Where some inputs hold a column the others lack, a :class:`DataError` names both: the first
     input's columns once decided, silently leaving out what later inputs held."""
     first = readers[0]
-    if las_out and all(r.format == "las" for r in readers):
-        same_extra_dimensions(readers, "merged into one LAS file")
-        return common_columns(readers)
+    las_inputs = [r for r in readers if r.format == "las"]
+    if las_out and las_inputs:  # each LAS point's whole record is written, text points beside them or not
+        same_extra_dimensions(las_inputs, "merged into one LAS file")
+        if len(las_inputs) == len(readers):
+            return common_columns(readers)
     if fields == "xyzi":
         having = [r for r in readers if "intensity" in r.names]
         lacking = [r for r in readers if "intensity" not in r.names]
@@ -121,11 +123,6 @@ def merge_all(sources: list[Path], params: MergeParams, ctx: JobContext) -> None
     names = _merged_names(readers, params.fields, las_out=template is not None)
     if template is not None:
         say_mixed_gps_times(readers, template, ctx.warn, "merged")
-        for reader in readers:
-            dropped = [n for n in reader.names if n not in names and n != BUFFER_DIMENSION]
-            if reader.format == "las" and dropped:
-                ctx.warn(f"{reader.path.name}: its {', '.join(dropped)} are not written: the text inputs have none "
-                         f"(x, y, z{' and intensity' if 'intensity' in names else ''} are)")
     kept = copies = 0
     rescaled = []
     with ctx.write_points(out, names, like=readers[0], crs=output_crs(params.crs, shared, out, ctx.warn),

@@ -123,7 +123,8 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
     """The first input's columns once decided the merged file's: x y z first, then a file with
     intensity, merged to x y z (its intensity gone without a word); the other order was refused.
     Now both orders are refused, naming the two files; ``--fields xyz`` merges x, y and z of both.
-    A LAS input's classes left out of a LAS output that a text input joins are said once."""
+    A LAS input's points keep their whole record in a LAS output that a text input joins, and
+    nothing says otherwise (a warning said its classes, returns and times were not written)."""
     from tests.cli.fresh import aldpat, leftovers
 
     (tmp_path / "xyz.txt").write_text("500000.5 4000000.5 10.25\n500001.5 4000001.5 11.25\n")
@@ -139,9 +140,15 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
 
     tile = laspy.read(STRIP)
     tile.write(tmp_path / "strip.las")
-    done = aldpat("merge", "xyz.txt", "strip.las", "-o", "m.las", "--fields", "xyz", cwd=tmp_path).ok()
-    assert "strip.las: its intensity, classification, return_number, number_of_returns are not written" in done.stderr
-    assert len(laspy.read(tmp_path / "m.las").points) == 2 + len(tile.points)
+    for order in (["xyz.txt", "strip.las"], ["strip.las", "xyz.txt"]):
+        done = aldpat("merge", *order, "-o", "m.las", "--fields", "xyz", "--overwrite", cwd=tmp_path).ok()
+        assert "not written" not in done.stderr
+        merged = laspy.read(tmp_path / "m.las")
+        assert len(merged.points) == 2 + len(tile.points)
+        own = merged.points[merged.z != 10.25]
+        own = own[own.z != 11.25]
+        for name in ("intensity", "classification", "return_number", "number_of_returns"):
+            assert np.array_equal(np.sort(np.asarray(own[name])), np.sort(np.asarray(tile[name]))), name
 
     # LAS inputs into LAS: their extra dimensions agree, or the merge says which differ
     extra = laspy.read(STRIP)
@@ -150,6 +157,10 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
     extra.write(tmp_path / "extra.las")
     for order in (["strip.las", "extra.las"], ["extra.las", "strip.las"]):
         done = aldpat("merge", *order, "-o", "e.las", cwd=tmp_path)
+        assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
+        assert not (tmp_path / "e.las").exists()
+        # a text input beside them changes nothing: strip.las's points were given 0 for it silently
+        done = aldpat("merge", *order, "xyz.txt", "-o", "e.las", "--fields", "xyz", cwd=tmp_path)
         assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
         assert not (tmp_path / "e.las").exists()
     # and of one kind: the first input's kind decided, and 0.75 in float32 was written as 0 in int16
