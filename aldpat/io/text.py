@@ -2,8 +2,8 @@
 
 Reading uses pandas' C tokenizer in chunks: about ten times the pace of ``numpy.loadtxt`` and
 flat memory whatever the file size (see bench/bench_io.py). The delimiter (space, tab, comma)
-is detected per file from its first data line; CRLF endings and leading non-numeric header lines
-are accepted. A bad line stops that file with a message naming the file and its line number.
+is detected per file from its first data line; CRLF endings, leading non-numeric header lines and
+the point count that opens a Leica PTS file (``.pts``) are accepted. A bad line stops that file with a message naming the file and its line number.
 
 Writing formats each chunk with one C-level ``%`` operation and keeps the number of decimals
 the input had (detected from its first lines), so a round trip does not change coordinates.
@@ -35,6 +35,8 @@ DEFAULT_CHUNK = 2_000_000
 MAX_COORDINATE = 1e12
 COORDINATE_COLUMNS = frozenset({"x", "y", "z", "x1", "y1", "z1", "x2", "y2", "z2"})
 _SNIFF_BYTES = 1 << 16
+#: The first line of a Leica PTS file (``.pts``): the number of points that follow, alone.
+_COUNT_LINE = re.compile(r"\s*\d+\s*")
 #: The longest line read (bytes): a point line is tens of characters, a header line hundreds; a
 #: longer one (a file of one 4 MB line) is not a point file, and reading it whole as a line
 #: would hold it all in memory, and as a point all its numbers as columns.
@@ -171,9 +173,13 @@ class TextReader:
             lines = lines[:-1]  # the last one may be cut in the middle
         header = 0
         delimiter = None
+        pts = self.path.suffix.lower() == ".pts"
         for number, line in enumerate(lines, start=1):
             if not line.strip():
                 header += 1
+                continue
+            if pts and header == number - 1 and _COUNT_LINE.fullmatch(line):
+                header += 1  # a Leica PTS file's first line: its number of points
                 continue
             delimiter = "," if "," in line else ("\t" if "\t" in line and " " not in line.strip() else " ")
             if _is_data(line, delimiter):

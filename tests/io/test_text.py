@@ -196,3 +196,19 @@ def test_more_decimals_further_down_than_in_the_first_lines_are_kept(tmp_path):
     lines = out.read_text().splitlines()
     assert lines[0] == "100.0 200.0 10.0" and lines[-1] == "512.125 300.0625 12.3456"
     assert [reader.decimals[n] for n in "xyz"] == [3, 4, 4]
+
+
+def test_a_leica_pts_files_point_count_line_is_not_a_point(tmp_path):
+    """A Leica PTS file opens with its number of points alone on a line; it was read as a point of
+    one column ("expected at least 3 columns"). In a ``.pts`` file that line is skipped; in any
+    other text file a line of one number is still a bad point line, not a header."""
+    rows = "512799.85 5403502.13 303.46 -1024 120 130 140\n512799.84 5403508.18 303.40 -1024 120 130 140\n"
+    pts = tmp_path / "scan.pts"
+    pts.write_text("2\n" + rows)
+    reader = open_points(pts)
+    table = reader.read()
+    assert reader.header_lines == 1 and len(table) == 2 and table["z"].tolist() == [303.46, 303.40]
+    other = tmp_path / "scan.txt"
+    other.write_text("2\n" + rows)
+    with pytest.raises(InputFormatError, match="found 1"):
+        open_points(other).read()
