@@ -101,3 +101,15 @@ class OutputError(AldpatError, OSError):
 
 class DataError(AldpatError, ValueError):
     """The data are readable but unusable for the task (e.g. outside the geoid grid)."""
+
+
+class UnstorableValue(DataError):
+    """A point's ``value`` of ``column`` that the output cannot hold (a LAS file's intensity of
+    0.35). Raised where the points are written, which no longer know their lines; the job finds
+    the first line of a text input holding it (:meth:`aldpat.io.text.TextReader.line_holding`)."""
+
+    def __init__(self, message: str, *, column: str, value: float, path: str | Path | None = None,
+                 line: int | None = None):
+        self.column = column
+        self.value = value
+        super().__init__(message, path=path, line=line)

@@ -27,7 +27,7 @@ import numpy as np
 from aldpat.core import units
 from aldpat.core.height_codes import ScaledHeights
 from aldpat.core.resources import check_memory, count_text
-from aldpat.errors import DataError, InputFormatError, InputMissingError, UsageError
+from aldpat.errors import DataError, InputFormatError, InputMissingError, UnstorableValue, UsageError
 from aldpat.io.prefetch import read_ahead
 from aldpat.io.table import PointTable
 from aldpat.io.text import MAX_COORDINATE
@@ -717,9 +717,10 @@ def _check_storable(lo: float, hi: float, axis: str, scale: float, offset: float
     if first <= lo and hi <= last:
         return
     bad = lo if lo < first else hi
-    raise DataError(f"{axis} = {bad:.10g} cannot be stored in this LAS file: at its scale {scale:g} and offset "
-                    f"{offset:.10g} its 32-bit integers hold {axis} from {first:.10g} to {last:.10g} (a stray "
-                    "point far from the others? write text, or split the points)")
+    raise UnstorableValue(f"{axis} = {bad:.10g} cannot be stored in this LAS file: at its scale {scale:g} and "
+                          f"offset {offset:.10g} its 32-bit integers hold {axis} from {first:.10g} to {last:.10g} "
+                          "(a stray point far from the others? write text, or split the points)",
+                          column=axis, value=bad)
 
 
 #: (dimension, point format 6-10) -> the whole numbers it holds (LAS 1.4 R15, tables 7-8 and 13-14)
@@ -748,8 +749,8 @@ def _check_whole(values: np.ndarray, name: str, dim: str, las14: bool) -> None:
         wider = _WHOLE_RANGES[(dim, True)][1]
         change = (f"point formats 6-10 of LAS 1.4 hold up to {wider}" if not las14 and lo <= bad <= wider
                   and bad == round(bad) else "write text, or scale the column")
-        raise DataError(f"{name} = {bad:g} cannot be stored in this LAS file, whose {name} holds whole numbers "
-                        f"from {lo} to {hi:,} ({change})")
+        raise UnstorableValue(f"{name} = {bad:g} cannot be stored in this LAS file, whose {name} holds whole "
+                              f"numbers from {lo} to {hi:,} ({change})", column=name, value=float(bad))
 
 
 class LasWriter:

@@ -269,6 +269,19 @@ class TextReader:
             encoding=TEXT_ENCODING, encoding_errors=TEXT_ERRORS,
         )
 
+    def line_holding(self, column: str, value: float) -> int | None:
+        """The number of the first line whose ``column`` is ``value`` (None: none is), for a
+        message of a value found unusable after the points left this reader."""
+        if column not in self.names:
+            return None
+        rows = 0
+        for chunk in self.chunks():
+            at = np.flatnonzero(chunk[column] == value)
+            if at.size:
+                return self._raw_lines_before(rows + int(at[0])) + 1
+            rows += len(chunk)
+        return None
+
     def _raw_lines_before(self, data_row: int) -> int:
         """How many raw lines precede data row ``data_row`` (header and blank lines included)."""
         seen = number = 0

@@ -13,7 +13,7 @@ from typing import Protocol
 
 from aldpat import interrupt
 from aldpat.core.crs import WITHOUT_CRS
-from aldpat.errors import AldpatError, OutputExistsError, UsageError
+from aldpat.errors import AldpatError, OutputExistsError, UnstorableValue, UsageError
 from aldpat.io.atomic import forget_temporaries
 from aldpat.jobs.context import JobContext, JobResult
 from aldpat.jobs.joblog import write_job_log
@@ -86,6 +86,8 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
         result.error = str(exc.named_after_input() if named else exc)
         result.existed = True
     except AldpatError as exc:
+        if isinstance(exc, UnstorableValue) and exc.path is None:
+            _find_the_line(exc, sources)
         # a message names its file: the job's inputs when the step that refused did not know them
         result.error = str(exc) if exc.path is not None or not sources else f"{job_names(sources)}: {exc}"
         result.usage = isinstance(exc, UsageError)
@@ -110,6 +112,24 @@ def _guarded(task: Task, sources: list[str], run: ResolvedRun, command: str,
         except OSError as exc:
             result.warnings.append(f"could not write the log: {exc}")
     return result
+
+
+def _find_the_line(exc: UnstorableValue, sources: list[str]) -> None:
+    """Name in ``exc`` the first text input line holding its value, where one of ``sources`` does:
+    the bad line of a 50 GB file is told, not only the file."""
+    from aldpat.io.registry import detect_format
+    from aldpat.io.text import TextReader
+
+    for source in sources:
+        try:
+            if detect_format(Path(source)) != "text":
+                continue
+            line = TextReader(source).line_holding(exc.column, exc.value)
+        except (AldpatError, OSError):
+            continue  # the message stands as it is
+        if line is not None:
+            exc.path, exc.line = source, line
+            return
 
 
 def doing(task: Task, run: ResolvedRun, done: int, total: int, more: str = "") -> str:

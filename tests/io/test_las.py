@@ -367,3 +367,23 @@ def test_a_laz_header_count_the_chunks_cannot_hold_is_refused(tmp_path, claimed,
         assert done.returncode == 0 and json.loads(done.stdout)["count"] == 120_000
     else:
         assert done.returncode == 1 and done.stderr.splitlines()[0] == f"aldpat: site.laz: {refused}"
+
+
+def test_a_text_value_las_cannot_hold_is_told_with_its_file_and_line(tmp_path):
+    """A text line whose intensity a LAS file cannot hold was told with its file
+    alone ("a.txt: intensity = 0.35 cannot be stored"): the points are written far from where they
+    were read. The message now names the line, in ``convert``, a filter and a ``merge`` whose
+    second input holds it."""
+    from tests.cli.fresh import aldpat
+
+    lines = [f"{512000 + i}.25 5403000.50 {300 + i % 7}.10 {i % 200}" for i in range(400)]
+    good = tmp_path / "good.txt"
+    good.write_text("x y z intensity\n" + "\n".join(lines) + "\n")
+    bad = lines.copy()
+    bad[250] = "512250.25 5403000.50 301.10 0.35"
+    (tmp_path / "bad.txt").write_text("x y z intensity\n\n" + "\n".join(bad) + "\n")  # a blank line too
+    for args in (["convert", "bad.txt", "--out-format", "laz"], ["filter", "pm", "bad.txt", "--out-format", "las"],
+                 ["merge", "good.txt", "bad.txt", "-o", "m.laz"]):
+        done = aldpat(*args, "--odir", "out", cwd=tmp_path) if args[0] != "merge" else aldpat(*args, cwd=tmp_path)
+        assert done.returncode == 1
+        assert "bad.txt:253: intensity = 0.35 cannot be stored in this LAS file" in done.stderr, done.stderr

@@ -212,3 +212,12 @@ def test_a_leica_pts_files_point_count_line_is_not_a_point(tmp_path):
     other.write_text("2\n" + rows)
     with pytest.raises(InputFormatError, match="found 1"):
         open_points(other).read()
+
+
+def test_the_line_holding_a_value_counts_header_and_blank_lines(tmp_path):
+    path = tmp_path / "a.txt"
+    path.write_text("x y z i\n1 2 3 4\n\n5 6 7 0.35\n8 9 10 0.35\n")
+    reader = TextReader(path)
+    assert reader.line_holding("intensity", 0.35) == 4  # the first of two
+    assert reader.line_holding("intensity", 0.5) is None  # a value computed on the way: no line holds it
+    assert reader.line_holding("classification", 2.0) is None  # no such column
