@@ -118,15 +118,45 @@ def _walk_records(fh: BinaryIO, path: Path, start: int, count: int, end: int, he
     as the length at byte 20 of it says."""
     at = start
     for k in range(count):
-        fh.seek(at + 20)
-        raw = fh.read(struct.calcsize(length_format))
-        if len(raw) < struct.calcsize(length_format):
+        fh.seek(at + 2)
+        raw = fh.read(18 + struct.calcsize(length_format))
+        if len(raw) < 18 + struct.calcsize(length_format):
             raise InputFormatError(f"LAS header: variable length record {k + 1} starts past the end of the file",
                                    path=path)
-        at += header + struct.unpack(length_format, raw)[0]
+        length = struct.unpack_from(length_format, raw, 18)[0]
+        if raw[:16].rstrip(b"\0") == b"LASF_Spec" and struct.unpack_from("<H", raw, 16)[0] == 4:
+            _check_extra_bytes(fh, path, at + header, length, k + 1)
+        at += header + length
         if at > end:
             raise InputFormatError(f"LAS header: variable length record {k + 1} runs to byte {at:,}, past byte "
                                    f"{end:,} where it must end", path=path)
+
+
+#: An Extra Bytes record's description of one dimension (LAS 1.4 R15, section 2.5.3 and table 24)
+_EXTRA_BYTES_RECORD = 192
+
+
+def _check_extra_bytes(fh: BinaryIO, path: Path, at: int, length: int, number: int) -> None:
+    """Refuse, in one line, an Extra Bytes record (LAS 1.4 R15 §2.5.3) that describes no extra
+    bytes a reader can lay out: a length not a whole number of 192-byte descriptions (read on, it
+    shifted every record after it -- the CRS lost without a word, and two Extra Bytes records
+    written), a reserved data type (31-255), or undocumented bytes (type 0) of no size."""
+    where = f"LAS header: variable length record {number}, the Extra Bytes record,"
+    if length % _EXTRA_BYTES_RECORD:
+        raise InputFormatError(f"{where} is {length:,} bytes long, not a whole number of {_EXTRA_BYTES_RECORD}-byte "
+                               "dimension descriptions", path=path)
+    fh.seek(at)
+    for d in range(min(length // _EXTRA_BYTES_RECORD, 341)):  # a VLR holds 65,535 bytes at most
+        description = fh.read(_EXTRA_BYTES_RECORD)
+        if len(description) < 4:
+            return  # past the end: the walk says so
+        data_type, options = description[2], description[3]
+        if data_type > 30:
+            raise InputFormatError(f"{where} gives its dimension {d + 1} the reserved data type {data_type} (0-30 "
+                                   "are defined)", path=path)
+        if data_type == 0 and options == 0:
+            raise InputFormatError(f"{where} gives its dimension {d + 1} undocumented extra bytes of no size (data "
+                                   "type 0 takes its number of bytes in its options)", path=path)
 
 
 def _corrupt(path: Path, exc: Exception) -> InputFormatError:

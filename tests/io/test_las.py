@@ -387,3 +387,45 @@ def test_a_text_value_las_cannot_hold_is_told_with_its_file_and_line(tmp_path):
         done = aldpat(*args, "--odir", "out", cwd=tmp_path) if args[0] != "merge" else aldpat(*args, cwd=tmp_path)
         assert done.returncode == 1
         assert "bad.txt:253: intensity = 0.35 cannot be stored in this LAS file" in done.stderr, done.stderr
+
+
+def _extra_bytes_file(path, patch=None):
+    """A LAS 1.4 point format 6 file with one ``conf`` extra-bytes dimension and a CRS, its Extra
+    Bytes record (the first VLR) patched by ``patch(data, at)``."""
+    import struct
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.add_extra_dim(laspy.ExtraBytesParams(name="conf", type=np.uint8))
+    header.add_crs(pyproj.CRS.from_epsg(32632))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = np.array([500000.0, 500001.0]), np.array([5e6, 5e6 + 1]), np.array([10.0, 11.0])
+    las.conf = np.array([3, 4], np.uint8)
+    las.write(path)
+    data = bytearray(path.read_bytes())
+    at = struct.unpack_from("<H", data, 94)[0]
+    assert data[at + 2:at + 11] == b"LASF_Spec" and struct.unpack_from("<H", data, at + 18)[0] == 4
+    if patch is not None:
+        patch(data, at)
+        path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("patch, refused", [
+    (lambda d, at: d.__setitem__(at + 54 + 2, 99), "gives its dimension 1 the reserved data type 99"),
+    (lambda d, at: d.__setitem__(slice(at + 56, at + 58), b"\0\0"), "gives its dimension 1 undocumented extra bytes of no size"),
+    (lambda d, at: d.__setitem__(slice(at + 20, at + 22), (100).to_bytes(2, "little")),
+     "is 100 bytes long, not a whole number of 192-byte dimension descriptions"),
+])
+def test_a_malformed_extra_bytes_record_is_refused_in_one_line(tmp_path, patch, refused):
+    """A reserved data type gave "truncated or corrupt LAS/LAZ (99)", a type 0 of no size laspy's
+    "integer division or modulo by zero"; a record 100 bytes long was read on, every record after
+    it shifted: the CRS lost without a word, and a filter's output held two Extra Bytes records."""
+    path = _extra_bytes_file(tmp_path / "bad.las", patch)
+    with pytest.raises(InputFormatError, match=f"variable length record 1, the Extra Bytes record, {refused}"):
+        open_points(path)
+    sound = open_points(_extra_bytes_file(tmp_path / "ok.las"))
+    assert "conf" in sound.header.point_format.extra_dimension_names and sound.crs.to_epsg() == 32632
+    # undocumented bytes of a size (type 0, options 1) are a dimension laspy lays out
+    one = open_points(_extra_bytes_file(tmp_path / "one.las", lambda d, at: d.__setitem__(slice(at + 56, at + 58),
+                                                                                          b"\0\1")))
+    assert len(one.read()) == 2
