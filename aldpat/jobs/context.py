@@ -32,6 +32,11 @@ class Record(dict):
         return ["  ".join(f"{k}={_text(v)}" for k, v in self.items())]
 
 
+def points_said(n: int) -> str:
+    """``1 point``, ``12,379 points``."""
+    return f"{n:,} point{'' if n == 1 else 's'}"
+
+
 def _text(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.3f}"
@@ -83,9 +88,11 @@ class JobResult:
         name = Path(self.inputs[0]).name if one_input and n else f"{n} input{'' if n == 1 else 's'}"
         parts = []
         if "points" in self.counts:
-            parts.append(f"{self.counts['points']:,} points")
+            parts.append(points_said(self.counts["points"]))
         if self.ground_share is not None:
             parts.append(f"{100 * self.ground_share:.1f} % ground")
+        if self.counts.get("points") and "noise" in self.counts:
+            parts.append(f"{100 * self.counts['noise'] / self.counts['points']:.1f} % noise")
         did = ", ".join(parts)
         if "nodes" in self.counts:
             nodes, blank = self.counts["nodes"], self.counts.get("blank", 0)
@@ -94,7 +101,7 @@ class JobResult:
         did = f"{did}, {self.seconds:.1f} s" if did else f"{self.seconds:.1f} s"
         if self.outputs:
             first = self.outputs[0]
-            out = first.path + (f" ({first.count:,} points)" if first.count is not None and "points" not in self.counts
+            out = first.path + (f" ({points_said(first.count)})" if first.count is not None and "points" not in self.counts
                                 else "")
             if len(self.outputs) > 1:
                 out += f" and {len(self.outputs) - 1} more"

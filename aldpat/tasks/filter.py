@@ -231,8 +231,21 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
             writer.write(_part(rows, which, ground))
         ctx.wrote(path, writer.count)
     units.advance(len(rows))
-    ctx.tally(points=len(table), ground=int(res.is_ground.sum()))
+    _tally(ctx, algorithm, len(table), int(res.is_ground.sum()), _noise_found(found))
     log.info("%s: %d of %d points ground (%s)", source, n_ground, len(ground), algorithm)
+
+
+def _noise_found(found: np.ndarray) -> int:
+    return int(np.count_nonzero((found == LOW_NOISE) | (found == HIGH_NOISE)))
+
+
+def _tally(ctx: JobContext, algorithm: str, points: int, ground: int, noise: int) -> None:
+    """The job's counts for its summary: the ground points of a ground filter; of a filter that
+    finds noise (``outlier``), whose other points are not ground, the noise points."""
+    if FILTERS[algorithm].noise is None:
+        ctx.tally(points=points, ground=ground)
+    else:
+        ctx.tally(points=points, noise=noise)
 
 
 def _every_point(values: np.ndarray, part: np.ndarray | None, fill) -> np.ndarray:
@@ -381,7 +394,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
     gives the marks and the classes the filter found of its rows ``start:stop`` (the table)."""
     names = _output_names(reader, params, ctx.warn)
     point_format = _output_point_format(reader, ctx, source)
-    n_ground = n = set_aside = 0
+    n_ground = n_noise = n = set_aside = 0
     with contextlib.ExitStack() as stack:
         writers = [(stack.enter_context(ctx.write_points(path, names, like=reader,
                                                          crs=output_crs(params.crs, reader.crs, path, ctx.warn))), path, which)
@@ -403,6 +416,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
             cls = classes_written(found, table, part, params, algorithm, point_format)
             ground = ground_flags(found, part)
             n_ground += int(ground.sum())
+            n_noise += _noise_found(found)
             n += len(table)
             rows = _with_classes(table, reader, params, marks, cls)
             if behind is None:
@@ -412,7 +426,7 @@ def _write_from_classes(source: Path, reader, outputs: list[tuple[Path, str]], p
             start = stop
     for writer, path, _ in writers:
         ctx.wrote(path, writer.count)
-    ctx.tally(points=n, ground=n_ground)
+    _tally(ctx, algorithm, n, n_ground, n_noise)
     _note_set_aside(ctx, params, set_aside, n)
     if n_ground == 0:
         ctx.warn(f"{source}: no point was classified as ground")

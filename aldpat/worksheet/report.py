@@ -175,6 +175,8 @@ def _did(status: JobStatus) -> str:
         parts.append(f"{counts['points']:,} points")
         if "ground" in counts and counts["points"]:
             parts.append(f"{100 * counts['ground'] / counts['points']:.1f} % ground")
+        if "noise" in counts and counts["points"]:
+            parts.append(f"{100 * counts['noise'] / counts['points']:.1f} % noise")
     if counts.get("nodes"):
         blank = counts.get("blank", 0)
         parts.append(f"{counts['nodes']:,} nodes" + (f", {100 * blank / counts['nodes']:.1f} % blank" if blank else ""))

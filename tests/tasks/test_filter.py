@@ -164,3 +164,22 @@ def test_shipped_parameter_files_are_valid(path):
     run = resolve_run(task, [("params file", data)])
     for key in data:
         assert run.params.sources.get(key) == "params file"
+
+
+def test_the_summary_of_a_noise_filter_counts_its_noise_not_ground(tmp_path):
+    """``filter outlier`` said "97.1 % ground" of a file it wrote no ground point to: it finds
+    noise, and says the share of noise its output holds (whole and in chunks); a one-point output
+    is "1 point", not "1 points"."""
+    import laspy
+
+    from tests.cli.fresh import aldpat
+
+    strip = REPO / "tests" / "data" / "fsite5_strip.laz"
+    for extra in ([], ["--chunk", "200"]):
+        done = aldpat("filter", "outlier", str(strip), "--odir", "out", "--overwrite", *extra, cwd=tmp_path).ok()
+        written = laspy.read(tmp_path / "out" / "fsite5_strip_outlier.laz").classification
+        share = 100 * np.isin(written, (7, 18)).sum() / len(written)
+        assert f"20,643 points, {share:.1f} % noise" in done.stderr and "% ground" not in done.stderr, done.stderr
+    (tmp_path / "one.txt").write_text("1 2 3\n")
+    done = aldpat("convert", "one.txt", "--out-format", "laz", "--odir", "out", cwd=tmp_path).ok()
+    assert "(1 point)" in done.stderr, done.stderr
