@@ -86,17 +86,19 @@ def _text_holds_points(path: Path) -> bool:
 
 
 def expand_inputs(items: Iterable[str | Path], base: Path | None = None,
-                  skipped: list[str] | None = None) -> tuple[list[Path], list[AldpatError]]:
+                  skipped: list[str] | None = None,
+                  gathered: set[Path] | None = None) -> tuple[list[Path], list[AldpatError]]:
     """Files, quoted globs, folders (their point files) and ``@list.txt`` -> paths, errors.
 
     Relative items are taken from ``base`` (the worksheet's folder) when given. A pattern that
     matches nothing is an error for that item only; the others are still returned. Files of a
     folder that are neither points nor aldpat's own side files are named in ``skipped`` (one
-    line per folder), when given.
+    line per folder), when given; the files found in folders and by patterns, not named one by
+    one, are added to ``gathered``, when given.
     """
     out: list[Path] = []
     errors: list[AldpatError] = []
-    _expand(items, base, skipped, out, errors, ())
+    _expand(items, base, skipped, out, errors, (), gathered)
     seen: set[Path] = set()
     unique = []
     for p in out:
@@ -108,7 +110,7 @@ def expand_inputs(items: Iterable[str | Path], base: Path | None = None,
 
 
 def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] | None, out: list[Path],
-            errors: list[AldpatError], lists: tuple[Path, ...]) -> None:
+            errors: list[AldpatError], lists: tuple[Path, ...], gathered: set[Path] | None) -> None:
     """:func:`expand_inputs` of ``items``, read from the ``@list`` files ``lists`` (outermost first)."""
     for raw in items:
         item = str(raw)
@@ -141,7 +143,7 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
                 errors.append(NoSuchFile("cannot read input list", path=listfile))
                 continue
             sub = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-            _expand(sub, listfile.parent, skipped, out, errors, (*lists, key))
+            _expand(sub, listfile.parent, skipped, out, errors, (*lists, key), gathered)
             continue
         path = _rooted(item, base)
         if any(ch in item for ch in "*?[") and not path.is_file():  # a file named "x[1].txt" is that file
@@ -153,6 +155,8 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
             if not matches:
                 errors.append(InputMissingError("no file matches this pattern", path=item))
             out += matches
+            if gathered is not None:
+                gathered.update(matches)
         elif path.is_dir():
             files, others = _folder_files(path)
             if others and skipped is not None:
@@ -163,6 +167,8 @@ def _expand(items: Iterable[str | Path], base: Path | None, skipped: list[str] |
             if not files:
                 errors.append(InputMissingError("folder holds no point files", path=path))
             out += files
+            if gathered is not None:
+                gathered.update(files)
         elif path.is_file():
             out.append(path)
         elif path.exists():  # a pipe would block the batch until something writes to it

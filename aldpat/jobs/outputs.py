@@ -148,6 +148,34 @@ def path_parameter_files(run: ResolvedRun, planned: Iterable[Planned]) -> list[P
     return out
 
 
+def without_own_outputs(task: Task, sources: list[Path], run: ResolvedRun,
+                        gathered: set[Path]) -> tuple[list[Path], str | None]:
+    """``sources`` but the files found in a folder or by a pattern (``gathered``) that this run
+    writes from its other inputs, and one line naming those left out (None: none is).
+
+    Outputs written beside their inputs -- the default -- are in the folder the next run is given:
+    ``filter pm tiles/`` run again took ``a_pm.laz`` for an input whose output ``a_pm.laz`` (from
+    ``a.laz``) would replace it, and refused the run, ``--overwrite`` or not; a worksheet's job so
+    laid out could not be run again or resumed. A file named on its own is still refused so."""
+    if not gathered:
+        return sources, None
+    found = {real(p) for p in gathered}
+    writes = {real(out.path): out for out in plan_outputs(task, sources, run) if not out.family}
+    kept, left = [], []
+    for source in sources:
+        key = real(source)
+        out = writes.get(key)
+        if out is not None and key in found and (out.source is None or real(out.source) != key):
+            left.append(source)
+        else:
+            kept.append(source)
+    if not left:
+        return sources, None
+    named = ", ".join(p.name for p in left[:5]) + (f" and {len(left) - 5} more" if len(left) > 5 else "")
+    return kept, (f"not taken as input{'s' if len(left) > 1 else ''}: {named}, which this run writes from "
+                  "its other inputs")
+
+
 def check_outputs(task: Task, sources: list[Path], run: ResolvedRun) -> list[Planned]:
     """Refuse (:class:`UsageError`, naming both files) an output that would replace an input or
     another output of the same run; return the plan."""

@@ -21,7 +21,7 @@ from aldpat.jobs.context import JobResult, Written
 from aldpat.jobs.execute import Progress, execute_finish, refuse_existing, report_result
 from aldpat.jobs.executors import run_in_processes, run_in_this_process
 from aldpat.jobs.inputs import expand_inputs
-from aldpat.jobs.outputs import check_outputs, forget_folders
+from aldpat.jobs.outputs import check_outputs, forget_folders, without_own_outputs
 from aldpat.jobs.resolve import ResolvedRun, resolve_run
 from aldpat.jobs.task import Planned, Task
 
@@ -89,8 +89,10 @@ def plan_run(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     :func:`run_task` does before running anything, and all that ``--dry-run`` does."""
     run = resolved or resolve_run(task, layers)
     skipped: list[str] = []
-    sources, errors = expand_inputs(inputs, base, skipped) if task.inputs != "none" else ([], [])
-    for line in skipped:
+    gathered: set[Path] = set()
+    sources, errors = expand_inputs(inputs, base, skipped, gathered) if task.inputs != "none" else ([], [])
+    sources, own = without_own_outputs(task, sources, run, gathered)
+    for line in [*skipped, *([own] if own and resolved is None else [])]:  # a worksheet said it, planning
         log.warning(line)
     input_errors = [str(e) for e in errors]
     for e in input_errors:

@@ -11,6 +11,7 @@ import bisect
 import dataclasses
 import difflib
 import fnmatch
+import logging
 import os
 import tomllib
 from dataclasses import dataclass, field
@@ -31,10 +32,13 @@ from aldpat.jobs.outputs import (
     literal_prefix,
     path_parameter_files,
     real,
+    without_own_outputs,
 )
 from aldpat.jobs.registry import get_task
 from aldpat.jobs.resolve import ResolvedRun, load_params_file, resolve_run
 from aldpat.jobs.task import Planned, Task
+
+log = logging.getLogger(__name__)
 
 JOB_KEYS = ("task", "algorithm", "inputs", "params")
 TOP_KEYS = ("settings", "job")
@@ -374,6 +378,8 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
     for job in jobs:
         where = f"job {job.number}: "
         sources: list[Path] = []
+        gathered: set[Path] = set()
+        originals_found: list[Path] = []
         unnamed = False  # reads files of earlier jobs not known by name: writes under names not known
         for pattern in job.inputs:
             if pattern.startswith("@"):  # the list file is read too
@@ -381,15 +387,21 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
             producers, made = planned.writers_of(pattern.lstrip("@")) if not pattern.startswith("@") else (set(), [])
             job.depends_on |= producers
             unnamed |= bool(producers) and not made
-            found, errors = expand_inputs([pattern])
+            found, errors = expand_inputs([pattern], gathered=gathered)
             if errors and not producers:
                 raise UsageError(f"{where}inputs: {errors[0]}", path=wpath)
-            for f in found:
-                read_as_original(f, job.number)
+            originals_found += found
             sources += found + made
         unique = {real(f): f for f in reversed(sources)}  # each file once, the first spelling
         sources = [unique[k] for k in dict.fromkeys(real(f) for f in sources)]
         try:
+            sources, own = without_own_outputs(job.task, sources, job.run, gathered)
+            if own:
+                log.warning("%s%s", where, own)
+            kept = {real(f) for f in sources}
+            for f in originals_found:
+                if real(f) in kept:
+                    read_as_original(f, job.number)
             job.planned = check_outputs(job.task, sources, job.run)
         except UsageError as exc:
             raise UsageError(f"{where}{exc.message}", path=wpath) from None

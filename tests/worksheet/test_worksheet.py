@@ -390,3 +390,53 @@ def test_resume_after_a_kill_and_an_inserted_job_finishes_the_killed_one(project
     statuses = run_worksheet(load_worksheet(p), resume=True)
     assert [s.state for s in statuses] == [DONE, DONE, DONE], [s.message for s in statuses]
     assert sorted(x.name for x in (project / "laz").iterdir()) == ["a.laz", "a.log", "b.laz", "b.log"]
+
+
+def test_a_run_again_beside_its_inputs_does_not_take_its_outputs_for_inputs(project):
+    """Outputs are written beside their inputs by default, so the folder or pattern of the next
+    run holds them: ``convert raw/`` run again took ``a.laz`` for an input whose output ``a.laz``
+    (from ``a.txt``) would replace it, and refused the run, ``--overwrite`` or not; a worksheet so
+    laid out could not be run again or resumed. Files found in a folder or by a pattern that
+    the run writes from its other inputs are left out, in one line; one named on its own is still
+    refused."""
+    args = ["convert", str(project / "raw"), "--out-format", "text", "--suffix", "_c"]
+    assert subprocess.run(ALDPAT + args, check=False, capture_output=True, text=True).returncode == 0
+    for again in ([], ["--overwrite"]):
+        proc = subprocess.run(ALDPAT + args + again, check=False, capture_output=True, text=True)
+        assert "not taken as inputs: a_c.txt, b_c.txt, which this run writes from its other inputs" in proc.stderr
+        assert "would replace the input" not in proc.stderr, proc.stderr
+        assert proc.returncode == (0 if again else 1), proc.stderr  # without --overwrite: "output exists"
+    assert not list((project / "raw").glob("*_c_c.txt"))
+    named = [str(project / "raw" / n) for n in ("a.txt", "a_c.txt")]
+    proc = subprocess.run(ALDPAT + ["convert", *named, "--out-format", "text", "--suffix", "_c", "--overwrite"],
+                          check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and "would replace the input" in proc.stderr, proc.stderr
+    p = sheet(project, '[[job]]\ntask = "convert"\ninputs = ["raw/*.txt"]\nout_format = "text"\nsuffix = "_w"\n')
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE]
+    assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED]
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE]  # its own outputs, unchanged: replaced
+
+
+def test_a_failed_batch_is_resumed_and_a_plain_run_keeps_the_records(project):
+    """A job that failed on one bad input recorded nothing of the outputs it did write, so after
+    mending the input ``--resume`` failed on them ("output exists") for ever; a plain run deleted
+    the run state before its first job, so one that then failed left ``--resume`` nothing to go
+    by. A failed job records what it wrote, a plain run replaces the worksheet's own unchanged
+    outputs and keeps the records, and a file changed by hand is still never replaced."""
+    (project / "raw" / "c.txt").write_text("1 2 3\n4 5 x\n")
+    p = sheet(project, CONVERT_THEN_INFO.replace('task = "info"\n    inputs = ["laz/*.laz"]',
+                                                 'task = "thin"\n    inputs = ["laz/*.laz"]\n    odir = "thin"\n'
+                                                 '    cell = 5.0'))
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [FAILED, BLOCKED]
+    assert (project / "laz" / "a.laz").exists() and not (project / "laz" / "c.laz").exists()
+    (project / "raw" / "c.txt").write_text("1 2 3\n4 5 6\n7 8 10\n")
+    proc = subprocess.run(ALDPAT + ["run", str(p), "--resume"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 0 and "job 2 thin: Done" in proc.stderr, proc.stderr
+    assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED, SKIPPED]
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE, DONE]  # a plain run again
+    assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED, SKIPPED]
+    (project / "laz" / "b.laz").write_bytes(b"edited by hand")
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [FAILED, BLOCKED]
+    assert (project / "laz" / "b.laz").read_bytes() == b"edited by hand"
+    (project / "laz" / "b.laz").unlink()  # the others are still the worksheet's own
+    assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE, DONE]
