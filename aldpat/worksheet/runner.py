@@ -14,7 +14,10 @@ scratch folders of writers no longer running are removed before every job. Becau
 is renamed into place only when complete, a run killed at any instant and resumed ends with the
 same outputs as an uninterrupted one. A job that changed (an input made anew upstream) runs
 again and replaces the outputs the last runs recorded for the worksheet, unchanged since, as
-``make`` does; never another file without ``--overwrite``. Jobs are found in the state by
+``make`` does -- and so does every job of a run without ``--resume``, which runs them all; never
+another file without ``--overwrite``. A failed job records the outputs it did write (its inputs
+that went through), which are its own to replace when it runs again, and a run keeps the records
+of the jobs it does not run. Jobs are found in the state by
 number, and by fingerprint when a job inserted or removed has renumbered them.
 
 One run per worksheet at a time (:mod:`aldpat.worksheet.lock`). The state, the log and the
@@ -193,6 +196,23 @@ def _replaces_only_its_last_outputs(job: Job, written: dict[str, list]) -> bool:
     return found
 
 
+def _still_its_own(job: Job, written: dict[str, list], rewritten: set[str]) -> list[list]:
+    """The records of the outputs of ``job`` the last runs wrote that are as they were then and
+    that this run did not write again: a run of the job that failed before writing them (one of
+    its outputs changed by hand) leaves them the worksheet's own."""
+    kept = []
+    for path, sig in written.items():
+        if path in rewritten or not any(out.matches(path) or (not out.family and str(out.path.resolve()) == path)
+                                        for out in job.planned):
+            continue
+        try:
+            if _file_sig(path) == sig:
+                kept.append(sig)
+        except OSError:
+            continue
+    return kept
+
+
 def _remove_stray_temporaries(job: Job) -> None:
     """Temporaries and scratch folders of writers no longer running, where the job writes and
     where its chunks spill (``tmpdir``)."""
@@ -221,15 +241,15 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
     statuses = [JobStatus(job) for job in ws.jobs]
     _say_where_side_files_go(ws)
     rotate(log_path(ws), LOG_MARK)  # the last run's log is kept as .log.1
-    state = _load_state(ws) if resume else {}
+    # the last runs' records are read whether or not this run resumes: what they wrote is the
+    # worksheet's own to replace, and the records of the jobs this run does not run are kept (a
+    # plain run that failed had deleted them, and with them every later --resume)
+    state = _load_state(ws)
     done_before = {e["fingerprint"]: e for e in state.values()
                    if isinstance(e, dict) and e.get("status") == DONE and isinstance(e.get("fingerprint"), str)}
-    written_before = _written(done_before.values())
+    written_before = _written(e for e in state.values() if isinstance(e, dict))
     killed_before = {e["fingerprint"]: e for e in state.values()
                      if isinstance(e, dict) and e.get("status") == RUNNING and isinstance(e.get("fingerprint"), str)}
-    if not resume:
-        with contextlib.suppress(OSError):
-            state_path(ws).unlink()
     by_number = {s.job.number: s for s in statuses}
     for status in statuses:
         job = status.job
@@ -251,10 +271,10 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
             state[str(job.number)] = finished
             _notify(on_status, status)
             continue
-        if resume and (entry is None or entry.get("status") != RUNNING):  # killed under another number?
+        if entry is None or entry.get("status") != RUNNING:  # killed under another number?
             entry = killed_before.get(fingerprint(job), entry)
-        rerun_after_kill = resume and entry is not None and entry.get("status") == RUNNING
-        replaces_its_own = resume and _replaces_only_its_last_outputs(job, written_before)
+        rerun_after_kill = entry is not None and entry.get("status") == RUNNING
+        replaces_its_own = _replaces_only_its_last_outputs(job, written_before)
         if rerun_after_kill and entry is not None and not _outputs_are_its_own(entry, job):
             rerun_after_kill = False
             if not replaces_its_own:
@@ -300,13 +320,14 @@ def _run_jobs(ws: Worksheet, *, only: set[int] | None, resume: bool, jobs: int |
                 "status": DONE, "fingerprint": fingerprint(job),
                 "outputs": [_file_sig(p) for p in status.outputs if os.path.exists(p)],
             }
-        else:
-            state[str(job.number)] = {"status": FAILED, "message": status.message}
+        else:  # what it did write, and what it wrote before and is unchanged, is its own to replace
+            made = [_file_sig(p) for p in status.outputs if os.path.exists(p)]
+            state[str(job.number)] = {"status": FAILED, "message": status.message, "fingerprint": fingerprint(job),
+                                      "outputs": made + _still_its_own(job, written_before, {sig[0] for sig in made})}
         _save_state(ws, state)
         write_worksheet_log(ws, statuses, command)
         _notify(on_status, status)
-    if resume:  # the jobs skipped under other numbers than the last run's are found under theirs next time
-        _save_state(ws, state)
+    _save_state(ws, state)  # the jobs skipped under other numbers than the last run's are found under theirs next time
     write_worksheet_log(ws, statuses, command)
     return statuses
 
