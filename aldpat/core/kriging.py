@@ -44,6 +44,10 @@ DRIFTS = ("none", "linear")
 
 #: nodes whose systems are solved together
 _BLOCK = 8192
+#: the most bytes the systems of one batch of nodes take: their matrices (and the distances,
+#: variogram values and the solver's copies beside them) grow as the square of ``max_points``,
+#: 2.2 MB a node at 200 neighbours, so a batch of 8,192 would take 18 GB
+_BATCH_BYTES = 256 << 20
 _SAMPLE = 4000
 _LAGS = 16
 
@@ -155,17 +159,32 @@ def krige(x: ArrayLike, y: ArrayLike, z: ArrayLike, spec: GridSpec, *, model: st
     bound = np.inf if radius is None else radius
     out = np.full(spec.shape, np.nan)
 
+    batch = nodes_per_batch(k, nd)
+
     def run(rows: tuple[int, int]) -> None:
         r0, r1 = rows
         nodes = node_coordinates(spec, r0, r1, origin)
-        dist, idx = tree.query(nodes, k=[*range(1, k + 1)], distance_upper_bound=bound)
-        vals = _estimate(nodes, dist, idx, pts, z, vg, nd)
-        if max_distance is not None:
-            vals[dist[:, 0] > max_distance] = np.nan
+        vals = np.empty(len(nodes))
+        for s in range(0, len(nodes), batch):  # each node's system is its own: batches change no value
+            part = nodes[s:s + batch]
+            dist, idx = tree.query(part, k=[*range(1, k + 1)], distance_upper_bound=bound)
+            found = _estimate(part, dist, idx, pts, z, vg, nd)
+            if max_distance is not None:
+                found[dist[:, 0] > max_distance] = np.nan
+            vals[s:s + batch] = found
         out[r0:r1] = vals.reshape(r1 - r0, spec.nx)
 
     on_threads(run, list(row_blocks(spec, _BLOCK)), worker_count(workers))  # LAPACK and the KD-tree release the GIL
     return out
+
+
+def nodes_per_batch(k: int, nd: int) -> int:
+    """Nodes whose kriging systems (``k`` neighbours, ``nd`` drift terms) are solved together,
+    their arrays within :data:`_BATCH_BYTES`: about seven ``(k + nd)``-square float64 arrays a
+    node (the pair offsets twice, their distances, the variogram values, the matrix and the
+    solver's copy of it)."""
+    m = k + nd
+    return max(1, min(_BLOCK, _BATCH_BYTES // (7 * 8 * m * m)))
 
 
 def _estimate(nodes: np.ndarray, dist: np.ndarray, idx: np.ndarray, pts: np.ndarray, z: np.ndarray,

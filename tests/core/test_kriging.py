@@ -85,3 +85,28 @@ def test_radius_leaves_nodes_without_neighbours_blank_and_duplicates_do_not_brea
     vals = krige(x, y, z, spec, variogram=LIN, radius=2.5)
     assert np.isfinite(vals[0, :5]).all() and np.isnan(vals[0, 5:]).all()
     assert vals[0, 0] == pytest.approx(2.0)  # the coincident points share the weight
+
+
+def test_many_neighbours_are_solved_in_batches_of_bounded_memory():
+    """The systems of 8,192 nodes were solved together whatever ``max_points``: at 1,024 (the
+    largest it takes) one batch asked for 137 GB, at 128 a 101 x 101 grid ran out of 4 GB. The
+    batch shrinks as the systems grow, and the values are those of one batch of every node."""
+    import tracemalloc
+
+    from aldpat.core.kriging import _BATCH_BYTES, nodes_per_batch
+
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 100, 3000), rng.uniform(0, 100, 3000)
+    z = np.sin(x / 10) + y / 50 + rng.normal(0, 0.05, 3000)
+    spec = GridSpec(20, 20, 3, 3, 21, 21)
+    vg = fit_variogram(x, y, z)
+    tracemalloc.start()
+    try:
+        wide = krige(x, y, z, spec, max_points=256, variogram=vg, workers=1)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2 * _BATCH_BYTES  # 441 nodes in one batch took 1.6 GB
+    assert nodes_per_batch(1024, 3) >= 1 and nodes_per_batch(16, 1) == 8192
+    one = krige(x, y, z, spec, max_points=16, variogram=vg, workers=1)
+    assert np.isfinite(wide).all() and np.abs(wide - one).max() < 0.5  # the same surface, more neighbours
