@@ -24,6 +24,7 @@ from aldpat.cli.progress import job_progress
 from aldpat.cli.render import show, summarize
 from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line, shown
+from aldpat.jobs.outputs import existing_outputs_refused
 from aldpat.jobs.resolve import load_params_file
 from aldpat.jobs.run import PlannedRun, plan_run, run_task
 from aldpat.jobs.task import Task
@@ -126,7 +127,8 @@ def make_command(task: Task) -> click.Command:
 
 def show_plan(task: Task, plan: PlannedRun) -> int:
     """``--dry-run``: the jobs, the outputs they would write and every parameter with its source,
-    on stdout; the exit status (1 when an input cannot be found, as the run would end)."""
+    on stdout; the exit status (1 when an input cannot be found or an output exists without
+    ``--overwrite``, as the run would end)."""
     click.echo(f"# aldpat {task.key}: {len(plan.jobs)} job(s) as they would run; nothing read or written")
     for number, job in enumerate(plan.jobs, 1):
         click.echo(f"# job {number}: {', '.join(job) if job else '(no input)'}")
@@ -138,7 +140,10 @@ def show_plan(task: Task, plan: PlannedRun) -> int:
             click.echo(f"# writes {out.path} (from every input)")
     for name, value, source in plan.run.record():
         click.echo(f"{name} = {value}    # {source}")
-    return 1 if plan.input_errors else 0
+    refused = existing_outputs_refused(plan.outputs, plan.run)
+    for line in refused:
+        log.error(line)
+    return 1 if plan.input_errors or refused else 0
 
 
 #: ``aldpat --help`` lists the commands in the order of ALDPAT's workflow (the README's table),

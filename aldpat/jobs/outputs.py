@@ -176,9 +176,22 @@ def without_own_outputs(task: Task, sources: list[Path], run: ResolvedRun,
                   "its other inputs")
 
 
+def existing_outputs_refused(planned: Iterable[Planned], run: ResolvedRun) -> list[str]:
+    """What a run refuses when it comes to write ``planned`` -- each output that exists, without
+    ``--overwrite`` -- said as the run says it, without writing or creating anything: for
+    ``--dry-run``, which said "writes a_pm.laz" of a file the run then refused."""
+    if any(getattr(part.values, "overwrite", False) for part in (run.params, run.output) if part is not None):
+        return []
+    return [f"{out.path}: output exists (use --overwrite to replace it)" for out in planned
+            if not out.family and os.path.lexists(out.path)]
+
+
 def check_outputs(task: Task, sources: list[Path], run: ResolvedRun) -> list[Planned]:
     """Refuse (:class:`UsageError`, naming both files) an output that would replace an input or
-    another output of the same run; return the plan."""
+    another output of the same run, or an output folder that is a file; return the plan."""
+    odir = getattr(run.output.values, "odir", None) if run.output is not None else None
+    if odir and os.path.lexists(odir) and not os.path.isdir(odir):
+        raise UsageError(f"--odir {odir} is a file, not a folder: give a folder (made if missing)")
     planned = plan_outputs(task, sources, run)
     reads = Reads()
     for s in [*sources, *path_parameter_files(run, planned)]:

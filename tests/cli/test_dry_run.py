@@ -102,3 +102,23 @@ def test_a_worksheet_gives_dtm_its_algorithm(tmp_path):
                                      encoding="utf-8")
     done = aldpat("run", "w.toml", "--dry-run", cwd=tmp_path).ok()
     assert 'algorithm = "pm"    # worksheet' in done.stdout.splitlines()
+
+
+def test_dry_run_says_which_outputs_the_run_would_find_there_and_an_odir_that_is_a_file(tmp_path):
+    """``--dry-run`` said "writes out/samp24_pm.txt", exit 0, of an output the run then refused
+    ("output exists"), and an ``--odir`` naming a file was taken until each job failed to make it
+    ("cannot create output folder: File exists"). The dry run now names the existing output with
+    the run's exit status, and an ``--odir`` that is a file is a usage error before anything runs."""
+    (tmp_path / "samp24.txt").write_bytes(SAMPLE.read_bytes())
+    aldpat("filter", "pm", "samp24.txt", "--odir", "out", cwd=tmp_path).ok()
+    dry = aldpat("filter", "pm", "samp24.txt", "--odir", "out", "--dry-run", cwd=tmp_path)
+    run = aldpat("filter", "pm", "samp24.txt", "--odir", "out", cwd=tmp_path)
+    assert dry.returncode == run.returncode == 1
+    assert "out/samp24_pm.txt: output exists (use --overwrite" in dry.stderr
+    assert "out/samp24_pm.txt: output exists (use --overwrite" in run.stderr
+    aldpat("filter", "pm", "samp24.txt", "--odir", "out", "--dry-run", "--overwrite", cwd=tmp_path).ok()
+    (tmp_path / "afile").write_text("mine\n")
+    for extra in ([], ["--dry-run"]):
+        done = aldpat("filter", "pm", "samp24.txt", "--odir", "afile", *extra, cwd=tmp_path)
+        assert done.returncode == 2 and "--odir afile is a file, not a folder" in done.stderr, done.stderr
+    assert (tmp_path / "afile").read_text() == "mine\n"
