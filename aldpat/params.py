@@ -269,7 +269,9 @@ def _scalar(kind: str, value: Any, spec: Spec, where: str) -> Any:
             raise bad("a whole number")
         if isinstance(value, numbers.Integral):  # numpy's integers too, as a call passes them
             return int(value)
-        if isinstance(value, numbers.Real) and float(value).is_integer():
+        # 2.0 is 2; a float past 2**53 is no count anyone typed (1e308 was taken, and its range
+        # error printed its 309 digits)
+        if isinstance(value, numbers.Real) and float(value).is_integer() and abs(float(value)) <= 2.0 ** 53:
             return int(float(value))
         if isinstance(value, str):
             try:
