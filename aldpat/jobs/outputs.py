@@ -20,6 +20,7 @@ import bisect
 import fnmatch
 import functools
 import os
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +29,7 @@ from aldpat.core.paths import folds_case
 from aldpat.errors import UsageError
 from aldpat.io.atomic import not_replaceable
 from aldpat.jobs.context import JobContext, JobResult
+from aldpat.jobs.joblog import MARK as JOB_LOG_MARK
 from aldpat.jobs.resolve import ResolvedRun
 from aldpat.jobs.task import Planned, Task
 
@@ -151,21 +153,29 @@ def path_parameter_files(run: ResolvedRun, planned: Iterable[Planned]) -> list[P
 def without_own_outputs(task: Task, sources: list[Path], run: ResolvedRun,
                         gathered: set[Path]) -> tuple[list[Path], str | None]:
     """``sources`` but the files found in a folder or by a pattern (``gathered``) that this run
-    writes from its other inputs, and one line naming those left out (None: none is).
+    writes from its other inputs and that aldpat's job log beside them lists as an output it
+    wrote, and one line naming those left out (None: none is).
 
     Outputs written beside their inputs -- the default -- are in the folder the next run is given:
     ``filter pm tiles/`` run again took ``a_pm.laz`` for an input whose output ``a_pm.laz`` (from
     ``a.laz``) would replace it, and refused the run, ``--overwrite`` or not; a worksheet's job so
-    laid out could not be run again or resumed. A file named on its own is still refused so."""
+    laid out could not be run again or resumed. A file named on its own, or one no job log says
+    aldpat wrote (the user's ``a.laz`` beside ``a.txt`` for ``convert --out-format laz``), is still
+    refused so."""
     if not gathered:
         return sources, None
     found = {real(p) for p in gathered}
-    writes = {real(out.path): out for out in plan_outputs(task, sources, run) if not out.family}
+    planned = plan_outputs(task, sources, run)
+    writes = {real(out.path): out for out in planned if not out.family}
+    first_of: dict[str | None, Planned] = {}
+    for out in planned:
+        first_of.setdefault(None if out.source is None else real(out.source), out)
     kept, left = [], []
     for source in sources:
         key = real(source)
-        out = writes.get(key)
-        if out is not None and key in found and (out.source is None or real(out.source) != key):
+        writer = writes.get(key)
+        if (writer is not None and key in found and (writer.source is None or real(writer.source) != key)
+                and _logged_as_output(first_of[None if writer.source is None else real(writer.source)].path, source)):
             left.append(source)
         else:
             kept.append(source)
@@ -174,6 +184,32 @@ def without_own_outputs(task: Task, sources: list[Path], run: ResolvedRun,
     named = ", ".join(p.name for p in left[:5]) + (f" and {len(left) - 5} more" if len(left) > 5 else "")
     return kept, (f"not taken as input{'s' if len(left) > 1 else ''}: {named}, which this run writes from "
                   "its other inputs")
+
+
+#: the most of a job log read to find an output in it
+_LOG_BYTES = 4 << 20
+
+
+def _logged_as_output(first: Path, path: Path) -> bool:
+    """Whether aldpat's job log of a job whose first output is ``first`` (``<stem>.log`` beside
+    it, :mod:`aldpat.jobs.joblog`) lists ``path`` among its outputs: a file of the user's that
+    only bears an output's name (``a.laz`` beside ``a.txt`` for ``convert --out-format laz``)
+    stays an input, which the run refuses to replace."""
+    log_file = first.with_name(first.stem + ".log")
+    try:
+        with open(log_file, "rb") as fh:
+            text = fh.read(_LOG_BYTES)
+    except OSError:
+        return False
+    if not JOB_LOG_MARK.match(text):
+        return False
+    in_outputs = False
+    for line in text.decode("utf-8", "replace").splitlines():
+        if not line.startswith("  "):
+            in_outputs = line == "outputs:"
+        elif in_outputs and Path(re.sub(r"  \(\d+ points\)$", "", line.strip())).name == path.name:
+            return True
+    return False
 
 
 def existing_outputs_refused(planned: Iterable[Planned], run: ResolvedRun) -> list[str]:

@@ -411,6 +411,11 @@ def test_a_run_again_beside_its_inputs_does_not_take_its_outputs_for_inputs(proj
     proc = subprocess.run(ALDPAT + ["convert", *named, "--out-format", "text", "--suffix", "_c", "--overwrite"],
                           check=False, capture_output=True, text=True)
     assert proc.returncode == 2 and "would replace the input" in proc.stderr, proc.stderr
+    # a file of the user's bearing an output's name, no aldpat log saying it wrote it, is an input
+    (project / "raw" / "b_c.log").unlink()
+    proc = subprocess.run(ALDPAT + args + ["--overwrite"], check=False, capture_output=True, text=True)
+    assert proc.returncode == 2 and "output " in proc.stderr and "would replace the input" in proc.stderr
+    assert "b_c.txt" in proc.stderr, proc.stderr
     p = sheet(project, '[[job]]\ntask = "convert"\ninputs = ["raw/*.txt"]\nout_format = "text"\nsuffix = "_w"\n')
     assert [s.state for s in run_worksheet(load_worksheet(p))] == [DONE]
     assert [s.state for s in run_worksheet(load_worksheet(p), resume=True)] == [SKIPPED]
