@@ -96,7 +96,9 @@ class PulseDecimals(Mapping[str, int]):
 
 def _split(line: str, delimiter: str) -> list[str]:
     if delimiter == ",":
-        return [t.strip() for t in line.split(",")]
+        # one comma closing the line (spreadsheets and some vendors' exports write it) ends the
+        # line's values, as pandas reads it; an empty value inside a line is still refused
+        return [t.strip() for t in line.strip().removesuffix(",").split(",")]
     return line.split()
 
 
@@ -205,6 +207,8 @@ class TextReader:
             raise InputFormatError(f"{self.ncols:,} columns: a point line has at most {MOST_COLUMNS}",
                                    path=self.path, line=self.first_data_line)
         # one plain space between values (the common case) parses twice as fast as any-whitespace
+        # a comma closing the lines: pandas reads one more, empty, column, checked and dropped
+        self._closing_comma = delimiter == "," and any(ln.rstrip().endswith(",") for ln in sample)
         self._single_space = delimiter == " " and all(
             ln == ln.strip() and "  " not in ln and "\t" not in ln for ln in sample)
         self._decimals = [
@@ -234,6 +238,8 @@ class TextReader:
                 for frame in self._frames(sep, skip, size):
                     # column by column: no interleaved copy of the whole frame
                     cols = {name: frame[k].to_numpy(dtype=np.float64) for k, name in enumerate(self.names)}
+                    if self._closing_comma and frame[self.ncols].notna().any():
+                        self._raise_at(rows_done + int(np.flatnonzero(frame[self.ncols].notna().to_numpy())[0]))
                     finite = np.ones(len(frame), dtype=bool)
                     for name, col in cols.items():
                         finite &= (np.abs(col) <= MAX_COORDINATE) if name in COORDINATE_COLUMNS \
@@ -262,10 +268,13 @@ class TextReader:
         """The numbers of the file in pandas frames of ``size`` rows (pandas' chunked reader)."""
         import pandas as pd
 
+        nan = ["nan", "NaN", "NAN"]
+        names = list(range(self.ncols + self._closing_comma))
+        na_values = {k: nan if k < self.ncols else [""] for k in names}
         return pd.read_csv(
-            self.path, sep=sep, header=None, names=list(range(self.ncols)), dtype=np.float64,
+            self.path, sep=sep, header=None, names=names, dtype=np.float64,
             skiprows=skip, chunksize=size, engine="c", skip_blank_lines=True,
-            na_filter=True, keep_default_na=False, na_values=["nan", "NaN", "NAN"], index_col=False,
+            na_filter=True, keep_default_na=False, na_values=na_values, index_col=False,
             encoding=TEXT_ENCODING, encoding_errors=TEXT_ERRORS,
         )
 

@@ -221,3 +221,22 @@ def test_the_line_holding_a_value_counts_header_and_blank_lines(tmp_path):
     assert reader.line_holding("intensity", 0.35) == 4  # the first of two
     assert reader.line_holding("intensity", 0.5) is None  # a value computed on the way: no line holds it
     assert reader.line_holding("classification", 2.0) is None  # no such column
+
+
+def test_a_comma_closing_each_line_ends_its_values(tmp_path):
+    """A spreadsheet's or a vendor's CSV export that closes each line with a comma was refused at
+    its first point ("not a number: ''"). One closing comma now ends a line's values, on lines
+    that have it and lines that do not; an empty value inside a line and a value after the last
+    column are still refused with their line."""
+    path = tmp_path / "export.csv"
+    path.write_text("x,y,z,intensity,\n512799.85,5403502.13,303.46,120,\n512799.84,5403508.18,303.40,130\n"
+                    "512799.90,5403509.00,303.50,140 ,\n")
+    table = open_points(path).read()
+    assert table["z"].tolist() == [303.46, 303.40, 303.50] and table["intensity"].tolist() == [120, 130, 140]
+    for body, line, said in (("1,2,3,4,\n5,,7,8,\n", 2, "not a number: ''"),
+                             ("1,2,3,4,\n5,6,7,8,9\n", 2, "expected 4 columns, found 5")):
+        bad = tmp_path / "bad.csv"
+        bad.write_text(body)
+        with pytest.raises(InputFormatError, match=said) as caught:
+            open_points(bad).read()
+        assert caught.value.line == line
