@@ -11,6 +11,11 @@ Memory: the points of one cell may be anywhere in the file, so large inputs are 
 cell block into temporary bucket files first (:mod:`aldpat.io.spill`) and each bucket is
 thinned in memory; the output lists bucket after bucket, each in input order. Inputs of up to
 one chunk (2 million points) are thinned in memory and keep their input order.
+
+Points a survey file sets aside take no part and are not written, as the filters and ``dtm`` leave
+them out of the ground (:mod:`aldpat.filters.survey`): withheld points, those of
+``ignore_classes`` (noise, 7 and 18) and, with ``returns``, the other returns -- a cell's lowest
+point is then never a vendor's low noise point, as ``lasthin -drop_class 7`` keeps it out.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
 from aldpat.core.crs import output_crs
+from aldpat.filters.survey import ExistingClassesOption, taking_part
 from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.jobs.context import JobContext
 from aldpat.jobs.registry import register_task
@@ -35,7 +41,7 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class ThinParams(CellHeightOption, OriginOption, CrsOption):
+class ThinParams(ExistingClassesOption, CellHeightOption, OriginOption, CrsOption):
     cell: float = param(1.0, "cell (window) width, and height unless cell_height is given", unit="m", gt=0,
                         manual="Width", renamed_from=("cell_width",))
     method: str = param("lowest", "which point a cell keeps: the lowest, the one of median elevation, or the one "
@@ -50,7 +56,11 @@ def round_half_away(v: np.ndarray) -> np.ndarray:
 
 
 def thin_table(table, params: ThinParams):
-    """The points ``table`` keeps (one per occupied cell), x and y rounded if asked."""
+    """The points ``table`` keeps (one per occupied cell of the points taking part), x and y
+    rounded if asked."""
+    part = taking_part(table, params)
+    if part is not None:
+        table = table.take(np.flatnonzero(part))
     keep = select_per_cell(table.x, table.y, table.z, *params.cell_shape(),
                            method=params.method, origin=params.origin)
     out = table.take(keep)
@@ -90,7 +100,8 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
             finally:
                 spill.close()
     ctx.wrote(out, writer.count)
-    log.info("%s: %d of %d points kept (%d buckets)", source, writer.count, total, k)
+    log.info("%s: %d of %d points kept (%d buckets; withheld points and classes %s take no part)", source,
+             writer.count, total, k, ",".join(map(str, params.ignore_classes or ())) or "none")
 
 
 register_task(Task(

@@ -192,6 +192,33 @@ def test_dtm_of_a_vendor_file_has_no_pit_at_the_planted_noise(vendor, tmp_path):
     assert np.nanmin(at["kept"] - (np.asarray(src.z)[low] + 15.0)) > -60  # sanity: the same place
 
 
+def test_thin_lowest_never_keeps_the_vendors_noise_or_withheld_points(vendor, tmp_path):
+    """``thin --method lowest`` kept each cell's lowest point whatever its class: every planted
+    class-7 point, 15 m under the ground, was its cell's point, and so every pit the noise digs
+    went into the thinned file (and withheld points with it). Set-aside points take no part and
+    are not written, as in the filters; ``--ignore-classes none`` lets the classes take part."""
+    path, low, _held, _classes, _version = vendor
+    src = laspy.read(path)
+    aldpat("thin", path, "--cell", "2", "--odir", tmp_path / "kept").ok()
+    thinned = laspy.read(tmp_path / "kept" / "site_thin.laz")
+    intensity = np.asarray(thinned.intensity)  # each point's row in the source
+    classes = np.asarray(thinned.classification)
+    assert not np.isin(classes, (7, 18)).any() and not np.asarray(thinned.withheld).any()
+    assert len(thinned.points) > 1000
+    # every cell a kept point stands in still gets the lowest of its points taking part
+    part = ~np.isin(np.asarray(src.classification), (7, 18)) & ~np.asarray(src.withheld).astype(bool)
+    column, row = (np.floor(np.asarray(v) / 2).astype(np.int64) for v in (src.x, src.y))
+    cell = column * 1_000_003 + row
+    order = np.lexsort((np.asarray(src.z), cell))
+    order = order[part[order]]
+    first = order[np.r_[True, cell[order][1:] != cell[order][:-1]]]
+    np.testing.assert_array_equal(np.sort(np.asarray(src.z)[first]), np.sort(np.asarray(thinned.z)))
+    aldpat("thin", path, "--cell", "2", "--ignore-classes", "none", "--odir", tmp_path / "taken").ok()
+    taken = laspy.read(tmp_path / "taken" / "site_thin.laz")
+    assert np.isin(np.asarray(taken.intensity), low).sum() > PLANTED // 2  # the old result: noise kept
+    assert not np.isin(intensity, low).any()
+
+
 def test_text_to_las_is_valid_las_named_as_ours(tmp_path):
     """convert and filter from text: return 1 of 1 on every point and in the header's counts, the
     generating software aldpat's; --crs is written, and a LAS or GeoTIFF without a CRS says so."""
