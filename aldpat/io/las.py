@@ -855,7 +855,7 @@ class LasWriter:
         extent = [(float(np.min(table.columns[a])), float(np.max(table.columns[a]))) for a in "xyz"] \
             if len(table) else []
         if extent:
-            self._check_extent(extent)
+            self._check_extent(extent, table)
         if self._fh is None:
             self._open(table)
         n = len(table)
@@ -910,19 +910,23 @@ class LasWriter:
         self._fh.write_points(points)
         self.count += n
 
-    def _check_extent(self, extent: list[tuple[float, float]]) -> None:
+    def _check_extent(self, extent: list[tuple[float, float]], table: PointTable) -> None:
         """Take a chunk's ``extent`` (lowest and highest x, y, z) into the file's, and refuse
-        (:class:`DataError`, one line) x or y spreading over more than :data:`MOST_EXTENT`: the
-        file could not be read back (:class:`LasReader` refuses such bounds). One stray point
+        (:class:`UnstorableValue`, one line) x or y spreading over more than :data:`MOST_EXTENT`:
+        the file could not be read back (:class:`LasReader` refuses such bounds). One stray point
         with a lost decimal point (51386646 among 513866.46) made such a file, and every x of it a
-        decimal coarser."""
+        decimal coarser. The value named is the end farther from the median of ``table``'s points,
+        so the job can name the text line holding the stray point."""
         self._reach = [(min(lo, held[0]), max(hi, held[1])) for (lo, hi), held in zip(extent, self._reach, strict=True)] \
             if self._reach else list(extent)
         for name, (lo, hi) in zip("xy", self._reach, strict=False):
             if hi - lo > MOST_EXTENT:
-                raise DataError(f"{name} reaches from {lo:.10g} to {hi:.10g}, more than the Earth's circumference: a "
-                                "LAS file of these points could not be read back (a stray point far from the others? "
-                                "aldpat info shows the bounds)")
+                middle = float(np.median(table.columns[name]))
+                stray = lo if middle - lo > hi - middle else hi
+                raise UnstorableValue(f"{name} reaches from {lo:.10g} to {hi:.10g}, more than the Earth's "
+                                      f"circumference: a LAS file of these points could not be read back (a stray "
+                                      f"point at {name} = {stray:.10g}? aldpat info shows the bounds)",
+                                      column=name, value=stray)
 
     def _say_coarse(self, scales: np.ndarray) -> None:
         """A warning, once an axis, where the scales keep fewer decimals of text points than the text

@@ -279,7 +279,7 @@ def test_a_stray_point_is_refused_for_las_and_a_coarser_scale_is_said(tmp_path):
     """One point with a lost decimal point (51386646 among 513866.46) made a LAZ that aldpat's own
     reader refuses (x over more than the Earth's circumference), every x of it stored at 0.1 m
     without a word. The writer now refuses it, in a fresh ``aldpat convert``, in one line naming
-    the input; a point far enough to cost a decimal but not that far is written, and said."""
+    the input and the stray point's line; a point far enough to cost a decimal but not that far is written, and said."""
     from tests.cli.fresh import aldpat, leftovers
 
     rows = [f"{513748.11 + 0.37 * k:.2f} {5403124.79 + 0.21 * k:.2f} {310.77 + 0.01 * k:.2f}\n" for k in range(300)]
@@ -289,8 +289,9 @@ def test_a_stray_point_is_refused_for_las_and_a_coarser_scale_is_said(tmp_path):
     assert done.returncode == 1
     lines = done.stderr.splitlines()
     assert [ln for ln in lines if "stray." in ln] == [
-        ("aldpat: stray.txt: x reaches from 513748.11 to 51386646, more than the Earth's circumference: a LAS file "
-         "of these points could not be read back (a stray point far from the others? aldpat info shows the bounds)")]
+        ("aldpat: stray.txt:301: x reaches from 513748.11 to 51386646, more than the Earth's circumference: "
+         "a LAS file of these points could not be read back (a stray point at x = 51386646? aldpat info shows the "
+         "bounds)")]
     assert "aldpat: far.laz: x stored at 0.1, coarser than the 2 decimals of the text: LAS integers cannot hold " \
            "them over the points' extent (a stray point far from the others?)" in lines
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["far.laz", "far.log"]
