@@ -26,7 +26,7 @@ from aldpat.cli.run import run_command
 from aldpat.errors import AldpatError, UsageError, one_line, shown
 from aldpat.jobs.outputs import existing_outputs_refused
 from aldpat.jobs.resolve import load_params_file
-from aldpat.jobs.run import PlannedRun, plan_run, run_task
+from aldpat.jobs.run import PlannedRun, formats_refused, plan_run, run_task
 from aldpat.jobs.task import Task
 from aldpat.params import renamed_keys, spec_map
 from aldpat.tasks import TASKS
@@ -127,8 +127,8 @@ def make_command(task: Task) -> click.Command:
 
 def show_plan(task: Task, plan: PlannedRun) -> int:
     """``--dry-run``: the jobs, the outputs they would write and every parameter with its source,
-    on stdout; the exit status (1 when an input cannot be found or an output exists without
-    ``--overwrite``, as the run would end)."""
+    on stdout; the exit status (1 when an input cannot be found or is of no point format, or an
+    output exists without ``--overwrite``, as the run would end)."""
     click.echo(f"# aldpat {task.key}: {len(plan.jobs)} job(s) as they would run; nothing read or written")
     for number, job in enumerate(plan.jobs, 1):
         click.echo(f"# job {number}: {', '.join(job) if job else '(no input)'}")
@@ -140,7 +140,7 @@ def show_plan(task: Task, plan: PlannedRun) -> int:
             click.echo(f"# writes {out.path} (from every input)")
     for name, value, source in plan.run.record():
         click.echo(f"{name} = {value}    # {source}")
-    refused = existing_outputs_refused(plan.outputs, plan.run)
+    refused = formats_refused(task, plan) + existing_outputs_refused(plan.outputs, plan.run)
     for line in refused:
         log.error(line)
     return 1 if plan.input_errors or refused else 0

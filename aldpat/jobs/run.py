@@ -14,8 +14,9 @@ from typing import Any
 
 from aldpat.core import units
 from aldpat.core.workers import workers_to_start
-from aldpat.errors import NoSuchFile, UsageError
+from aldpat.errors import InputFormatError, NoSuchFile, UsageError
 from aldpat.io.chunks import scratch_folder
+from aldpat.io.registry import detect_format
 from aldpat.jobs.cluster import scheduler_for
 from aldpat.jobs.context import JobResult, Written
 from aldpat.jobs.execute import Progress, execute_finish, refuse_existing, report_result
@@ -105,6 +106,22 @@ def plan_run(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     outputs = check_outputs(task, sources, run)  # before anything runs: no output replaces an input or another
     jobs = plan_jobs(task, sources, run) if task.inputs != "none" else [[]]
     return PlannedRun(run, sources, input_errors, jobs, outputs, sum(isinstance(e, NoSuchFile) for e in errors))
+
+
+def formats_refused(task: Task, plan: PlannedRun) -> list[str]:
+    """What the jobs of ``plan`` refuse of their inputs by name alone -- an extension of no point
+    format, without ``--format`` -- said as a job says it, reading nothing: for ``--dry-run``,
+    which said a job of ``pic.png`` would write ``pic_gapm.png`` and the run then refused it."""
+    if not task.reads_points or plan.run.input is None:
+        return []
+    given = getattr(plan.run.input.values, "format", "auto")
+    refused = []
+    for source in dict.fromkeys(s for job in plan.jobs for s in job):
+        try:
+            detect_format(Path(source), given)
+        except InputFormatError as exc:
+            refused.append(str(exc))
+    return refused
 
 
 def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,

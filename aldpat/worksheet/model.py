@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.core.paths import expand_home
-from aldpat.errors import ParamError, UsageError, shown
+from aldpat.errors import InputFormatError, ParamError, UsageError, shown
+from aldpat.io.registry import detect_format
 from aldpat.io.sidefiles import KEEP, other_names
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
@@ -357,6 +358,20 @@ def run_files(wpath: Path) -> dict[str, str]:
     return files
 
 
+def _refuse_unknown_formats(job: Job, found: list[Path], where: str, wpath: Path) -> None:
+    """Refuse, before anything runs, an input of a points job whose extension is of no point
+    format (without ``format``): as an input that matches nothing, not a job that fails when the
+    run reaches it after a dry run said "Ready"."""
+    if not job.task.reads_points or job.run.input is None:
+        return
+    given = getattr(job.run.input.values, "format", "auto")
+    for f in found:
+        try:
+            detect_format(f, given)
+        except InputFormatError as exc:
+            raise UsageError(f"{where}inputs: {exc}", path=wpath) from None
+
+
 def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
     """Each job depends on the earlier jobs that write what its inputs name; an input that matches
     nothing and is not written by an earlier job is an error now, not later. And no job may write
@@ -390,6 +405,7 @@ def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:
             found, errors = expand_inputs([pattern], gathered=gathered)
             if errors and not producers:
                 raise UsageError(f"{where}inputs: {errors[0]}", path=wpath)
+            _refuse_unknown_formats(job, found, where, wpath)
             originals_found += found
             sources += found + made
         unique = {real(f): f for f in reversed(sources)}  # each file once, the first spelling

@@ -122,3 +122,19 @@ def test_dry_run_says_which_outputs_the_run_would_find_there_and_an_odir_that_is
         done = aldpat("filter", "pm", "samp24.txt", "--odir", "afile", *extra, cwd=tmp_path)
         assert done.returncode == 2 and "--odir afile is a file, not a folder" in done.stderr, done.stderr
     assert (tmp_path / "afile").read_text() == "mine\n"
+
+
+def test_dry_run_refuses_an_input_of_no_point_format_as_the_run_does(tmp_path):
+    """``--dry-run`` of a named ``pic.png`` said "writes pic_gapm.png", exit 0, and the run then
+    refused the input by its extension alone. The dry run says the run's line with its exit
+    status, reading nothing; ``--format las`` is taken as the run takes it."""
+    (tmp_path / "samp24.txt").write_bytes(SAMPLE.read_bytes())
+    (tmp_path / "pic.png").write_bytes(b"\x89PNG\r\n\x1a\n")
+    dry = aldpat("filter", "gapm", "samp24.txt", "pic.png", "--odir", "out", "--dry-run", cwd=tmp_path)
+    run = aldpat("filter", "gapm", "samp24.txt", "pic.png", "--odir", "out", cwd=tmp_path)
+    said = "pic.png: unknown extension '.png' (point files are .txt .xyz .csv .pts .las .laz; use --format"
+    assert dry.returncode == run.returncode == 1
+    assert said in dry.stderr and said in run.stderr and "samp24" not in dry.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["samp24_gapm.log", "samp24_gapm.txt"]
+    given = aldpat("filter", "gapm", "pic.png", "--format", "las", "--odir", "o2", "--dry-run", cwd=tmp_path).ok()
+    assert "unknown extension" not in given.stderr and not (tmp_path / "o2").exists()

@@ -53,6 +53,9 @@ CONVERT_THEN_INFO = """
     ('[[job]]\ntask = "convert"\ninputs = ["raw/a.txt"]\njobs = -1\n', "job 1: jobs: -1 is out of range"),
     ('[[job]]\ntask = "convert"\ninputs = ["raw/zzz.txt"]\n', "job 1: inputs: "),
     ('[[job]]\ntask = "convrt"\ninputs = ["raw/a.txt"]\n', "job 1: unknown task 'convrt'; did you mean 'convert'?"),
+    # a named input of no point format: refused now, not by the job after a dry run said "Ready"
+    ('[[job]]\ntask = "thin"\ninputs = ["raw/a.txt", "job.toml"]\n',
+     "job.toml: unknown extension '.toml' (point files are .txt .xyz .csv .pts .las .laz; use --format"),
     (('[[job]]\ntask = "info"\ninputs = ["raw/a.txt"]\n[[job]]\ntask = "evaluate"\ninputs = ["raw/a.txt"]\n'
      'reference = "raw/a.txt"\nmode = "clasified"\n'), "job 2: mode: 'clasified' is not one of"),
     ('[[jobs]]\ntask = "info"\n', "unknown top-level key 'jobs'; did you mean 'job'?"),
