@@ -26,16 +26,18 @@ class ResourceError(DataError):
 
 def available_memory() -> int:
     """Bytes of memory a process may take now without the system swapping: ``MemAvailable``
-    (Linux), else the free physical pages, within a cgroup's (container's) limit where one is
-    set."""
+    (Linux), else the free physical pages, within a cgroup's (container's) limit and the
+    process's own (``ulimit -v``) where one is set."""
     available = _meminfo_available()
     if available is None:
         try:
             available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):  # not on this system: assume a workstation's
             available = 8 << 30
-    limit = _cgroup_room()
-    return min(available, limit) if limit is not None else available
+    for room in (_cgroup_room(), _address_space_room()):
+        if room is not None:
+            available = min(available, room)
+    return available
 
 
 def _meminfo_available() -> int | None:
@@ -61,6 +63,31 @@ def _cgroup_room() -> int | None:
         return max(0, int(limit) - used)
     except (OSError, ValueError):
         return None
+
+
+def _address_space_room() -> int | None:
+    """What ``ulimit -v`` or ``ulimit -d`` (RLIMIT_AS, RLIMIT_DATA) leaves this process, where one
+    is set: past it every allocation fails whatever the machine has free."""
+    try:
+        import resource
+    except ImportError:  # not on this system
+        return None
+    limits = []
+    for which in (resource.RLIMIT_AS, getattr(resource, "RLIMIT_DATA", resource.RLIMIT_AS)):
+        try:
+            soft = resource.getrlimit(which)[0]
+        except (OSError, ValueError):
+            continue
+        if soft != resource.RLIM_INFINITY and soft >= 0:
+            limits.append(soft)
+    if not limits:
+        return None
+    try:
+        with open("/proc/self/statm", encoding="ascii") as fh:
+            used = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        used = 0
+    return max(0, min(limits) - used)
 
 
 def free_disk(folder: str | Path) -> int:
