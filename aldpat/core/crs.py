@@ -80,18 +80,19 @@ def without_crs(out: Any) -> str:
     return f"{name}{WITHOUT_CRS}"
 
 
-def cell_in_degrees(given: Any, source: Any, cell: float, name: str) -> str | None:
+def cell_in_degrees(given: Any, source: Any, cell: float, name: str, option: str = "--cell") -> str | None:
     """The warning line of a cell given in metres (``--cell``, as every command documents it) over
     coordinates in degrees: the output's CRS (``given``, else the input's ``source``) is geographic,
     so a cell of 1 is a degree, about 111 km -- a grid of 2 x 2 nodes over points 0.02 degrees
-    apart, without a word. None for a projected CRS, or none known."""
+    apart, without a word (``option``: the size's own option, ``--width`` of a tile). None for a
+    projected CRS, or none known."""
     try:
         crs = parse_crs(given if given is not None else source) if (given or source) is not None else None
     except Exception:  # noqa: BLE001  (a CRS that does not parse is said where it is used)
         return None
     if crs is None or not crs.is_geographic:
         return None
-    return (f"{name}: the coordinates are in degrees ({crs_label(crs)}): --cell {cell:g} is {cell:g} degrees "
+    return (f"{name}: the coordinates are in degrees ({crs_label(crs)}): {option} {cell:g} is {cell:g} degrees "
             f"(about {cell * 111.32:.3g} km), not metres; re-project first (ortho-height --to-crs) for cells in metres")
 
 
