@@ -188,6 +188,10 @@ class TextReader:
                 self.first_data_line = number
                 break
             first = _split(line, delimiter)[0] if _split(line, delimiter) else ""
+            if _DECIMAL_COMMAS.fullmatch(line.strip()):
+                raise InputFormatError(f"decimal commas ({shown(line.split()[0].split(';')[0])}): aldpat reads '.' as "
+                                       "the decimal mark; export the points with decimal points", path=self.path,
+                                       line=number)
             if _NUMBER.match(first):
                 # starts like a point but is not one: a bad line, not a header
                 bad = next(t for t in _split(line, delimiter) if not _NUMBER.match(t))
@@ -406,6 +410,11 @@ def _binary_kind(head: bytes) -> str:
     if head.startswith((b"\xff\xfe", b"\xfe\xff")) or head[1:200:2].count(0) > 80 or head[0:200:2].count(0) > 80:
         return "UTF-16 text (as Windows PowerShell's > writes): save it as ASCII or UTF-8"
     return "not a text file (binary bytes); use --format las if it is LAS"
+
+
+#: a line of values with decimal commas, separated by whitespace or semicolons (a spreadsheet's
+#: export in a locale writing 513866,46): at least three values, each whole or with one comma
+_DECIMAL_COMMAS = re.compile(r"[+-]?\d+(,\d+)?([\s;]+[+-]?\d+(,\d+)?){2,}[\s;]*")
 
 
 def _semicolons(lines: list[str]) -> str:

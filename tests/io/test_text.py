@@ -240,3 +240,19 @@ def test_a_comma_closing_each_line_ends_its_values(tmp_path):
         with pytest.raises(InputFormatError, match=said) as caught:
             open_points(bad).read()
         assert caught.value.line == line
+
+
+@pytest.mark.parametrize("body", ["513866,46\t5403124,79\t310,77\t0\n", "513866,46;5403124,79;310,77;0\n",
+                                  "X Y Z\n513866,46 5403124,79 310,77\n"])
+def test_decimal_commas_are_named_as_such(tmp_path, body):
+    """A locale's export writing 513866,46 was refused as "not a number: '46\\t5403124'", a value
+    the file never holds; it is now named for what it is, with its line. Whole numbers separated
+    by spaces and commas between values stay points."""
+    path = tmp_path / "comma.txt"
+    path.write_text(body * 3)
+    with pytest.raises(InputFormatError, match=r"decimal commas \('513866,46'\): aldpat reads '\.' as") as caught:
+        open_points(path).read()
+    assert caught.value.line == (2 if body.startswith("X") else 1)
+    for fine in ("513866 5403124 310\n" * 3, "513866,5403124,310\n" * 3):
+        path.write_text(fine)
+        assert open_points(path).read()["z"].tolist() == [310, 310, 310]
