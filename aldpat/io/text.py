@@ -185,7 +185,7 @@ class TextReader:
                 continue
             delimiter = "," if "," in line else ("\t" if "\t" in line and " " not in line.strip() else " ")
             if _is_data(line, delimiter):
-                self.first_data_line = number
+                self.first_data_line: int = number
                 break
             first = _split(line, delimiter)[0] if _split(line, delimiter) else ""
             if _DECIMAL_COMMAS.fullmatch(line.strip()):
