@@ -108,20 +108,24 @@ def plan_run(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[st
     return PlannedRun(run, sources, input_errors, jobs, outputs, sum(isinstance(e, NoSuchFile) for e in errors))
 
 
+def refused_by_name(task: Task, run: ResolvedRun, source: Path) -> str | None:
+    """Why a job of ``task`` refuses ``source`` by its name alone -- an extension of no point
+    format the task reads, without ``--format`` -- said as the job says it; None: it does not."""
+    if not task.reads_points or run.input is None or source.suffix.lower() in task.other_inputs:
+        return None
+    try:
+        detect_format(source, getattr(run.input.values, "format", "auto"))
+    except InputFormatError as exc:
+        return str(exc)
+    return None
+
+
 def formats_refused(task: Task, plan: PlannedRun) -> list[str]:
-    """What the jobs of ``plan`` refuse of their inputs by name alone -- an extension of no point
-    format, without ``--format`` -- said as a job says it, reading nothing: for ``--dry-run``,
-    which said a job of ``pic.png`` would write ``pic_gapm.png`` and the run then refused it."""
-    if not task.reads_points or plan.run.input is None:
-        return []
-    given = getattr(plan.run.input.values, "format", "auto")
-    refused = []
-    for source in dict.fromkeys(s for job in plan.jobs for s in job):
-        try:
-            detect_format(Path(source), given)
-        except InputFormatError as exc:
-            refused.append(str(exc))
-    return refused
+    """What the jobs of ``plan`` refuse of their inputs by name alone (:func:`refused_by_name`),
+    reading nothing: for ``--dry-run``, which said a job of ``pic.png`` would write
+    ``pic_gapm.png`` and the run then refused it."""
+    named = (refused_by_name(task, plan.run, Path(s)) for s in dict.fromkeys(s for job in plan.jobs for s in job))
+    return [why for why in named if why is not None]
 
 
 def run_task(task: Task, inputs: Sequence[str | Path], layers: Sequence[tuple[str, Mapping[str, Any]]], *,

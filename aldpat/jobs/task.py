@@ -62,6 +62,8 @@ class Task:
     plan: Callable | None = None
     #: the inputs are point files, so ``--format`` applies (False: grids, boundary files)
     reads_points: bool = True
+    #: extensions of the files other than points a points task reads too (``preview``: grids)
+    other_inputs: tuple[str, ...] = ()
     #: the outputs are point files, so ``--delimiter`` and ``--out-format`` apply (False: grids,
     #: pictures, shapefiles): a command lists only the options that do something for it
     writes_points: bool = True

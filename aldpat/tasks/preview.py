@@ -246,6 +246,7 @@ register_task(Task(
     params=PreviewParams,
     run_one=preview_one,
     writes_points=False,
+    other_inputs=GRID_EXTENSIONS,
     examples=(
         ("aldpat preview dtm/*.tif",
          "a hillshade PNG of each grid"),

@@ -19,8 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from aldpat.core.paths import expand_home
-from aldpat.errors import InputFormatError, ParamError, UsageError, shown
-from aldpat.io.registry import detect_format
+from aldpat.errors import ParamError, UsageError, shown
 from aldpat.io.sidefiles import KEEP, other_names
 from aldpat.io.toml import load_toml
 from aldpat.jobs.cluster import scheduler_for
@@ -37,6 +36,7 @@ from aldpat.jobs.outputs import (
 )
 from aldpat.jobs.registry import get_task
 from aldpat.jobs.resolve import ResolvedRun, load_params_file, resolve_run
+from aldpat.jobs.run import refused_by_name
 from aldpat.jobs.task import Planned, Task
 
 log = logging.getLogger(__name__)
@@ -359,17 +359,13 @@ def run_files(wpath: Path) -> dict[str, str]:
 
 
 def _refuse_unknown_formats(job: Job, found: list[Path], where: str, wpath: Path) -> None:
-    """Refuse, before anything runs, an input of a points job whose extension is of no point
-    format (without ``format``): as an input that matches nothing, not a job that fails when the
-    run reaches it after a dry run said "Ready"."""
-    if not job.task.reads_points or job.run.input is None:
-        return
-    given = getattr(job.run.input.values, "format", "auto")
+    """Refuse, before anything runs, an input of a points job whose extension is of no format the
+    task reads (without ``format``): as an input that matches nothing, not a job that fails when
+    the run reaches it after a dry run said "Ready"."""
     for f in found:
-        try:
-            detect_format(f, given)
-        except InputFormatError as exc:
-            raise UsageError(f"{where}inputs: {exc}", path=wpath) from None
+        why = refused_by_name(job.task, job.run, f)
+        if why is not None:
+            raise UsageError(f"{where}inputs: {why}", path=wpath)
 
 
 def _link_and_check_inputs(jobs: list[Job], wpath: Path) -> None:

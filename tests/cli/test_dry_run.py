@@ -127,7 +127,8 @@ def test_dry_run_says_which_outputs_the_run_would_find_there_and_an_odir_that_is
 def test_dry_run_refuses_an_input_of_no_point_format_as_the_run_does(tmp_path):
     """``--dry-run`` of a named ``pic.png`` said "writes pic_gapm.png", exit 0, and the run then
     refused the input by its extension alone. The dry run says the run's line with its exit
-    status, reading nothing; ``--format las`` is taken as the run takes it."""
+    status, reading nothing; ``--format las`` is taken as the run takes it, and a grid is an
+    input of ``preview``."""
     (tmp_path / "samp24.txt").write_bytes(SAMPLE.read_bytes())
     (tmp_path / "pic.png").write_bytes(b"\x89PNG\r\n\x1a\n")
     dry = aldpat("filter", "gapm", "samp24.txt", "pic.png", "--odir", "out", "--dry-run", cwd=tmp_path)
@@ -138,3 +139,5 @@ def test_dry_run_refuses_an_input_of_no_point_format_as_the_run_does(tmp_path):
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["samp24_gapm.log", "samp24_gapm.txt"]
     given = aldpat("filter", "gapm", "pic.png", "--format", "las", "--odir", "o2", "--dry-run", cwd=tmp_path).ok()
     assert "unknown extension" not in given.stderr and not (tmp_path / "o2").exists()
+    (tmp_path / "dtm.vrt").write_text("<VRTDataset/>\n")  # preview reads grids as well as points
+    assert "unknown extension" not in aldpat("preview", "dtm.vrt", "--dry-run", cwd=tmp_path).ok().stderr
