@@ -26,7 +26,7 @@ from aldpat.filters.registry import FILTERS
 from aldpat.io.atomic import glob_escape
 from aldpat.tasks.grid import SURFACE_METHODS
 from tests.cli.corpus import Case, degenerate_cases, las_cases, text_cases
-from tests.cli.fresh import aldpat, count_points, leftovers
+from tests.cli.fresh import aldpat, aldpat_batch, count_points, leftovers
 
 GEOID = "geoid.gtx"
 
@@ -216,11 +216,13 @@ def test_tile_refuses_the_whole_set_when_one_strip_is_bad(corpus, tmp_path):
     """Tiles combine every input: a bad strip stops the run before any tile is written, so no tile
     ever silently lacks part of a strip."""
     good = next(c for c in corpus["points"] if c.name == "byte-order mark")
-    for case in (c for c in corpus["points"] if c.refused):
+    refused = [c for c in corpus["points"] if c.refused]
+    runs = aldpat_batch([{"args": ["tile", good.path, case.path, "--width", "30", "--height", "30", "--odir",
+                                   tmp_path / case.path.stem], "cwd": tmp_path} for case in refused])
+    for case, done in zip(refused, runs, strict=True):
         out = tmp_path / case.path.stem
-        done = aldpat("tile", good.path, case.path, "--width", "30", "--height", "30", "--odir", out)
-        assert done.returncode == 1, case.name
-        assert sum(bool(re.search(case.refused, ln)) for ln in done.stderr.splitlines()) == 1, done.stderr
+        assert done["status"] == 1, (case.name, done["stderr"])
+        assert sum(bool(re.search(case.refused, ln)) for ln in done["stderr"].splitlines()) == 1, done["stderr"]
         assert not out.exists() or list(out.iterdir()) == [], case.name
     accepted = [c for c in corpus["points"] if not c.refused]
     aldpat("tile", *[c.path for c in accepted], "--width", "30", "--height", "30", "--odir", tmp_path / "ok").ok()

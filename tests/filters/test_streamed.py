@@ -13,7 +13,7 @@ from aldpat.filters import FILTERS, ground_filter
 from aldpat.filters.streamed import Unstreamable, lowest_codes, streamable
 from aldpat.io.las import LasReader, z_codes
 from aldpat.params import resolve
-from tests.cli.fresh import aldpat
+from tests.cli.fresh import aldpat, aldpat_batch
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 STRIP = DATA / "fsite5_strip.laz"  # a strip of the ISPRS site FSite5: real points, data gaps
@@ -135,7 +135,7 @@ def test_a_stale_header_far_wider_than_the_points_grids_the_points_own_extent(tm
     """A tile carrying its project's header (bounds 20 km across, points a few hundred metres):
     every grid filter refused it ("a 26668 x 26668 grid of 0.75 m cells is too large"), and with
     14 km bounds held 1.5 GB for a strip of 20,000 points. The first pass now reads the points'
-    own extent first; in fresh processes, filter and dtm give the classes and the DTM of the same
+    own extent first; in one fresh process, filter and dtm give the classes and the DTM of the same
     file with a true header."""
     import struct
 
@@ -147,10 +147,10 @@ def test_a_stale_header_far_wider_than_the_points_grids_the_points_own_extent(tm
     with open(stale, "r+b") as fh:  # Max X, Min X, Max Y, Min Y: doubles from byte 179
         fh.seek(179)
         fh.write(struct.pack("<dddd", x0 + 20_000.0, x0 - 500.0, y0 + 20_000.0, y0 - 500.0))
-    for name in ("true", "stale"):
-        aldpat("filter", "gapm", f"{name}.las", "--odir", "out", cwd=tmp_path).ok()
-        aldpat("filter", "pm", f"{name}.las", "--odir", "out", cwd=tmp_path).ok()
-        aldpat("dtm", f"{name}.las", "--cell", "2", "--odir", "out", cwd=tmp_path).ok()
+    runs = aldpat_batch([{"args": [*command, f"{name}.las", *extra, "--odir", "out"], "cwd": tmp_path}
+                         for name in ("true", "stale")
+                         for command, extra in ((["filter", "gapm"], []), (["filter", "pm"], []), (["dtm"], ["--cell", "2"]))])
+    assert [run["status"] for run in runs] == [0] * 6, [run["stderr"] for run in runs]
     for suffix in ("_gapm.las", "_pm.las"):
         classes = [np.asarray(laspy.read(tmp_path / "out" / f"{n}{suffix}").classification) for n in ("true", "stale")]
         assert np.array_equal(*classes) and (classes[0] == 2).mean() > 0.5

@@ -303,14 +303,14 @@ def test_extended_records_are_kept_and_a_copc_input_is_written_as_plain_laz(tmp_
     """A CRS a vendor stored in an extended VLR (LAS 1.4 R15, section 2.5) was lost in every
     LAS/LAZ output (laspy writes EVLRs only when asked), and a COPC input failed every command
     writing LAS ("Writing COPC is not supported": its info record copied into the output). Both
-    in fresh ``aldpat`` processes: the EVLR is kept (and replaced by ``--crs``), the COPC
+    in one fresh ``aldpat`` process: the EVLR is kept (and replaced by ``--crs``), the COPC
     records are dropped and the points written as a plain LAZ."""
     import pyproj
     from laspy.vlrs.known import WktCoordinateSystemVlr
     from laspy.vlrs.vlr import VLR
     from laspy.vlrs.vlrlist import VLRList
 
-    from tests.cli.fresh import TEST_DATA, aldpat
+    from tests.cli.fresh import TEST_DATA, aldpat_batch
 
     strip = laspy.convert(laspy.read(TEST_DATA / "fsite5_strip.laz"), point_format_id=6, file_version="1.4")
     strip.header.vlrs.clear()
@@ -318,21 +318,23 @@ def test_extended_records_are_kept_and_a_copc_input_is_written_as_plain_laz(tmp_
     strip.header.evlrs = VLRList([WktCoordinateSystemVlr(wkt)])
     strip.header.global_encoding.wkt = True
     strip.write(tmp_path / "evlr.laz")
-    assert json.loads(aldpat("info", "evlr.laz", "--json", cwd=tmp_path).ok().stdout)["crs"] == "EPSG:32632"
-    for command in (["filter", "pm"], ["thin"], ["convert", "--out-format", "las"]):
-        aldpat(*command, "evlr.laz", "--odir", command[0], cwd=tmp_path).ok()
+    copc = laspy.convert(laspy.read(TEST_DATA / "fsite5_strip.laz"), point_format_id=6, file_version="1.4")
+    copc.header.vlrs.append(VLR(user_id="copc", record_id=1, description="copc info", record_data=bytes(160)))
+    copc.write(tmp_path / "site.copc.laz")
+    commands = [["info", "evlr.laz", "--json"],
+                *([*command, "evlr.laz", "--odir", command[0]] for command in
+                  (["filter", "pm"], ["thin"], ["convert", "--out-format", "las"])),
+                ["filter", "pm", "evlr.laz", "--crs", "EPSG:25832", "--odir", "other"],
+                ["filter", "pm", "site.copc.laz", "--odir", "fromcopc"]]
+    runs = aldpat_batch([{"args": command, "cwd": tmp_path} for command in commands])
+    assert [run["status"] for run in runs] == [0] * len(commands), [run["stderr"] for run in runs]
+    assert json.loads(runs[0]["stdout"])["crs"] == "EPSG:32632"
     for written in [*(tmp_path / "filter").glob("*.laz"), *(tmp_path / "thin").glob("*.laz"),
                     tmp_path / "convert" / "evlr.las"]:
         with laspy.open(written) as f:
             assert f.header.parse_crs().to_epsg() == 32632 and len(f.header.evlrs) == 1, written
-    aldpat("filter", "pm", "evlr.laz", "--crs", "EPSG:25832", "--odir", "other", cwd=tmp_path).ok()
     with laspy.open(tmp_path / "other" / "evlr_pm.laz") as f:
         assert f.header.parse_crs().to_epsg() == 25832 and len(f.header.evlrs) == 0
-
-    copc = laspy.convert(laspy.read(TEST_DATA / "fsite5_strip.laz"), point_format_id=6, file_version="1.4")
-    copc.header.vlrs.append(VLR(user_id="copc", record_id=1, description="copc info", record_data=bytes(160)))
-    copc.write(tmp_path / "site.copc.laz")
-    aldpat("filter", "pm", "site.copc.laz", "--odir", "fromcopc", cwd=tmp_path).ok()
     written = laspy.read(tmp_path / "fromcopc" / "site.copc_pm.laz")
     assert len(written.points) == len(copc.points)
     assert not any(str(v.user_id).rstrip("\0") == "copc" for v in written.header.vlrs)

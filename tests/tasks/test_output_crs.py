@@ -193,20 +193,23 @@ def test_dtm_of_a_las_with_another_crs_writes_it_and_says_so(tmp_path):
 
 def test_a_cell_in_metres_over_coordinates_in_degrees_is_said(tmp_path):
     """``--cell`` is in metres everywhere; over points in degrees (EPSG:4326) a cell of 1 made 1-degree
-    cells, a grid of 2 x 2 nodes over points 0.02 degrees apart, without a word. In fresh
-    processes, grid, dtm, a filter, thin and strip-boundary say so, and tile of its --width."""
+    cells, a grid of 2 x 2 nodes over points 0.02 degrees apart, without a word. In one fresh
+    process, grid, dtm, a filter, thin and strip-boundary say so, and tile of its --width."""
     import numpy as np
 
-    from tests.cli.fresh import aldpat
+    from tests.cli.fresh import aldpat, aldpat_batch
 
     rng = np.random.default_rng(2)
     lon, lat = -80 + rng.uniform(0, 0.02, 300), 40 + rng.uniform(0, 0.02, 300)
     np.savetxt(tmp_path / "deg.txt", np.column_stack([lon, lat, rng.uniform(100, 101, 300)]), fmt="%.8f")
     line = "deg.txt: the coordinates are in degrees (EPSG:4326): --cell 1 is 1 degrees (about 111 km), not metres"
-    for command in (["grid", "--method", "nearest"], ["dtm"], ["filter", "pm"], ["thin"], ["strip-boundary"]):
-        done = aldpat(*command, "deg.txt", "--cell", "1", "--crs", "EPSG:4326", "--odir", command[0], cwd=tmp_path)
-        assert line in done.stderr, (command, done.stderr)
-    done = aldpat("tile", "deg.txt", "--width", "500", "--crs", "EPSG:4326", "--odir", "tile", cwd=tmp_path)
+    commands = (["grid", "--method", "nearest"], ["dtm"], ["filter", "pm"], ["thin"], ["strip-boundary"])
+    done = aldpat_batch([{"args": [*command, "deg.txt", "--cell", "1", "--crs", "EPSG:4326", "--odir", command[0]],
+                          "cwd": tmp_path} for command in commands]
+                        + [{"args": ["tile", "deg.txt", "--width", "500", "--crs", "EPSG:4326", "--odir", "tile"],
+                            "cwd": tmp_path}])
+    for command, case in zip(commands, done, strict=False):
+        assert line in case["stderr"], (command, case["stderr"])
     assert line.replace("--cell 1 is 1 degrees (about 111", "--width 500 is 500 degrees (about 5.57e+04") \
-        in done.stderr, done.stderr
+        in done[-1]["stderr"], done[-1]["stderr"]
     assert "degrees" not in aldpat("grid", "deg.txt", "--cell", "1", "--odir", "none", cwd=tmp_path).stderr  # no CRS
