@@ -80,20 +80,21 @@ def without_crs(out: Any) -> str:
     return f"{name}{WITHOUT_CRS}"
 
 
-def cell_in_degrees(given: Any, source: Any, cell: float, name: str, option: str = "--cell") -> str | None:
-    """The warning line of a cell given in metres (``--cell``, as every command documents it) over
-    coordinates in degrees: the output's CRS (``given``, else the input's ``source``) is geographic,
-    so a cell of 1 is a degree, about 111 km -- a grid of 2 x 2 nodes over points 0.02 degrees
-    apart, without a word (``option``: the size's own option, ``--width`` of a tile). None for a
-    projected CRS, or none known."""
+def say_cell_in_degrees(given: Any, source: Any, cell: float, name: str, warn: Callable[[str], None],
+                        option: str = "--cell") -> None:
+    """Say (through ``warn``, a job's ``ctx.warn``) that a cell given in metres (``--cell``, as
+    every command documents it) lies over coordinates in degrees: the output's CRS (``given``,
+    else the input's ``source``) is geographic, so a cell of 1 is a degree, about 111 km -- a grid
+    of 2 x 2 nodes over points 0.02 degrees apart, without a word (``option``: the size's own
+    option, ``--width`` of a tile). Nothing for a projected CRS, or none known."""
     try:
         crs = parse_crs(given if given is not None else source) if (given or source) is not None else None
     except Exception:  # noqa: BLE001  (a CRS that does not parse is said where it is used)
-        return None
+        return
     if crs is None or not crs.is_geographic:
-        return None
-    return (f"{name}: the coordinates are in degrees ({crs_label(crs)}): {option} {cell:g} is {cell:g} degrees "
-            f"(about {cell * 111.32:.3g} km), not metres; re-project first (ortho-height --to-crs) for cells in metres")
+        return
+    warn(f"{name}: the coordinates are in degrees ({crs_label(crs)}): {option} {cell:g} is {cell:g} degrees "
+         f"(about {cell * 111.32:.3g} km), not metres; re-project first (ortho-height --to-crs) for cells in metres")
 
 
 def horizontal_part(crs: Any) -> Any:

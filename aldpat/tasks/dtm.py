@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from aldpat.core import units
-from aldpat.core.crs import cell_in_degrees, crs_label, output_crs
+from aldpat.core.crs import crs_label, output_crs, say_cell_in_degrees
 from aldpat.core.data_gaps import GAP_CELLS, GAP_SPACINGS, Occupancy, blank_gaps, default_gap, mean_spacing
 from aldpat.core.grid_extent import GridSpec
 from aldpat.core.interpolate import linear
@@ -265,8 +265,7 @@ def dtm_one(source: Path, params: DtmParams, ctx: JobContext) -> None:
         dtm_over_tiles(tile, params, ctx)
         return
     reader = ctx.open_input(source)
-    if (degrees := cell_in_degrees(params.crs, reader.crs, params.cell, source.name)) is not None:
-        ctx.warn(degrees)
+    say_cell_in_degrees(params.crs, reader.crs, params.cell, source.name, ctx.warn)
     made = _streamed_ground(reader, params, ctx)
     if made is None:
         made = _ground_in_memory(source, reader, params, ctx)

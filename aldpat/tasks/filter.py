@@ -30,7 +30,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.compiled import load_compiler_in_background
-from aldpat.core.crs import cell_in_degrees, output_crs
+from aldpat.core.crs import output_crs, say_cell_in_degrees
 from aldpat.errors import AldpatError, DataError, ParamError
 from aldpat.filters import FILTERS, FilterResult, ground_filter
 from aldpat.filters.marks import MARK_LOW_OUTLIER
@@ -200,8 +200,8 @@ def filter_one(source: Path, params, ctx: JobContext, *, algorithm: str) -> None
     load_compiler_in_background()  # while the points are read: every filter runs compiled loops
     reader = ctx.open_input(source)
     cell = getattr(params, "cell", None)  # a filter without a cell of its own has none to misread
-    if cell is not None and (degrees := cell_in_degrees(params.crs, reader.crs, cell, source.name)) is not None:
-        ctx.warn(degrees)
+    if cell is not None:
+        say_cell_in_degrees(params.crs, reader.crs, cell, source.name, ctx.warn)
     params = with_result(params, source, ctx, reader)
     if (reader.format == "las" and params.data_mode == "real" and streamable(algorithm, params)
             and filter_streamed(source, reader, params, ctx, algorithm=algorithm)):

@@ -30,7 +30,7 @@ import numpy as np
 
 from aldpat.core import units
 from aldpat.core.compiled import load_compiler_in_background
-from aldpat.core.crs import cell_in_degrees, crs_label, output_crs, parse_crs
+from aldpat.core.crs import crs_label, output_crs, parse_crs, say_cell_in_degrees
 from aldpat.core.grid_extent import (
     GridSpec,
     from_bounds,
@@ -255,8 +255,7 @@ def grid_one(source: Path, params: GridParams, ctx: JobContext) -> None:
         grid_over_tiles(tile, params, ctx)
         return
     reader = ctx.open_input(source)
-    if (degrees := cell_in_degrees(params.crs, reader.crs, params.cell, source.name)) is not None:
-        ctx.warn(degrees)
+    say_cell_in_degrees(params.crs, reader.crs, params.cell, source.name, ctx.warn)
     out = ctx.outputs_for(source)[0].path
     spec = grid_spec_for(params)
     keep = class_selection(params, reader, ctx)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.boundary import BoundaryScan
-from aldpat.core.crs import cell_in_degrees, output_crs
+from aldpat.core.crs import output_crs, say_cell_in_degrees
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
@@ -72,8 +72,7 @@ def strip_boundary_outputs(source: Path, params: StripBoundaryParams, ctx: JobCo
 
 def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
-    if (degrees := cell_in_degrees(params.crs, reader.crs, params.cell, source.name)) is not None:
-        ctx.warn(degrees)
+    say_cell_in_degrees(params.crs, reader.crs, params.cell, source.name, ctx.warn)
     ring, direction = boundary_of(reader, params)
     names = ("x", "y", "z", "intensity")
     ring["intensity"] = np.rint(ring["intensity"]).astype(np.int64)

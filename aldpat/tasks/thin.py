@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.cells import METHODS, cell_of, select_per_cell
-from aldpat.core.crs import cell_in_degrees, output_crs
+from aldpat.core.crs import output_crs, say_cell_in_degrees
 from aldpat.filters.survey import ExistingClassesOption, taking_part
 from aldpat.io.spill import Spill, bucket_count, bucket_of, estimate_points
 from aldpat.jobs.context import JobContext
@@ -75,8 +75,7 @@ def thin_outputs(source: Path, params: ThinParams, ctx: JobContext) -> list[Plan
 
 def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
-    if (degrees := cell_in_degrees(params.crs, reader.crs, params.cell, source.name)) is not None:
-        ctx.warn(degrees)
+    say_cell_in_degrees(params.crs, reader.crs, params.cell, source.name, ctx.warn)
     out = ctx.outputs_for(source)[0].path
     # the reader's own decimals, which it widens as it reads (a live view, not a copy)
     decimals = ChainMap({"x": 0, "y": 0} if params.xy == "integer" else {}, reader.decimals)

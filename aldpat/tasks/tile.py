@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from aldpat.core.crs import cell_in_degrees, output_crs
+from aldpat.core.crs import output_crs, say_cell_in_degrees
 from aldpat.core.resources import check_disk
 from aldpat.core.tiles import DIRECTIONS, TileLayout, check_buffer
 from aldpat.errors import DataError, ParamError, UsageError
@@ -326,8 +326,7 @@ def tile_all(sources: list[Path], params: TileParams, ctx: JobContext) -> None:
     readers = [ctx.open_input(s) for s in sources]
     shared = one_crs(readers, "tile")
     first = readers[0]
-    if (degrees := cell_in_degrees(params.crs, shared, params.width, first.path.name, "--width")) is not None:
-        ctx.warn(degrees)
+    say_cell_in_degrees(params.crs, shared, params.width, first.path.name, ctx.warn, "--width")
     folder = ctx.output_dir(sources[0])
     ext = output_extension(first.path, ctx.output.out_format if ctx.output else None)  # --append: tile_outputs
     if ext in (".las", ".laz"):
