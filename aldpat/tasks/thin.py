@@ -55,12 +55,15 @@ def round_half_away(v: np.ndarray) -> np.ndarray:
     return np.where(v >= 0, np.floor(v + 0.5), np.ceil(v - 0.5))
 
 
-def thin_table(table, params: ThinParams):
-    """The points ``table`` keeps (one per occupied cell of the points taking part), x and y
-    rounded if asked."""
+def taking_part_only(table, params: ThinParams):
+    """The points of ``table`` taking part (:func:`aldpat.filters.survey.taking_part`): a point's
+    own flags and class decide, so each chunk is cut as it is read, before it is held or spilled."""
     part = taking_part(table, params)
-    if part is not None:
-        table = table.take(np.flatnonzero(part))
+    return table if part is None else table.take(np.flatnonzero(part))
+
+
+def thin_table(table, params: ThinParams):
+    """The points ``table`` keeps (one per occupied cell), x and y rounded if asked."""
     keep = select_per_cell(table.x, table.y, table.z, *params.cell_shape(),
                            method=params.method, origin=params.origin)
     out = table.take(keep)
@@ -86,16 +89,17 @@ def thin_one(source: Path, params: ThinParams, ctx: JobContext) -> None:
         if k == 1:
             from aldpat.io.table import PointTable
 
-            table = PointTable.concat(list(reader.chunks()))
-            total = len(table)
-            writer.write(thin_table(table, params))
+            chunks = list(reader.chunks())
+            total = sum(len(chunk) for chunk in chunks)
+            writer.write(thin_table(PointTable.concat([taking_part_only(c, params) for c in chunks]), params))
         else:
             spill = Spill(out.parent, k)
             try:
                 for chunk in reader.chunks():
+                    total += len(chunk)
+                    chunk = taking_part_only(chunk, params)
                     i, j = cell_of(chunk.x, chunk.y, *params.cell_shape(), params.origin)
                     spill.add(chunk, bucket_of(i, j, k))
-                    total += len(chunk)
                 for bucket in spill.buckets():
                     writer.write(thin_table(bucket, params))
             finally:
