@@ -97,6 +97,27 @@ def say_cell_in_degrees(given: Any, source: Any, cell: float, name: str, warn: C
          f"(about {cell * 111.32:.3g} km), not metres; re-project first (ortho-height --to-crs) for cells in metres")
 
 
+#: how a message names the units of a projected CRS's first axis (pyproj's ``unit_name``)
+_UNIT_WORDS = {"metre": "m", "foot": "ft", "US survey foot": "US ft"}
+
+
+def coordinate_unit(given: Any, source: Any) -> str:
+    """The units the coordinates are in, as a message names them: "degrees" where the CRS
+    (``given``, else the input's ``source``) is geographic, its axis unit where projected ("m",
+    "ft", "US ft"), and "m" where none is known, as every size option documents its values."""
+    try:
+        crs = parse_crs(given if given is not None else source) if (given or source) is not None else None
+    except Exception:  # noqa: BLE001  (a CRS that does not parse is said where it is used)
+        return "m"
+    if crs is None:
+        return "m"
+    if crs.is_geographic:
+        return "degrees"
+    axes = horizontal_part(crs)
+    unit = axes.axis_info[0].unit_name if axes is not None and axes.axis_info else "metre"
+    return _UNIT_WORDS.get(unit, unit)
+
+
 def horizontal_part(crs: Any) -> Any:
     """The 2D horizontal CRS of ``crs``: itself when horizontal, the horizontal component of a
     compound CRS, the 2D form of a 3D one (EPSG:4979 -> EPSG:4326); None for a vertical CRS."""

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from aldpat.core.boundary import BoundaryScan
-from aldpat.core.crs import output_crs, say_cell_in_degrees
+from aldpat.core.crs import coordinate_unit, output_crs, say_cell_in_degrees
 from aldpat.errors import DataError
 from aldpat.io.table import PointTable
 from aldpat.jobs.context import JobContext
@@ -36,12 +36,13 @@ class StripBoundaryParams(CellHeightOption, OriginOption, CrsOption):
 
 
 
-def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
+def boundary_of(reader, params: StripBoundaryParams, unit: str = "m") -> tuple[dict, str]:
     """The closed boundary ring of a strip (columns x y z intensity) and the scan used.
 
     Raises :class:`DataError` where the occupied cells make no polygon (fewer than three
     boundary points): saying whether the strip is narrower than a cell -- its points on one line,
-    a profile, which no cell size gives an area -- or only sparse for the cells."""
+    a profile, which no cell size gives an area -- or only sparse for the cells; sizes in the
+    coordinates' ``unit`` (:func:`aldpat.core.crs.coordinate_unit`)."""
     scan = BoundaryScan(*params.cell_shape(), params.origin)
     for chunk in reader.chunks():
         intensity = chunk["intensity"] if "intensity" in chunk else None  # noqa: SIM401  (a PointTable, no .get)
@@ -55,10 +56,10 @@ def boundary_of(reader, params: StripBoundaryParams) -> tuple[dict, str]:
         if max(width, height) == 0.0:
             why = "its points lie at one position"
         elif min(width, height) == 0.0:
-            why = (f"its points lie on one line ({width:g} m by {height:g} m): a profile has no area, whatever the "
+            why = (f"its points lie on one line ({width:g} {unit} by {height:g} {unit}): a profile has no area, whatever the "
                    "cells")
         elif width < cell_w or height < cell_h:
-            why = (f"the strip, {width:g} m by {height:g} m, is narrower than one {cell_w:g} x {cell_h:g} m cell; use "
+            why = (f"the strip, {width:g} {unit} by {height:g} {unit}, is narrower than one {cell_w:g} x {cell_h:g} {unit} cell; use "
                    "smaller cells")
         else:
             why = "use smaller cells"
@@ -73,7 +74,7 @@ def strip_boundary_outputs(source: Path, params: StripBoundaryParams, ctx: JobCo
 def strip_boundary_one(source: Path, params: StripBoundaryParams, ctx: JobContext) -> None:
     reader = ctx.open_input(source)
     say_cell_in_degrees(params.crs, reader.crs, params.cell, source.name, ctx.warn)
-    ring, direction = boundary_of(reader, params)
+    ring, direction = boundary_of(reader, params, coordinate_unit(params.crs, reader.crs))
     names = ("x", "y", "z", "intensity")
     ring["intensity"] = np.rint(ring["intensity"]).astype(np.int64)
     out = ctx.outputs_for(source)[0].path

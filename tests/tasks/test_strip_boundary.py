@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from aldpat.core.polygon import points_in_polygons
 from aldpat.tasks import get_task
@@ -76,3 +77,26 @@ def test_a_profile_or_a_strip_narrower_than_a_cell_says_which(tmp_path):
         assert not (tmp_path / f"{name}_Bound.txt").exists()
     aldpat("strip-boundary", "narrow.txt", "--cell", "0.5", cwd=tmp_path).ok()
     assert len(np.loadtxt(tmp_path / "narrow_Bound.txt")) >= 4
+
+
+def test_a_strip_over_degrees_is_measured_in_degrees(tmp_path):
+    """The sizes of a strip too narrow for its cells are in the coordinates' units: over longitude
+    and latitude they were said in metres ("0.0099969 m by 0.0099975 m")."""
+    from tests.cli.fresh import aldpat
+
+    x = np.arange(0.0, 100.0, 0.5)
+    np.savetxt(tmp_path / "lonlat.txt", np.c_[11.0 + x * 1e-4, 48.0 + (x % 2.0) * 1e-4, np.ones_like(x)], fmt="%.6f")
+    done = aldpat("strip-boundary", "lonlat.txt", "--crs", "EPSG:4326", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    assert ("the strip, 0.00995 degrees by 0.00015 degrees, is narrower than one 5 x 5 degrees cell"
+            in done.stderr), done.stderr
+
+
+@pytest.mark.parametrize(("crs", "unit"), [(None, "m"), ("EPSG:32617", "m"), ("EPSG:4326", "degrees"),
+                                           ("EPSG:2263", "US ft"), ("EPSG:2222", "ft"),
+                                           ("EPSG:32632+5773", "m"), ("not a crs", "m")])
+def test_the_coordinates_unit_is_named_as_messages_say_it(crs, unit):
+    from aldpat.core.crs import coordinate_unit
+
+    assert coordinate_unit(crs, None) == unit
+    assert coordinate_unit(None, crs) == unit
