@@ -124,55 +124,76 @@ def test_inputs_of_other_columns_are_refused_in_either_order_and_nothing_is_drop
     intensity, merged to x y z (its intensity gone without a word); the other order was refused.
     Now both orders are refused, naming the two files; ``--fields xyz`` merges x, y and z of both.
     A LAS input's points keep their whole record in a LAS output that a text input joins, and
-    nothing says otherwise (a warning said its classes, returns and times were not written)."""
-    from tests.cli.fresh import aldpat, leftovers
+    nothing says otherwise (a warning said its classes, returns and times were not written).
+    The merges run one after another in one fresh process."""
+    from tests.cli.fresh import aldpat_batch, leftovers
 
     (tmp_path / "xyz.txt").write_text("500000.5 4000000.5 10.25\n500001.5 4000001.5 11.25\n")
     (tmp_path / "xyzi.txt").write_text("500002.5 4000002.5 12.25 40\n500003.5 4000003.5 13.25 50\n")
-    for order in (["xyz.txt", "xyzi.txt"], ["xyzi.txt", "xyz.txt"]):
-        done = aldpat("merge", *order, "-o", "m.txt", cwd=tmp_path)
-        assert done.returncode == 1, done.stderr
-        assert "xyz.txt: has no intensity column and xyzi.txt has one; use --fields xyz" in done.stderr
-        assert done.stderr.splitlines()[-1] == "aldpat: merge of 2 inputs failed"  # one job of both, failed whole
-        assert not (tmp_path / "m.txt").exists()
-    aldpat("merge", "xyzi.txt", "xyz.txt", "-o", "m.txt", "--fields", "xyz", cwd=tmp_path).ok()
-    assert np.loadtxt(tmp_path / "m.txt").shape == (4, 3)
-
     tile = laspy.read(STRIP)
     tile.write(tmp_path / "strip.las")
-    for order in (["xyz.txt", "strip.las"], ["strip.las", "xyz.txt"]):
-        done = aldpat("merge", *order, "-o", "m.las", "--fields", "xyz", "--overwrite", cwd=tmp_path).ok()
-        assert "not written" not in done.stderr
-        merged = laspy.read(tmp_path / "m.las")
+    extra = laspy.read(STRIP)
+    extra.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.float32))
+    extra.height_above_ground = np.ones(len(extra.points), np.float32)
+    extra.write(tmp_path / "extra.las")
+    other = laspy.read(STRIP)
+    other.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.int16))
+    other.height_above_ground = np.full(len(other.points), 3, np.int16)
+    other.write(tmp_path / "other.las")
+
+    checks = []  # (arguments, what to check of the run)
+
+    def merge(*args, then):
+        checks.append((["merge", *args], then))
+
+    def refused_columns(done):
+        assert done["status"] == 1, done["stderr"]
+        assert "xyz.txt: has no intensity column and xyzi.txt has one; use --fields xyz" in done["stderr"]
+        # one job of both, failed whole
+        assert done["stderr"].splitlines()[-1] == "aldpat: merge of 2 inputs failed"
+        assert not (tmp_path / done["args"][-1]).exists()
+
+    def merged_xyz(done):
+        assert done["status"] == 0, done["stderr"]
+        assert np.loadtxt(tmp_path / "m.txt").shape == (4, 3)
+
+    def kept_whole_records(done):
+        assert done["status"] == 0 and "not written" not in done["stderr"], done["stderr"]
+        merged = laspy.read(tmp_path / done["args"][done["args"].index("-o") + 1])
         assert len(merged.points) == 2 + len(tile.points)
         own = merged.points[merged.z != 10.25]
         own = own[own.z != 11.25]
         for name in ("intensity", "classification", "return_number", "number_of_returns"):
             assert np.array_equal(np.sort(np.asarray(own[name])), np.sort(np.asarray(tile[name]))), name
 
-    # LAS inputs into LAS: their extra dimensions agree, or the merge says which differ
-    extra = laspy.read(STRIP)
-    extra.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.float32))
-    extra.height_above_ground = np.ones(len(extra.points), np.float32)
-    extra.write(tmp_path / "extra.las")
-    for order in (["strip.las", "extra.las"], ["extra.las", "strip.las"]):
-        done = aldpat("merge", *order, "-o", "e.las", cwd=tmp_path)
-        assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
-        assert not (tmp_path / "e.las").exists()
-        # a text input beside them changes nothing: strip.las's points were given 0 for it silently
-        done = aldpat("merge", *order, "xyz.txt", "-o", "e.las", "--fields", "xyz", cwd=tmp_path)
-        assert done.returncode == 1 and "height_above_ground (extra bytes), unlike" in done.stderr, done.stderr
-        assert not (tmp_path / "e.las").exists()
+    def refused_saying(text):
+        def check(done):
+            assert done["status"] == 1 and text in done["stderr"], done["stderr"]
+            output = done["args"][done["args"].index("-o") + 1]
+            assert not (tmp_path / output).exists(), output
+        return check
+
+    # each refused merge names an output of its own: none may exist after the batch
+    for n, order in enumerate((["xyz.txt", "xyzi.txt"], ["xyzi.txt", "xyz.txt"])):
+        merge(*order, "-o", f"refused{n}.txt", then=refused_columns)
+    merge("xyzi.txt", "xyz.txt", "-o", "m.txt", "--fields", "xyz", then=merged_xyz)
+    for n, order in enumerate((["xyz.txt", "strip.las"], ["strip.las", "xyz.txt"])):
+        merge(*order, "-o", f"m{n}.las", "--fields", "xyz", then=kept_whole_records)
+    # LAS inputs into LAS: their extra dimensions agree, or the merge says which differ; a text
+    # input beside them changes nothing (strip.las's points were given 0 for it silently)
+    for n, order in enumerate((["strip.las", "extra.las"], ["extra.las", "strip.las"])):
+        merge(*order, "-o", f"e{n}.las", then=refused_saying("height_above_ground (extra bytes), unlike"))
+        merge(*order, "xyz.txt", "-o", f"e{n}t.las", "--fields", "xyz",
+              then=refused_saying("height_above_ground (extra bytes), unlike"))
     # and of one kind: the first input's kind decided, and 0.75 in float32 was written as 0 in int16
-    other = laspy.read(STRIP)
-    other.add_extra_dim(laspy.ExtraBytesParams(name="height_above_ground", type=np.int16))
-    other.height_above_ground = np.full(len(other.points), 3, np.int16)
-    other.write(tmp_path / "other.las")
-    for order, kinds in ((["other.las", "extra.las"], "is float32, int16 in other.las"),
-                         (["extra.las", "other.las"], "is int16, float32 in extra.las")):
-        done = aldpat("merge", *order, "-o", "e.las", cwd=tmp_path)
-        assert done.returncode == 1 and f"its extra dimension height_above_ground {kinds}" in done.stderr, done.stderr
-        assert not (tmp_path / "e.las").exists()
+    for n, (order, kinds) in enumerate(((["other.las", "extra.las"], "is float32, int16 in other.las"),
+                                        (["extra.las", "other.las"], "is int16, float32 in extra.las"))):
+        merge(*order, "-o", f"k{n}.las", then=refused_saying(f"its extra dimension height_above_ground {kinds}"))
+    runs = aldpat_batch([{"args": args, "cwd": tmp_path} for args, _ in checks])
+    assert len(runs) == len(checks)
+    for (args, then), done in zip(checks, runs, strict=True):
+        assert "Traceback" not in done["stderr"], (args, done["stderr"])
+        then(done)
     assert leftovers(tmp_path) == []
 
 

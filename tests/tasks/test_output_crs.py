@@ -114,12 +114,18 @@ def test_every_text_to_las_command_takes_crs_or_says_it_has_none(tmp_path, comma
     def args(odir: Path) -> list[str]:
         return [str(polygon) if a == "POLYGON" else a.replace("ODIR", str(odir)) for a in extra]
 
-    with_crs = aldpat(command, source, *args(tmp_path / "a"), "--out-format", "laz", "--crs", "EPSG:32617",
-                      "--odir", tmp_path / "a").ok()
-    assert WITHOUT not in with_crs.stderr
+    from tests.cli.fresh import aldpat_batch
+
+    with_crs, without = aldpat_batch([  # both in one fresh process
+        {"args": [command, source, *args(tmp_path / "a"), "--out-format", "laz", "--crs", "EPSG:32617", "--odir",
+                  tmp_path / "a"], "cwd": tmp_path},
+        {"args": [command, source, *args(tmp_path / "b"), "--out-format", "laz", "--odir", tmp_path / "b"],
+         "cwd": tmp_path}])
+    for done in (with_crs, without):
+        assert done["status"] == 0 and "Traceback" not in done["stderr"], done
+    assert WITHOUT not in with_crs["stderr"]
     assert las_epsg(tmp_path / "a" / output) == 32617
-    without = aldpat(command, source, *args(tmp_path / "b"), "--out-format", "laz", "--odir", tmp_path / "b").ok()
-    assert without.stderr.count(WITHOUT) == 1, without.stderr
+    assert without["stderr"].count(WITHOUT) == 1, without["stderr"]
     assert las_epsg(tmp_path / "b" / output) is None
 
 
@@ -130,20 +136,28 @@ def test_text_outputs_carry_no_crs_and_say_nothing(tmp_path):
 
 
 def test_grid_of_text_to_geotiff_takes_crs_or_says_it_has_none(tmp_path):
+    """In one fresh process: a GeoTIFF takes --crs or says it has none, a Surfer grid carries none
+    and says nothing, an ArcGIS grid without .prj says so and one with --crs gets its .prj."""
     rasterio = pytest.importorskip("rasterio")
+    from tests.cli.fresh import aldpat_batch
+
     source = points_text(tmp_path / "points.txt")
-    aldpat("grid", source, "--cell", "5", "--grid-format", "geotiff", "--crs", "17N", "--odir", tmp_path / "a").ok()
+    grd = tmp_path / "c" / "points_linear.grd"
+    commands = (["grid", source, "--cell", "5", "--grid-format", "geotiff", "--crs", "17N", "--odir", tmp_path / "a"],
+                ["grid", source, "--cell", "5", "--grid-format", "geotiff", "--odir", tmp_path / "b"],
+                ["grid", source, "--cell", "5", "--odir", tmp_path / "c"],  # Surfer grids carry none
+                ["grd2bin", grd, "--odir", tmp_path / "d"],  # an ArcGIS grid without .prj says so
+                ["grd2bin", grd, "--crs", "17N", "--odir", tmp_path / "e"])
+    runs = aldpat_batch([{"args": args, "cwd": tmp_path} for args in commands])
+    for done in runs:
+        assert done["status"] == 0 and "Traceback" not in done["stderr"], done
+    _, without, surfer, flt, _ = runs
     (tif,) = (tmp_path / "a").glob("*.tif")
     with rasterio.open(tif) as ds:
         assert ds.crs.to_epsg() == 32617
-    without = aldpat("grid", source, "--cell", "5", "--grid-format", "geotiff", "--odir", tmp_path / "b").ok()
-    assert without.stderr.count(WITHOUT) == 1
-    surfer = aldpat("grid", source, "--cell", "5", "--odir", tmp_path / "c").ok()  # Surfer grids carry none
-    assert WITHOUT not in surfer.stderr
-    (grd,) = (tmp_path / "c").glob("*.grd")
-    flt = aldpat("grd2bin", grd, "--odir", tmp_path / "d").ok()  # an ArcGIS grid without .prj says so
-    assert flt.stderr.count(WITHOUT) == 1 and not list((tmp_path / "d").glob("*.prj"))
-    aldpat("grd2bin", grd, "--crs", "17N", "--odir", tmp_path / "e").ok()
+    assert without["stderr"].count(WITHOUT) == 1
+    assert WITHOUT not in surfer["stderr"] and grd.exists()
+    assert flt["stderr"].count(WITHOUT) == 1 and not list((tmp_path / "d").glob("*.prj"))
     assert pyproj.CRS.from_wkt(next((tmp_path / "e").glob("*.prj")).read_text()).to_epsg() == 32617
 
 
