@@ -25,6 +25,7 @@ import numpy as np
 from aldpat.core.interpolate import BYTES_PER_NODE
 from aldpat.core.paths import not_local
 from aldpat.errors import ParamError, shown
+from aldpat.filters.driver import refuse_not_finite
 from aldpat.filters.options import FilterOutputOption
 from aldpat.filters.registry import FILTERS
 from aldpat.io.geotiff import Raster
@@ -183,6 +184,7 @@ def _table(points: Points) -> tuple[PointTable, Any]:
     if not (x.ndim == y.ndim == z.ndim == 1 and len(x) == len(y) == len(z)):
         raise ParamError(f"points: x, y and z must be 1-D and of one length; got shapes {x.shape}, {y.shape}, "
                          f"{z.shape}")
+    refuse_not_finite(x, y, z)  # before a grid is sized from them (dtm said "nan nodes a side")
     return PointTable({"x": x, "y": y, "z": z}), None
 
 

@@ -349,3 +349,13 @@ def test_a_search_radius_beyond_the_points_reaches_the_grid_not_further():
                                   aldpat.ground(xyz, algorithm="slope", search_radius=650.0))
     with pytest.raises(aldpat.ParamError, match="at most 1,000 cells"):
         aldpat.ground(xyz, algorithm="slope", search_radius=1e6)
+
+def test_points_holding_nan_or_infinity_are_named_by_their_index():
+    """A notebook's array has no line to name: the refusal says how many points hold NaN or
+    infinity and the first of them, by its index, with its value (it said only that some did)."""
+    xyz = np.random.default_rng(0).uniform(0, 100, (1000, 3))
+    xyz[500, 2], xyz[700, 0] = np.inf, np.nan
+    for call in (aldpat.ground, aldpat.dtm):
+        with pytest.raises(aldpat.AldpatError, match=r"non-finite coordinates cannot be filtered: 2 of 1,000, "
+                                                      r"the first point 500 \(counting from 0\) with z = inf"):
+            call(xyz)

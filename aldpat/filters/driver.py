@@ -105,8 +105,7 @@ def ground_filter(x: ArrayLike, y: ArrayLike, z: ArrayLike, algorithm: str, para
     z = np.ascontiguousarray(z, dtype=np.float64)
     if not (x.shape == y.shape == z.shape) or x.ndim != 1:
         raise ValueError("x, y and z must be 1-D arrays of the same length")
-    if len(z) and not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(z).all()):
-        raise DataError("points with non-finite coordinates cannot be filtered")
+    refuse_not_finite(x, y, z)
     if spec.with_points is not None and spec.needs_every_point(params) is not None:
         params, told = spec.with_points(params, x, y, z)
         (note or log.info)(told)
@@ -193,3 +192,17 @@ def _point_filter(spec: FilterSpec, x: np.ndarray, y: np.ndarray, z: np.ndarray,
     width, height = params.cell_shape()
     return FilterResult(point_marks, point_marks == MARK_GROUND, grid, _cell_marks(grid, point_marks), (0.0,),
                         spec.name, params, height / width)
+
+
+
+def refuse_not_finite(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> None:
+    """Raise :class:`DataError` when a point holds NaN or infinity, saying how many do and the
+    first of them with its value: points held in memory have no line to name, so its index (from
+    0) stands for one."""
+    bad = ~(np.isfinite(x) & np.isfinite(y) & np.isfinite(z))
+    if not bad.any():
+        return
+    first = int(np.argmax(bad))
+    name, value = next((n, v[first]) for n, v in (("x", x), ("y", y), ("z", z)) if not np.isfinite(v[first]))
+    raise DataError(f"points with non-finite coordinates cannot be filtered: {int(bad.sum()):,} of {len(z):,}, the "
+                    f"first point {first:,} (counting from 0) with {name} = {value}")
