@@ -49,3 +49,22 @@ def test_an_error_in_a_piece_reaches_the_caller(monkeypatch):
 
     with pytest.raises(ValueError, match="piece 3"):
         on_threads(work, range(6))
+
+
+def test_a_failed_call_returns_only_once_its_running_pieces_are_done(monkeypatch):
+    monkeypatch.setenv(ENV, "2")
+    finished: list[int] = []
+    started = threading.Event()
+
+    def work(a: int) -> int:
+        if a == 0:
+            started.wait(5)
+            raise ValueError("piece 0")
+        started.set()
+        threading.Event().wait(0.2)
+        finished.append(a)
+        return a
+
+    with pytest.raises(ValueError, match="piece 0"):
+        on_threads(work, range(2))
+    assert finished == [1], "the call returned while a piece was still writing into its outputs"
