@@ -18,6 +18,7 @@ import click
 import aldpat
 from aldpat import interrupt
 from aldpat.cli.help import GuidedCommand, GuidedGroup
+from aldpat.cli.leave import leave, status_of
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
@@ -248,6 +249,18 @@ cli.add_command(run_command)
 
 
 def main() -> None:
+    """The ``aldpat`` command: runs it, then ends the process without the interpreter's teardown
+    (:mod:`aldpat.cli.leave`)."""
+    try:
+        run()
+    except SystemExit as exc:
+        leave(status_of(exc))
+    leave(0)
+
+
+def run() -> None:
+    """The command of ``sys.argv``, its status raised as ``SystemExit`` (what a caller running
+    several command lines in one process uses: :func:`main` ends the process)."""
     interrupt.install()
     try:
         cli.main(standalone_mode=False)

@@ -2,8 +2,9 @@
 
 A fresh process per command costs most of a second of start-up; a corpus of hundreds of cases
 that each end in a usage error or a refusal is run here instead: ``python -m tests.cli.batch
-CASES.json RESULTS.json`` runs each case's arguments through :func:`aldpat.cli.main.main` (the
-console script's function: its exit statuses, its messages) in this one process, in the case's
+CASES.json RESULTS.json`` runs each case's arguments through :func:`aldpat.cli.main.run` (the
+console script's command: its exit statuses, its messages; the script's ``main`` ends its process
+after one) in this one process, in the case's
 folder, with its own time limit. A case that overruns ends with ``"hang"``; one stuck where no
 signal reaches it is found by the caller from the ``START n`` lines on stdout when the whole
 batch overruns.
@@ -30,7 +31,7 @@ def _alarm(signum, frame):
 
 
 def run_case(args: list[str], cwd: str, limit: float, env: dict[str, str]) -> dict:
-    from aldpat.cli.main import main
+    from aldpat.cli.main import run
 
     out, err = io.StringIO(), io.StringIO()
     status: int | str = 0
@@ -44,7 +45,7 @@ def run_case(args: list[str], cwd: str, limit: float, env: dict[str, str]) -> di
         os.chdir(cwd)
         sys.argv = ["aldpat", *args]
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            main()
+            run()
     except SystemExit as exc:
         status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except Overran:
