@@ -18,7 +18,7 @@ import click
 import aldpat
 from aldpat import interrupt
 from aldpat.cli.help import GuidedCommand, GuidedGroup
-from aldpat.cli.leave import leave, status_of
+from aldpat.cli.leave import leave_after
 from aldpat.cli.logs import setup_logging
 from aldpat.cli.options import option_for, params_file_opt, renamed_option
 from aldpat.cli.progress import job_progress
@@ -253,9 +253,8 @@ def main() -> None:
     (:mod:`aldpat.cli.leave`)."""
     try:
         run()
-    except SystemExit as exc:
-        leave(status_of(exc))
-    leave(0)
+    except SystemExit as exc:  # how run() ends every command, its status and all
+        leave_after(exc)
 
 
 def run() -> None:

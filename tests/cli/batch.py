@@ -31,6 +31,7 @@ def _alarm(signum, frame):
 
 
 def run_case(args: list[str], cwd: str, limit: float, env: dict[str, str]) -> dict:
+    from aldpat.cli.leave import status_of
     from aldpat.cli.main import run
 
     out, err = io.StringIO(), io.StringIO()
@@ -47,7 +48,7 @@ def run_case(args: list[str], cwd: str, limit: float, env: dict[str, str]) -> di
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             run()
     except SystemExit as exc:
-        status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        status = status_of(exc)
     except Overran:
         status = "hang"
     except BaseException:  # noqa: BLE001  (reported as what it is: the CLI let an exception out)

@@ -17,10 +17,17 @@ def _python(code: str, cwd) -> subprocess.CompletedProcess:
                           timeout=120, check=False)
 
 
-@pytest.mark.parametrize("code, status, printed", [(None, 0, ""), (0, 0, ""), (3, 3, ""), ("no way", 1, "no way")])
-def test_an_exit_status_is_the_interpreters(code, status, printed, capsys):
+@pytest.mark.parametrize("code, status", [(None, 0), (0, 0), (3, 3), ("no way", 1)])
+def test_an_exit_status_is_the_interpreters(code, status):
     assert status_of(SystemExit(code)) == status
-    assert capsys.readouterr().err.strip() == printed
+
+
+def test_an_exit_with_a_text_prints_it_and_ends_with_status_1(tmp_path):
+    done = _python("""
+        from aldpat.cli.leave import leave_after
+        leave_after(SystemExit("no way"))
+        """, tmp_path)
+    assert done.returncode == 1 and done.stderr.strip() == "no way"
 
 
 def test_exit_handlers_run_and_the_status_is_kept(tmp_path):
